@@ -1,0 +1,2 @@
+//! gonio-calib (in progress).
+#![deny(missing_docs)]

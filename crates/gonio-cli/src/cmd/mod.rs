@@ -1,0 +1,6 @@
+//! One module per subcommand.
+
+pub mod budget;
+pub mod demo;
+pub mod shift_angle;
+pub mod simulate;

@@ -1,0 +1,23 @@
+//! `gonio simulate …`: the digital twin's instruments, writing readings and ground truth.
+
+pub mod encoder;
+pub mod shift_angle;
+
+use anyhow::Result;
+
+/// What to simulate.
+#[derive(Debug, clap::Subcommand)]
+pub enum Simulate {
+    /// An encoder error model (harmonics + random graduation error), saved as JSON.
+    Encoder(encoder::Args),
+    /// Polygon + autocollimator readings at shifted start angles.
+    ShiftAngle(shift_angle::Args),
+}
+
+/// Runs `gonio simulate …`.
+pub fn run(s: Simulate) -> Result<()> {
+    match s {
+        Simulate::Encoder(a) => encoder::run(a),
+        Simulate::ShiftAngle(a) => shift_angle::run(a),
+    }
+}

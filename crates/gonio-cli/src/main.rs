@@ -1,0 +1,50 @@
+//! `gonio`: precision rotary-encoder metrology from the command line.
+//!
+//! The binary is glue: it parses arguments, reads and writes files, draws progress bars and maps
+//! errors to exit codes. The work is done in the library crates.
+
+mod cmd;
+mod io;
+
+use clap::{Parser, Subcommand};
+
+/// Precision rotary-encoder metrology: mount gratings centred, calibrate encoders, with a GUM
+/// uncertainty on every result.
+#[derive(Debug, Parser)]
+#[command(name = "gonio", version, about, long_about = None, after_help = "\
+Start with the built-in simulated lab and station:
+  gonio demo
+
+Every command explains its inputs with an example: gonio <command> --help")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Simulate instruments and write their readings (digital twin).
+    #[command(subcommand)]
+    Simulate(cmd::simulate::Simulate),
+    /// Calibrate an encoder from polygon + autocollimator readings (shift-angle method).
+    ShiftAngle(cmd::shift_angle::Args),
+    /// Evaluate a GUM uncertainty budget (TOML).
+    Budget(cmd::budget::Args),
+    /// Run the built-in simulated lab end to end and report how close each method came.
+    Demo(cmd::demo::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate(s) => cmd::simulate::run(s),
+        Command::ShiftAngle(a) => cmd::shift_angle::run(a),
+        Command::Budget(a) => cmd::budget::run(a),
+        Command::Demo(a) => cmd::demo::run(a),
+    };
+    if let Err(e) = result {
+        // One line: the chain of causes joined by ": ".
+        eprintln!("error: {}", io::one_line(&e));
+        std::process::exit(2);
+    }
+}

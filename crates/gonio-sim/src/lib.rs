@@ -1,0 +1,19 @@
+//! The digital twin of gonio: simulated instruments that produce the same readings a lab's
+//! hardware would, with their ground truth, for every estimator to be tested against.
+//!
+//! - [`encoder`]: an encoder's angle error (harmonics + random graduation error with circle
+//!   closure), saved to and loaded from a JSON model file so every simulator calibrates the
+//!   same encoder.
+//! - [`shift_angle`]: a polygon on the encoder's table read by an autocollimator at shifted start
+//!   angles (seed 000 §2.2).
+//!
+//! Every simulation takes a seed; the same seed gives the same numbers, bit for bit
+//! (ChaCha8 streams, no global state).
+#![deny(missing_docs)]
+
+pub mod encoder;
+pub mod error;
+pub mod shift_angle;
+
+pub use encoder::{EncoderModel, Graduation};
+pub use error::SimError;

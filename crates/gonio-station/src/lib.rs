@@ -1,0 +1,2 @@
+//! gonio-station (in progress).
+#![deny(missing_docs)]

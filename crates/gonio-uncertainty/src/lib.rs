@@ -1,0 +1,2 @@
+//! gonio-uncertainty (in progress).
+#![deny(missing_docs)]

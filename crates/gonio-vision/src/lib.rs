@@ -1,0 +1,2 @@
+//! gonio-vision (in progress).
+#![deny(missing_docs)]
