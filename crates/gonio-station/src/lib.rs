@@ -1,2 +1,30 @@
-//! gonio-station (in progress).
+//! The automatic grating mounting station (seed 004 §2–3): the eccentricity fit, the hardware
+//! traits, and the controller that runs autofocus → measure → align → approach → push → verify.
+//!
+//! - [`fit`]: e and θ_max from one turn's ring columns, the seed's extreme-point method
+//!   ([`spline`]) and the default robust least-squares sinusoid.
+//! - [`interval`]: mid-exposure angle stamping from the servo's angle log; the frame-interval
+//!   error ε = e(1 − cos(v/FPS)) as a planning helper.
+//! - [`hal`]: small fallible traits for the servo, camera, focus drive, push rod and clock.
+//! - [`recipe`]: per-grating-type settings (TOML).
+//! - [`controller`]: the mounting sequence with its push strategies, one part at a time.
+//!
+//! ```
+//! use gonio_station::interval::frame_interval_error_um;
+//! // Seed 004 §3: 500 µm at 180°/s and 100 fps → 0.25 µm.
+//! assert!((frame_interval_error_um(500.0, 180.0, 100.0) - 0.25).abs() < 0.005);
+//! ```
 #![deny(missing_docs)]
+
+pub mod controller;
+pub mod error;
+pub mod fit;
+pub mod hal;
+pub mod interval;
+pub mod recipe;
+pub mod spline;
+
+pub use controller::{Controller, Devices, PartRecord, PartResult, Strategy};
+pub use error::StationError;
+pub use fit::{EccentricityFit, FitMethod, FitOptions, Sample};
+pub use recipe::Recipe;

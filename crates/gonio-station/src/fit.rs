@@ -1,0 +1,543 @@
+//! Eccentricity from one turn's ring columns `(θ, c)`: the seed's extreme-point method and the
+//! default robust least-squares sinusoid.
+//!
+//! Over one turn the ring's column traces `c(θ) = c₀ + e·cos(θ − θ_max) + r(θ)`, `e` the
+//! eccentricity (px), `θ_max` the servo angle at which the ring is farthest out and `r` the ring's
+//! roundness error (harmonics 2–4, a few tenths of a pixel).
+//!
+//! - [`FitMethod::LeastSquares`] (default): `c = c₀ + a cos θ + b sin θ + Σ_{k=2..4}(a_k cos kθ +
+//!   b_k sin kθ)`, `e = √(a² + b²)`, `θ_max = atan2(b, a)`. The roundness coefficients carry a
+//!   ridge penalty `(σ/σ_r)²` (a Gaussian prior of standard deviation `σ_r` =
+//!   [`FitOptions::roundness_prior_px`]) so that on a partial turn they cannot soak up the
+//!   eccentricity; Huber weights (iteratively reweighted least squares, robust scale from the
+//!   median absolute deviation) bound the pull of outliers, and samples beyond
+//!   [`FitOptions::outlier_sigma`] robust standard deviations are reported and dropped. The model is
+//!   linear, so no non-linear solver is needed.
+//! - [`FitMethod::Paper`] (seed 004 §3, Eq. 1–2): natural cubic splines through the points around
+//!   the largest and the smallest `c`; their extrema give `P_max`, `P_min`;
+//!   `e = (c_max − c_min)/2`, `θ_max` at `P_max`.
+//!
+//! Both work on partial turns and with dropped frames (only the angles of the samples matter).
+//!
+//! ```
+//! use gonio_station::fit::{fit, FitOptions, Sample};
+//! let s: Vec<Sample> = (0..200)
+//!     .map(|i| {
+//!         let t = 10.0 + 1.8 * i as f64;
+//!         Sample { theta_deg: t, c_px: 720.0 + 40.0 * (t - 33.0f64).to_radians().cos() }
+//!     })
+//!     .collect();
+//! let f = fit(&s, &FitOptions::default()).unwrap();
+//! assert!((f.e_px - 40.0).abs() < 1e-9 && (f.theta_max_deg - 33.0).abs() < 1e-9);
+//! ```
+
+use crate::StationError;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+/// One frame's measurement: the servo angle and the ring's column.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Servo angle at the frame's mid-exposure, degrees.
+    pub theta_deg: f64,
+    /// The ring's column, pixels.
+    pub c_px: f64,
+}
+
+/// Which eccentricity fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FitMethod {
+    /// Robust least-squares sinusoid with ridge-regularised roundness harmonics (default).
+    #[default]
+    LeastSquares,
+    /// The seed's extreme points through cubic splines.
+    Paper,
+}
+
+impl FitMethod {
+    /// The name used on the command line and in JSON (`least-squares`, `paper`).
+    pub fn name(self) -> &'static str {
+        match self {
+            FitMethod::LeastSquares => "least-squares",
+            FitMethod::Paper => "paper",
+        }
+    }
+}
+
+/// Settings of the fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitOptions {
+    /// Which method.
+    pub method: FitMethod,
+    /// Roundness harmonic orders fitted with the ridge penalty (least squares).
+    pub roundness_orders: Vec<u32>,
+    /// Prior standard deviation of one roundness coefficient, px (least squares).
+    pub roundness_prior_px: f64,
+    /// Huber threshold in robust standard deviations (least squares).
+    pub huber_k: f64,
+    /// Samples with |residual| above this many robust standard deviations are outliers.
+    pub outlier_sigma: f64,
+    /// Points on each side of the extreme sample in each spline (paper).
+    pub paper_half_window: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            method: FitMethod::LeastSquares,
+            roundness_orders: vec![2, 3, 4],
+            roundness_prior_px: 0.5,
+            huber_k: 1.345,
+            outlier_sigma: 5.0,
+            paper_half_window: 5,
+        }
+    }
+}
+
+impl FitOptions {
+    /// The defaults with another method.
+    pub fn with_method(method: FitMethod) -> Self {
+        FitOptions {
+            method,
+            ..Self::default()
+        }
+    }
+}
+
+/// One roundness harmonic `amplitude_px·cos(order·θ − phase)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RoundnessTerm {
+    /// Order k.
+    pub order: u32,
+    /// Amplitude, px.
+    pub amplitude_px: f64,
+    /// Angle of the first maximum, degrees (`kθ − phase = 0`, phase in degrees).
+    pub phase_deg: f64,
+}
+
+/// The result of an eccentricity fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EccentricityFit {
+    /// The method used.
+    pub method: FitMethod,
+    /// Eccentricity, px.
+    pub e_px: f64,
+    /// Servo angle at which the ring's column is largest, degrees in [0, 360).
+    pub theta_max_deg: f64,
+    /// Mean column c₀, px.
+    pub c0_px: f64,
+    /// Standard uncertainty of e, px (least squares; NaN for the paper's method).
+    pub u_e_px: f64,
+    /// Standard uncertainty of θ_max, degrees (least squares; NaN for the paper's method).
+    pub u_theta_max_deg: f64,
+    /// RMS of the residuals of the samples used, px (for the paper's method: against the
+    /// sinusoid `c₀ + e cos(θ − θ_max)`).
+    pub residual_rms_px: f64,
+    /// Robust standard deviation of one sample (1.4826·MAD), px.
+    pub sigma_px: f64,
+    /// Samples that entered the fit.
+    pub frames_used: usize,
+    /// Indices of the samples rejected as outliers.
+    pub outliers: Vec<usize>,
+    /// Residual `c − model` of every sample, px.
+    pub residuals_px: Vec<f64>,
+    /// The fitted roundness harmonics (least squares; empty for the paper's method).
+    pub roundness: Vec<RoundnessTerm>,
+    /// Angular span of the samples, degrees.
+    pub arc_deg: f64,
+}
+
+impl EccentricityFit {
+    /// Eccentricity in µm for a pixel scale.
+    pub fn e_um(&self, um_per_px: f64) -> f64 {
+        self.e_px * um_per_px
+    }
+
+    /// The fitted model's column at servo angle θ (degrees), roundness included.
+    pub fn model_px(&self, theta_deg: f64) -> f64 {
+        let mut c = self.c0_px + self.e_px * (theta_deg - self.theta_max_deg).to_radians().cos();
+        for r in &self.roundness {
+            c += r.amplitude_px
+                * (r.order as f64 * theta_deg - r.phase_deg)
+                    .to_radians()
+                    .cos();
+        }
+        c
+    }
+}
+
+/// Checks the samples: at least 3, finite, angles strictly increasing.
+///
+/// # Errors
+/// [`StationError::TooFewSamples`], [`StationError::NotFinite`], [`StationError::NotIncreasing`].
+pub fn validate(samples: &[Sample]) -> Result<(), StationError> {
+    if samples.len() < 3 {
+        return Err(StationError::TooFewSamples {
+            expected: 3,
+            found: samples.len(),
+        });
+    }
+    for (i, s) in samples.iter().enumerate() {
+        if !s.theta_deg.is_finite() {
+            return Err(StationError::NotFinite {
+                index: i,
+                what: "theta_deg",
+                value: s.theta_deg,
+            });
+        }
+        if !s.c_px.is_finite() {
+            return Err(StationError::NotFinite {
+                index: i,
+                what: "c_px",
+                value: s.c_px,
+            });
+        }
+        if i > 0 && s.theta_deg <= samples[i - 1].theta_deg {
+            return Err(StationError::NotIncreasing {
+                index: i,
+                previous_deg: samples[i - 1].theta_deg,
+                found_deg: s.theta_deg,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Fits the eccentricity of one turn (or part of one).
+///
+/// # Errors
+/// Those of [`validate`]; [`StationError::Singular`] when the angles do not determine the
+/// sinusoid (least squares); [`StationError::OutOfRange`] for invalid options.
+pub fn fit(samples: &[Sample], opts: &FitOptions) -> Result<EccentricityFit, StationError> {
+    validate(samples)?;
+    match opts.method {
+        FitMethod::LeastSquares => fit_least_squares(samples, opts),
+        FitMethod::Paper => fit_paper(samples, opts),
+    }
+}
+
+fn wrap360(d: f64) -> f64 {
+    let w = d.rem_euclid(360.0);
+    if w >= 360.0 { 0.0 } else { w }
+}
+
+/// Median of a slice (copied).
+fn median(v: &[f64]) -> f64 {
+    let mut s: Vec<f64> = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let n = s.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+fn robust_sigma(r: &[f64]) -> f64 {
+    let med = median(r);
+    let dev: Vec<f64> = r.iter().map(|x| (x - med).abs()).collect();
+    1.4826 * median(&dev)
+}
+
+fn fit_least_squares(
+    samples: &[Sample],
+    opts: &FitOptions,
+) -> Result<EccentricityFit, StationError> {
+    if opts.roundness_prior_px.is_nan() || opts.roundness_prior_px <= 0.0 {
+        return Err(StationError::OutOfRange {
+            name: "roundness_prior_px",
+            value: opts.roundness_prior_px,
+            expected: "> 0",
+        });
+    }
+    if opts.huber_k.is_nan() || opts.huber_k <= 0.0 {
+        return Err(StationError::OutOfRange {
+            name: "huber_k",
+            value: opts.huber_k,
+            expected: "> 0",
+        });
+    }
+    let n = samples.len();
+    let orders = &opts.roundness_orders;
+    let p = 3 + 2 * orders.len();
+    let mut x = DMatrix::<f64>::zeros(n, p);
+    let y = DVector::<f64>::from_iterator(n, samples.iter().map(|s| s.c_px));
+    for (i, s) in samples.iter().enumerate() {
+        let t = s.theta_deg.to_radians();
+        x[(i, 0)] = 1.0;
+        x[(i, 1)] = t.cos();
+        x[(i, 2)] = t.sin();
+        for (j, &k) in orders.iter().enumerate() {
+            x[(i, 3 + 2 * j)] = (k as f64 * t).cos();
+            x[(i, 4 + 2 * j)] = (k as f64 * t).sin();
+        }
+    }
+    // Weighted, ridge-penalised normal equations: (XᵀWX + Λ) β = XᵀWy.
+    let solve = |w: &[f64], lambda: f64| -> Result<(DVector<f64>, DMatrix<f64>), StationError> {
+        let mut a = DMatrix::<f64>::zeros(p, p);
+        let mut rhs = DVector::<f64>::zeros(p);
+        for i in 0..n {
+            if w[i] == 0.0 {
+                continue;
+            }
+            let row = x.row(i);
+            for r in 0..p {
+                let v = w[i] * row[r];
+                rhs[r] += v * y[i];
+                for c in r..p {
+                    a[(r, c)] += v * row[c];
+                }
+            }
+        }
+        for r in 0..p {
+            for c in 0..r {
+                a[(r, c)] = a[(c, r)];
+            }
+        }
+        for j in 3..p {
+            a[(j, j)] += lambda;
+        }
+        // Check that offset and first harmonic are determined by the data themselves.
+        let scale = (0..3).map(|j| a[(j, j)]).fold(0.0, f64::max);
+        let core = a.view((0, 0), (3, 3)).into_owned();
+        let det_ok = core
+            .clone()
+            .cholesky()
+            .map(|c| {
+                let l = c.l();
+                (0..3).all(|j| l[(j, j)] * l[(j, j)] > 1e-10 * scale)
+            })
+            .unwrap_or(false);
+        if !det_ok {
+            return Err(StationError::Singular {
+                what: "c₀ and the first harmonic are not determined by the angles given".into(),
+            });
+        }
+        let chol = a.cholesky().ok_or_else(|| StationError::Singular {
+            what: "normal matrix not positive definite".into(),
+        })?;
+        let beta = chol.solve(&rhs);
+        let inv = chol.inverse();
+        Ok((beta, inv))
+    };
+    let resid = |beta: &DVector<f64>| -> Vec<f64> {
+        let m = &x * beta;
+        (0..n).map(|i| y[i] - m[i]).collect()
+    };
+    // Start: unweighted, a light ridge; then IRLS with Huber weights and the prior's ridge.
+    let mut w = vec![1.0; n];
+    let (mut beta, _) = solve(&w, 1e-6 * n as f64)?;
+    let mut sigma = robust_sigma(&resid(&beta)).max(1e-9);
+    let prior2 = opts.roundness_prior_px * opts.roundness_prior_px;
+    for _ in 0..100 {
+        let r = resid(&beta);
+        sigma = robust_sigma(&r).max(1e-9);
+        let k = opts.huber_k * sigma;
+        for i in 0..n {
+            w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
+        }
+        let (nb, _) = solve(&w, sigma * sigma / prior2)?;
+        let delta = (&nb - &beta).amax();
+        beta = nb;
+        if delta < 1e-10 * (1.0 + beta.amax()) {
+            break;
+        }
+    }
+    // Hard rejection of gross outliers, then a final reweighted solve.
+    let r = resid(&beta);
+    let cut = opts.outlier_sigma * sigma;
+    let outliers: Vec<usize> = (0..n).filter(|&i| r[i].abs() > cut).collect();
+    if !outliers.is_empty() {
+        for &i in &outliers {
+            w[i] = 0.0;
+        }
+        for _ in 0..50 {
+            let r = resid(&beta);
+            let k = opts.huber_k * sigma;
+            for i in 0..n {
+                if w[i] > 0.0 {
+                    w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
+                }
+            }
+            let (nb, _) = solve(&w, sigma * sigma / prior2)?;
+            let delta = (&nb - &beta).amax();
+            beta = nb;
+            if delta < 1e-10 * (1.0 + beta.amax()) {
+                break;
+            }
+        }
+    }
+    let (_, inv) = solve(&w, sigma * sigma / prior2)?;
+    let r = resid(&beta);
+    let used: Vec<usize> = (0..n).filter(|i| !outliers.contains(i)).collect();
+    let rms = (used.iter().map(|&i| r[i] * r[i]).sum::<f64>() / used.len().max(1) as f64).sqrt();
+    let (a, b) = (beta[1], beta[2]);
+    let e = a.hypot(b);
+    let s2 = sigma * sigma;
+    let (caa, cab, cbb) = (s2 * inv[(1, 1)], s2 * inv[(1, 2)], s2 * inv[(2, 2)]);
+    let (u_e, u_t) = if e > 0.0 {
+        let (ja, jb) = (a / e, b / e);
+        let (ta, tb) = (-b / (e * e), a / (e * e));
+        (
+            (ja * ja * caa + 2.0 * ja * jb * cab + jb * jb * cbb).sqrt(),
+            (ta * ta * caa + 2.0 * ta * tb * cab + tb * tb * cbb)
+                .sqrt()
+                .to_degrees(),
+        )
+    } else {
+        (f64::NAN, f64::NAN)
+    };
+    let roundness = orders
+        .iter()
+        .enumerate()
+        .map(|(j, &k)| {
+            let (ak, bk) = (beta[3 + 2 * j], beta[4 + 2 * j]);
+            RoundnessTerm {
+                order: k,
+                amplitude_px: ak.hypot(bk),
+                phase_deg: bk.atan2(ak).to_degrees(),
+            }
+        })
+        .collect();
+    Ok(EccentricityFit {
+        method: FitMethod::LeastSquares,
+        e_px: e,
+        theta_max_deg: wrap360(b.atan2(a).to_degrees()),
+        c0_px: beta[0],
+        u_e_px: u_e,
+        u_theta_max_deg: u_t,
+        residual_rms_px: rms,
+        sigma_px: sigma,
+        frames_used: used.len(),
+        outliers,
+        residuals_px: r,
+        roundness,
+        arc_deg: samples[n - 1].theta_deg - samples[0].theta_deg,
+    })
+}
+
+/// Points around sample `i` (± `half` samples), wrapping around a full turn; angles unwrapped.
+fn window(samples: &[Sample], i: usize, half: usize, full_turn: bool) -> (Vec<f64>, Vec<f64>) {
+    let n = samples.len() as isize;
+    let mut xs = Vec::with_capacity(2 * half + 1);
+    let mut ys = Vec::with_capacity(2 * half + 1);
+    let h = half as isize;
+    for j in (i as isize - h)..=(i as isize + h) {
+        let (idx, shift) = if j < 0 {
+            if !full_turn {
+                continue;
+            }
+            (j + n, -360.0)
+        } else if j >= n {
+            if !full_turn {
+                continue;
+            }
+            (j - n, 360.0)
+        } else {
+            (j, 0.0)
+        };
+        let s = samples[idx as usize];
+        let t = s.theta_deg + shift;
+        if let Some(&last) = xs.last() {
+            if t <= last {
+                continue;
+            }
+        }
+        xs.push(t);
+        ys.push(s.c_px);
+    }
+    (xs, ys)
+}
+
+fn fit_paper(samples: &[Sample], opts: &FitOptions) -> Result<EccentricityFit, StationError> {
+    let n = samples.len();
+    let arc = samples[n - 1].theta_deg - samples[0].theta_deg;
+    let step = arc / (n - 1) as f64;
+    // A full turn when the gap closing the circle is no larger than ~1.5 typical steps.
+    let full_turn = arc >= 360.0 - 1.5 * step && arc < 360.0;
+    let (imax, imin) = samples.iter().enumerate().fold((0, 0), |(mx, mn), (i, s)| {
+        (
+            if s.c_px > samples[mx].c_px { i } else { mx },
+            if s.c_px < samples[mn].c_px { i } else { mn },
+        )
+    });
+    let half = opts.paper_half_window.max(1);
+    let (xa, ya) = window(samples, imax, half, full_turn);
+    let (xb, yb) = window(samples, imin, half, full_turn);
+    let (t_max, c_max) = crate::spline::NaturalSpline::new(&xa, &ya)?.maximum();
+    let (_, c_min) = crate::spline::NaturalSpline::new(&xb, &yb)?.minimum();
+    let e = (c_max - c_min) / 2.0;
+    let c0 = (c_max + c_min) / 2.0;
+    let theta_max = wrap360(t_max);
+    let r: Vec<f64> = samples
+        .iter()
+        .map(|s| s.c_px - (c0 + e * (s.theta_deg - theta_max).to_radians().cos()))
+        .collect();
+    let rms = (r.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+    Ok(EccentricityFit {
+        method: FitMethod::Paper,
+        e_px: e,
+        theta_max_deg: theta_max,
+        c0_px: c0,
+        u_e_px: f64::NAN,
+        u_theta_max_deg: f64::NAN,
+        residual_rms_px: rms,
+        sigma_px: robust_sigma(&r),
+        frames_used: n,
+        outliers: Vec::new(),
+        residuals_px: r,
+        roundness: Vec::new(),
+        arc_deg: arc,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sinusoid(e: f64, tmax: f64, start: f64, n: usize, step: f64) -> Vec<Sample> {
+        (0..n)
+            .map(|i| {
+                let t = start + step * i as f64;
+                Sample {
+                    theta_deg: t,
+                    c_px: 700.0 + e * (t - tmax).to_radians().cos(),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn least_squares_is_exact_on_a_sinusoid_partial_turn() {
+        let s = sinusoid(12.5, 200.0, 5.0, 150, 1.8);
+        let f = fit(&s, &FitOptions::default()).unwrap();
+        assert!((f.e_px - 12.5).abs() < 1e-8, "{}", f.e_px);
+        assert!((f.theta_max_deg - 200.0).abs() < 1e-7);
+        assert!(f.outliers.is_empty());
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let s = sinusoid(1.0, 0.0, 0.0, 2, 1.8);
+        assert!(matches!(
+            fit(&s, &FitOptions::default()),
+            Err(StationError::TooFewSamples { found: 2, .. })
+        ));
+        let mut s = sinusoid(1.0, 0.0, 0.0, 10, 1.8);
+        s[4].theta_deg = s[3].theta_deg;
+        assert!(matches!(
+            fit(&s, &FitOptions::default()),
+            Err(StationError::NotIncreasing { index: 4, .. })
+        ));
+        s[4].theta_deg = f64::NAN;
+        assert!(matches!(
+            fit(&s, &FitOptions::with_method(FitMethod::Paper)),
+            Err(StationError::NotFinite { index: 4, .. })
+        ));
+    }
+}
