@@ -5,4 +5,6 @@
 //! uncertainty); `gonio-uncertainty` adds the instrument terms.
 #![deny(missing_docs)]
 
+pub mod compare;
+pub mod selfcal;
 pub mod shift_angle;

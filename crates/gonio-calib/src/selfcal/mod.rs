@@ -1,0 +1,886 @@
+//! Self-calibration of a rotary encoder with several read heads: EDA, SelfA and Fourier least squares.
+//!
+//! Model (spec `self-calibration.md`): the scale's deviation a(θ) (arcsec, zero mean over the
+//! circle) is read by M heads at angles φ_1 = 0 < φ_2 < … < φ_M. At rotation position θ the
+//! difference between head h and head 1 is
+//!
+//! ```text
+//! D_h(θ) = a(θ + φ_h) − a(θ) + c_h + noise          (arcsec; c_h the head's mounting offset)
+//! ```
+//!
+//! Sampled at NS equally spaced positions over one turn and transformed over θ, harmonic k of D_h
+//! is `w_hk·A(k)` with `w_hk = e^{ikφ_h} − 1`. Every estimator here is linear per harmonic,
+//! `Â(k) = Σ_h v_hk·D̂_h(k)`:
+//!
+//! - [`Method::Fourier`] (default, any head positions): `v_hk = conj(w_hk) / Σ_h |w_hk|²`, the
+//!   least-squares solution. Harmonic k is undetectable when every `w_hk = 0`; its noise gain is
+//!   `1 / Σ_h |w_hk|²` (1/28 at k = 1 for SelfA).
+//! - [`Method::Eda`] on one set of NH equally spaced heads (seed 000 Eq. 9):
+//!   `μ_i = −(1/NH)·Σ_j D_j(θ_i)` (the seed's δ_(1,j) = −D_j); harmonics divisible by NH vanish.
+//! - [`Method::Eda`] on an arrangement with several sets (SelfA: 3, 4 and 7 heads on 12): each
+//!   set's EDA, combined harmonic by harmonic from the sets whose NH does not divide k
+//!   (inverse-variance weights NH²/(NH−1)); only multiples of lcm(NH) are lost (84 for SelfA).
+//!
+//! The algorithm is the product here, so the spectral bookkeeping is written out; the FFT is
+//! `realfft`. The uncertainty of a(θ) comes from the residuals of the model (σ̂ per reading, then
+//! propagated through each harmonic's noise gain) or, with repeated turns, from the spread of the
+//! turn-by-turn results.
+//!
+//! ```
+//! use gonio_calib::selfcal::{calibrate, Heads, SelfcalOptions, Turn};
+//! // A pure 3rd harmonic read by 4 equally spaced heads at 360 positions.
+//! let heads = Heads::preset("eda:4").unwrap();
+//! let ns = 360;
+//! let a = |t: f64| 0.5 * (3.0 * t.to_radians()).sin();
+//! let positions_deg: Vec<f64> = (0..ns).map(|i| i as f64).collect();
+//! let differences_arcsec = heads.angles_deg()[1..]
+//!     .iter()
+//!     .map(|&p| positions_deg.iter().map(|&t| a(t + p) - a(t)).collect())
+//!     .collect();
+//! let r = calibrate(&heads, &[Turn { positions_deg, differences_arcsec }], &SelfcalOptions::default()).unwrap();
+//! assert!((r.errors[30].value_arcsec - a(30.0)).abs() < 1e-9);
+//! assert!(r.undetectable_orders.contains(&4));
+//! ```
+
+mod heads;
+
+pub use heads::{EQUAL_DIVISION_TOL_DEG, Heads};
+
+use gonio_core::Harmonic;
+use realfft::RealFftPlanner;
+use realfft::num_complex::Complex;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+type C64 = Complex<f64>;
+
+/// The result file's `format` value.
+pub const SELFCAL_FORMAT: &str = "gonio-selfcal-result";
+
+/// A harmonic whose least-squares noise gain 1/Σ|w|² would exceed this is treated as undetectable.
+pub const MAX_NOISE_GAIN: f64 = 1e6;
+
+/// An error from self-calibration.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum SelfcalError {
+    /// The head arrangement is invalid.
+    #[error("heads: {message}")]
+    Heads {
+        /// What was wrong and what was expected.
+        message: String,
+    },
+    /// No turn of readings was given.
+    #[error("no readings: expected at least one turn")]
+    NoReadings,
+    /// A turn has the wrong number of difference channels for the heads.
+    #[error(
+        "turn {turn}: expected {expected} difference columns (heads 2..{heads}), found {found}"
+    )]
+    ChannelCount {
+        /// 1-based turn.
+        turn: usize,
+        /// Channels expected (M − 1).
+        expected: usize,
+        /// Number of heads M.
+        heads: usize,
+        /// Channels found.
+        found: usize,
+    },
+    /// A channel's length differs from the number of positions.
+    #[error(
+        "turn {turn}, head {head}: expected {expected} values (one per position), found {found}"
+    )]
+    ChannelLength {
+        /// 1-based turn.
+        turn: usize,
+        /// 1-based head number.
+        head: usize,
+        /// Positions in the turn.
+        expected: usize,
+        /// Values found.
+        found: usize,
+    },
+    /// Too few rotation positions.
+    #[error("turn {turn}: expected at least {expected} positions, found {found}")]
+    TooFewPositions {
+        /// 1-based turn.
+        turn: usize,
+        /// Minimum needed.
+        expected: usize,
+        /// Positions given.
+        found: usize,
+    },
+    /// Positions are not equally spaced over one full turn.
+    #[error(
+        "turn {turn}, position {index}: found {found_deg}°, expected {expected_deg}° (NS positions must be equally spaced by 360°/NS over one turn)"
+    )]
+    Spacing {
+        /// 1-based turn.
+        turn: usize,
+        /// 0-based index of the position in the turn.
+        index: usize,
+        /// The position given.
+        found_deg: f64,
+        /// The position expected.
+        expected_deg: f64,
+    },
+    /// A value is NaN or infinite.
+    #[error("turn {turn}, head {head}, position {index}: expected a finite number, found {value}")]
+    NotFinite {
+        /// 1-based turn.
+        turn: usize,
+        /// 1-based head number (1 for the position column).
+        head: usize,
+        /// 0-based index of the position.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// The method needs equally spaced head sets and the arrangement has none.
+    #[error("method eda: {message}")]
+    NoEqualDivision {
+        /// Explanation.
+        message: String,
+    },
+    /// A reference head index is out of range, or the list is empty.
+    #[error("reference heads: {message}")]
+    Reference {
+        /// Explanation.
+        message: String,
+    },
+}
+
+/// The estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// General Fourier least squares (any head positions).
+    #[default]
+    Fourier,
+    /// Equal-division averaging (one set), or the SelfA combination of several sets.
+    Eda,
+}
+
+/// How the reading noise is modelled when propagating it to a(θ).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NoiseModel {
+    /// Each head's reading has independent noise σ, so every D_h shares head 1's noise
+    /// (covariance σ²(I + 11ᵀ)). Head 1's noise looks exactly like a(θ) and passes into it.
+    #[default]
+    Readings,
+    /// Each difference D_h has independent noise σ (the textbook noise gain 1/Σ|w|²).
+    Differences,
+}
+
+/// Options of [`calibrate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SelfcalOptions {
+    /// The estimator.
+    pub method: Method,
+    /// The noise model for the uncertainty.
+    pub noise_model: NoiseModel,
+    /// 0-based heads whose averaged reading is the one calibrated (default `[0]`, head 1; the
+    /// seed's SelfA averages heads 1 and 7, `[0, 6]`). The result is then the error of that
+    /// averaged reading: `Σ_r a(θ + φ_r) / R`.
+    pub reference_heads: Vec<usize>,
+    /// Largest harmonic order in the harmonic table and the undetectable list (clamped below NS/2).
+    pub max_order: u32,
+}
+
+impl Default for SelfcalOptions {
+    fn default() -> Self {
+        SelfcalOptions {
+            method: Method::Fourier,
+            noise_model: NoiseModel::Readings,
+            reference_heads: vec![0],
+            max_order: 360,
+        }
+    }
+}
+
+/// One turn of readings at NS equally spaced rotation positions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Turn {
+    /// Rotation positions θ_i in degrees, `θ_0 + i·360°/NS`.
+    pub positions_deg: Vec<f64>,
+    /// `differences_arcsec[h − 2][i]` = D_h(θ_i) for heads h = 2..M, arcsec.
+    pub differences_arcsec: Vec<Vec<f64>>,
+}
+
+impl Turn {
+    /// A turn from raw head readings in degrees: `raw_deg[h − 1][i]` is head h's reading at
+    /// position i. D_h = (r_h − r_1 − φ_h), wrapped to (−180°, 180°], in arcsec.
+    ///
+    /// # Errors
+    /// [`SelfcalError::ChannelCount`] if there is not one column per head,
+    /// [`SelfcalError::ChannelLength`] for a column of the wrong length.
+    pub fn from_raw(
+        heads: &Heads,
+        positions_deg: Vec<f64>,
+        raw_deg: &[Vec<f64>],
+    ) -> Result<Turn, SelfcalError> {
+        let m = heads.len();
+        if raw_deg.len() != m {
+            return Err(SelfcalError::ChannelCount {
+                turn: 1,
+                expected: m,
+                heads: m,
+                found: raw_deg.len(),
+            });
+        }
+        let ns = positions_deg.len();
+        for (h, col) in raw_deg.iter().enumerate() {
+            if col.len() != ns {
+                return Err(SelfcalError::ChannelLength {
+                    turn: 1,
+                    head: h + 1,
+                    expected: ns,
+                    found: col.len(),
+                });
+            }
+        }
+        let differences_arcsec = (1..m)
+            .map(|h| {
+                (0..ns)
+                    .map(|i| {
+                        let d = raw_deg[h][i] - raw_deg[0][i] - heads.angles_deg()[h];
+                        let d = d - 360.0 * ((d + 180.0) / 360.0).ceil() + 360.0;
+                        d * 3600.0
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(Turn {
+            positions_deg,
+            differences_arcsec,
+        })
+    }
+}
+
+/// a(θ) at one rotation position.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ErrorPoint {
+    /// Rotation position, degrees in [0, 360).
+    pub position_deg: f64,
+    /// Estimated error (zero mean over the circle), arcsec.
+    pub value_arcsec: f64,
+    /// Standard uncertainty, arcsec.
+    pub u_arcsec: f64,
+    /// Expanded uncertainty k·u, arcsec.
+    #[serde(rename = "U_arcsec")]
+    pub expanded_arcsec: f64,
+    /// Coverage factor (Student t, 95 %, ν_eff).
+    pub k: f64,
+    /// Degrees of freedom of u.
+    pub nu_eff: f64,
+}
+
+/// One harmonic of the estimated error, `amplitude·sin(order·θ + phase)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HarmonicRow {
+    /// Order k (cycles per turn).
+    pub order: u32,
+    /// Amplitude, arcsec.
+    pub amplitude_arcsec: f64,
+    /// Phase, radians.
+    pub phase_rad: f64,
+    /// Whether the method can see this harmonic.
+    pub detectable: bool,
+    /// Variance of Â(k) per unit variance of independent noise on each D_h (Σ_h |v_hk|²;
+    /// 1/Σ|w_hk|² for least squares); 0 when undetectable.
+    pub noise_gain: f64,
+    /// The same with the [`NoiseModel::Readings`] correlation (Σ|v|² + |Σv|²).
+    pub noise_gain_readings: f64,
+    /// Standard uncertainty of each of the cosine and sine coefficients, arcsec.
+    pub u_coefficient_arcsec: f64,
+}
+
+/// Residual statistics of the model fit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Residuals {
+    /// RMS of D_h − (â(θ+φ_h) − â(θ) + ĉ_h) over all readings, arcsec.
+    pub rms_arcsec: f64,
+    /// Largest |residual|, arcsec.
+    pub max_abs_arcsec: f64,
+    /// Residual degrees of freedom (the expected-residual trace under the noise model).
+    pub dof: f64,
+    /// σ̂ per reading (per head reading for `readings`, per difference for `differences`), arcsec.
+    pub sigma_arcsec: f64,
+}
+
+/// The uncertainty of a(θ) and where it came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UncertaintyInfo {
+    /// `residuals` or `repeated turns`.
+    pub source: String,
+    /// u from the residuals (σ̂ through the noise gains), arcsec.
+    pub u_residuals_arcsec: f64,
+    /// u from the turn-to-turn spread (pooled over positions, / √turns), arcsec; absent for one turn.
+    pub u_turns_arcsec: Option<f64>,
+    /// Coverage probability of U.
+    pub coverage: f64,
+}
+
+/// The result of [`calibrate`] (the `gonio selfcal` JSON).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SelfcalResult {
+    /// Always [`SELFCAL_FORMAT`].
+    pub format: String,
+    /// `selfcal-fourier`, `selfcal-eda` or `selfcal-selfa`.
+    pub method: String,
+    /// Head angles, degrees.
+    pub heads_deg: Vec<f64>,
+    /// 1-based heads whose averaged reading is calibrated.
+    pub reference_heads: Vec<usize>,
+    /// Rotation positions per turn NS.
+    pub positions: usize,
+    /// Number of turns.
+    pub turns: usize,
+    /// The noise model of the uncertainty.
+    pub noise_model: NoiseModel,
+    /// a(θ) at every rotation position.
+    pub errors: Vec<ErrorPoint>,
+    /// Harmonics 1..=`max_order`.
+    pub harmonics: Vec<HarmonicRow>,
+    /// Orders ≤ `max_order` the method cannot see (their amplitude is reported as 0).
+    pub undetectable_orders: Vec<u32>,
+    /// The largest order considered.
+    pub max_order: u32,
+    /// Estimated mounting offsets c_h of heads 2..M, arcsec.
+    pub head_offsets_arcsec: Vec<f64>,
+    /// Residuals of the fit.
+    pub residuals: Residuals,
+    /// How u was obtained.
+    pub uncertainty: UncertaintyInfo,
+}
+
+/// The least-squares noise gain `1/Σ_h |e^{ikφ_h} − 1|²` of harmonic `order`, or `None` if the
+/// harmonic is undetectable (gain above [`MAX_NOISE_GAIN`]).
+///
+/// ```
+/// use gonio_calib::selfcal::{noise_gain, Heads};
+/// let g = noise_gain(&Heads::selfa12(), 1).unwrap();
+/// assert!((g - 1.0 / 28.0).abs() < 1e-12);
+/// assert!(noise_gain(&Heads::selfa12(), 84).is_none());
+/// ```
+pub fn noise_gain(heads: &Heads, order: u32) -> Option<f64> {
+    let s: f64 = heads.angles_deg()[1..]
+        .iter()
+        .map(|&p| (w_of(order as f64, p)).norm_sqr())
+        .sum();
+    (s * MAX_NOISE_GAIN >= 1.0).then(|| 1.0 / s)
+}
+
+#[inline]
+fn w_of(k: f64, phi_deg: f64) -> C64 {
+    // e^{ikφ} − 1, with k·φ reduced exactly in degrees first (so k·φ ≡ 0 gives exactly 0
+    // for whole-degree heads).
+    let x = (k * phi_deg).rem_euclid(360.0).to_radians();
+    let (s, c) = x.sin_cos();
+    C64::new(c - 1.0, s)
+}
+
+/// The seed's equal-division average (Eq. 9) computed literally in the position domain, for one
+/// set of heads (0-based indices, containing 0): `μ_i = −(1/NH)·Σ_j D_j(θ_i)`, mean removed.
+///
+/// This is the reference implementation [`calibrate`]'s spectral EDA is tested against.
+pub fn eda_direct(set: &[usize], turn: &Turn) -> Vec<f64> {
+    let ns = turn.positions_deg.len();
+    let nh = set.len() as f64;
+    let mut mu = vec![0.0; ns];
+    for &j in set.iter().filter(|&&j| j > 0) {
+        for (m, d) in mu.iter_mut().zip(&turn.differences_arcsec[j - 1]) {
+            *m -= d / nh;
+        }
+    }
+    gonio_core::closure::remove_mean(&mut mu);
+    mu
+}
+
+/// Two-sided 95 % Student-t quantile t_0.975(ν) (normal limit for ν > 1e7).
+fn t975(nu: f64) -> f64 {
+    if !(nu > 0.0) {
+        return f64::INFINITY;
+    }
+    if nu > 1e7 {
+        return gonio_core::special::normal_quantile(0.975);
+    }
+    // Upper tail P(T > t) = I_{ν/(ν+t²)}(ν/2, 1/2) / 2 = 0.025.
+    let tail = |t: f64| 0.5 * gonio_core::special::beta_inc(nu / 2.0, 0.5, nu / (nu + t * t));
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while tail(hi) > 0.025 {
+        hi *= 2.0;
+        if hi > 1e12 {
+            return f64::INFINITY;
+        }
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if tail(mid) > 0.025 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Minimum rotation positions per turn.
+pub const MIN_POSITIONS: usize = 8;
+
+fn validate(heads: &Heads, turns: &[Turn]) -> Result<(usize, f64), SelfcalError> {
+    let first = turns.first().ok_or(SelfcalError::NoReadings)?;
+    let ns = first.positions_deg.len();
+    let m1 = heads.len() - 1;
+    let step = 360.0 / ns.max(1) as f64;
+    let tol = 1e-3 * step;
+    let theta0 = first.positions_deg.first().copied().unwrap_or(0.0);
+    for (t, turn) in turns.iter().enumerate() {
+        let tn = t + 1;
+        if turn.positions_deg.len() < MIN_POSITIONS {
+            return Err(SelfcalError::TooFewPositions {
+                turn: tn,
+                expected: MIN_POSITIONS,
+                found: turn.positions_deg.len(),
+            });
+        }
+        if turn.differences_arcsec.len() != m1 {
+            return Err(SelfcalError::ChannelCount {
+                turn: tn,
+                expected: m1,
+                heads: heads.len(),
+                found: turn.differences_arcsec.len(),
+            });
+        }
+        for (i, &p) in turn.positions_deg.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(SelfcalError::NotFinite {
+                    turn: tn,
+                    head: 1,
+                    index: i,
+                    value: p,
+                });
+            }
+            let want = theta0 + i as f64 * step;
+            if turn.positions_deg.len() != ns || (p - want).abs() > tol {
+                return Err(SelfcalError::Spacing {
+                    turn: tn,
+                    index: i,
+                    found_deg: p,
+                    expected_deg: want,
+                });
+            }
+        }
+        for (c, col) in turn.differences_arcsec.iter().enumerate() {
+            if col.len() != ns {
+                return Err(SelfcalError::ChannelLength {
+                    turn: tn,
+                    head: c + 2,
+                    expected: ns,
+                    found: col.len(),
+                });
+            }
+            if let Some((i, &v)) = col.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(SelfcalError::NotFinite {
+                    turn: tn,
+                    head: c + 2,
+                    index: i,
+                    value: v,
+                });
+            }
+        }
+    }
+    Ok((ns, theta0))
+}
+
+/// Per-harmonic coefficients of a linear estimator: `v` (one per difference channel), the head
+/// weights `w`, detectability.
+struct BinTable {
+    m1: usize,
+    /// `v[k·m1 + c]`.
+    v: Vec<C64>,
+    /// `w[k·m1 + c]`.
+    w: Vec<C64>,
+    detectable: Vec<bool>,
+}
+
+fn bin_table(
+    heads: &Heads,
+    method: Method,
+    nbins: usize,
+    nyquist: Option<usize>,
+) -> Result<(BinTable, &'static str), SelfcalError> {
+    let phi = &heads.angles_deg()[1..];
+    let m1 = phi.len();
+    let mut v = vec![C64::new(0.0, 0.0); nbins * m1];
+    let mut w = vec![C64::new(0.0, 0.0); nbins * m1];
+    let mut detectable = vec![false; nbins];
+    let sets = heads.sets();
+    let name = match method {
+        Method::Fourier => "selfcal-fourier",
+        Method::Eda => match sets.len() {
+            0 => {
+                return Err(SelfcalError::NoEqualDivision {
+                    message: format!(
+                        "the {} heads at {:?}° are not equally spaced and no equal-division sets were given (use --method fourier, or list sets in the heads file)",
+                        heads.len(),
+                        heads.angles_deg()
+                    ),
+                });
+            }
+            1 => "selfcal-eda",
+            _ => "selfcal-selfa",
+        },
+    };
+    // Inverse-variance weight of each set's EDA (independent-difference noise: (NH−1)/NH²).
+    let set_weight: Vec<f64> = sets
+        .iter()
+        .map(|s| {
+            let nh = s.len() as f64;
+            nh * nh / (nh - 1.0)
+        })
+        .collect();
+    for k in 1..nbins {
+        let kf = k as f64;
+        let row_w = &mut w[k * m1..(k + 1) * m1];
+        for (wc, &p) in row_w.iter_mut().zip(phi) {
+            *wc = w_of(kf, p);
+        }
+        if Some(k) == nyquist {
+            continue; // not estimated: v = 0
+        }
+        let row_v = &mut v[k * m1..(k + 1) * m1];
+        match method {
+            Method::Fourier => {
+                let s: f64 = row_w.iter().map(|x| x.norm_sqr()).sum();
+                if s * MAX_NOISE_GAIN >= 1.0 {
+                    detectable[k] = true;
+                    for (vc, wc) in row_v.iter_mut().zip(row_w.iter()) {
+                        *vc = wc.conj() / s;
+                    }
+                }
+            }
+            Method::Eda => {
+                // A set passes k when mean_j e^{ikφ_j} = 0 (NH does not divide k).
+                let passes = |s: &Vec<usize>| {
+                    let sum: C64 = s
+                        .iter()
+                        .map(|&j| {
+                            if j == 0 {
+                                C64::new(1.0, 0.0)
+                            } else {
+                                row_w[j - 1] + 1.0
+                            }
+                        })
+                        .sum();
+                    sum.norm() / (s.len() as f64) < 1e-9
+                };
+                if sets.len() == 1 {
+                    // Plain EDA: the seed's formula at every harmonic.
+                    let s = &sets[0];
+                    let nh = s.len() as f64;
+                    for &j in s.iter().filter(|&&j| j > 0) {
+                        row_v[j - 1] = C64::new(-1.0 / nh, 0.0);
+                    }
+                    detectable[k] = passes(s);
+                } else {
+                    let mut wsum = 0.0;
+                    for (s, &ws) in sets.iter().zip(&set_weight) {
+                        if passes(s) {
+                            let nh = s.len() as f64;
+                            for &j in s.iter().filter(|&&j| j > 0) {
+                                row_v[j - 1] -= C64::new(ws / nh, 0.0);
+                            }
+                            wsum += ws;
+                        }
+                    }
+                    if wsum > 0.0 {
+                        detectable[k] = true;
+                        for vc in row_v.iter_mut() {
+                            *vc /= wsum;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok((
+        BinTable {
+            m1,
+            v,
+            w,
+            detectable,
+        },
+        name,
+    ))
+}
+
+/// Self-calibrates: estimates a(θ) at every rotation position from one or more turns of head
+/// differences.
+///
+/// The result's `errors` is the error of the reference reading (head 1 by default) with zero
+/// mean over the circle; undetectable harmonics are absent from it (their amplitude is 0).
+/// With two or more turns the turns are averaged and u comes from their spread.
+///
+/// # Errors
+/// [`SelfcalError`] for an empty input, a channel count or length that does not match the heads,
+/// positions not equally spaced over one turn (or differing between turns), a non-finite value,
+/// `Method::Eda` without equal-division sets, or a bad reference head.
+pub fn calibrate(
+    heads: &Heads,
+    turns: &[Turn],
+    options: &SelfcalOptions,
+) -> Result<SelfcalResult, SelfcalError> {
+    let (ns, theta0) = validate(heads, turns)?;
+    if options.reference_heads.is_empty() {
+        return Err(SelfcalError::Reference {
+            message: "expected at least one reference head".into(),
+        });
+    }
+    if let Some(&r) = options.reference_heads.iter().find(|&&r| r >= heads.len()) {
+        return Err(SelfcalError::Reference {
+            message: format!("head {} does not exist ({} heads)", r + 1, heads.len()),
+        });
+    }
+    let nbins = ns / 2 + 1;
+    let nyquist = (ns % 2 == 0).then_some(ns / 2);
+    let (table, method_name) = bin_table(heads, options.method, nbins, nyquist)?;
+    let m1 = table.m1;
+    let nt = turns.len();
+    let nsf = ns as f64;
+
+    // Reference filter f_k = mean_r e^{ikφ_r}.
+    let refs: Vec<f64> = options
+        .reference_heads
+        .iter()
+        .map(|&r| heads.angles_deg()[r])
+        .collect();
+    let filt: Vec<C64> = (0..nbins)
+        .map(|k| refs.iter().map(|&p| w_of(k as f64, p) + 1.0).sum::<C64>() / refs.len() as f64)
+        .collect();
+    // Weight of bin k in the full (two-sided) spectrum.
+    let bin_weight = |k: usize| -> f64 {
+        if k == 0 || Some(k) == nyquist {
+            1.0
+        } else {
+            2.0
+        }
+    };
+
+    let mut planner = RealFftPlanner::<f64>::new();
+    let r2c = planner.plan_fft_forward(ns);
+    let c2r = planner.plan_fft_inverse(ns);
+    let mut scratch_f = r2c.make_scratch_vec();
+    let mut scratch_i = c2r.make_scratch_vec();
+    let mut input = r2c.make_input_vec();
+    let mut dhat: Vec<Vec<C64>> = (0..m1).map(|_| r2c.make_output_vec()).collect();
+    let mut ahat = vec![C64::new(0.0, 0.0); nbins];
+    let mut spec_tmp = c2r.make_input_vec();
+    let mut time_tmp = c2r.make_output_vec();
+    let mut sum_spec = vec![C64::new(0.0, 0.0); nbins];
+    let mut sum_a = vec![0.0; ns];
+    let mut sumsq_a = vec![0.0; ns];
+    let mut offsets = vec![0.0; m1];
+    let mut rss_parseval = 0.0;
+    let mut max_abs: f64 = 0.0;
+
+    for turn in turns {
+        for (c, col) in turn.differences_arcsec.iter().enumerate() {
+            input.copy_from_slice(col);
+            r2c.process_with_scratch(&mut input, &mut dhat[c], &mut scratch_f)
+                .expect("buffer sizes are the planner's");
+            offsets[c] += dhat[c][0].re / nsf / nt as f64;
+        }
+        ahat[0] = C64::new(0.0, 0.0);
+        for k in 1..nbins {
+            let v = &table.v[k * m1..(k + 1) * m1];
+            ahat[k] = v.iter().zip(&dhat).map(|(vc, d)| vc * d[k]).sum();
+        }
+        // Residuals: R_hk = D̂_hk − w_hk·Â_k (bin 0 absorbed by the offsets).
+        for (c, d) in dhat.iter().enumerate() {
+            spec_tmp[0] = C64::new(0.0, 0.0);
+            for k in 1..nbins {
+                let r = d[k] - table.w[k * m1 + c] * ahat[k];
+                rss_parseval += bin_weight(k) * r.norm_sqr();
+                spec_tmp[k] = r;
+            }
+            if let Some(nq) = nyquist {
+                spec_tmp[nq].im = 0.0;
+            }
+            c2r.process_with_scratch(&mut spec_tmp, &mut time_tmp, &mut scratch_i)
+                .expect("buffer sizes are the planner's");
+            for x in &time_tmp {
+                max_abs = max_abs.max((x / nsf).abs());
+            }
+        }
+        // Output spectrum (reference filter) and its position-domain values.
+        for k in 0..nbins {
+            let o = filt[k] * ahat[k];
+            sum_spec[k] += o;
+            spec_tmp[k] = o;
+        }
+        spec_tmp[0].im = 0.0;
+        if let Some(nq) = nyquist {
+            spec_tmp[nq].im = 0.0;
+        }
+        c2r.process_with_scratch(&mut spec_tmp, &mut time_tmp, &mut scratch_i)
+            .expect("buffer sizes are the planner's");
+        for ((s, q), x) in sum_a.iter_mut().zip(sumsq_a.iter_mut()).zip(&time_tmp) {
+            let a = x / nsf;
+            *s += a;
+            *q += a * a;
+        }
+    }
+
+    // Noise gains and the expected residual trace per bin.
+    let readings = options.noise_model == NoiseModel::Readings;
+    let m1f = m1 as f64;
+    let mut trace_sum = 0.0; // Σ_k weight·E|R_k|²/(NS σ²), per turn
+    let mut gain_sum = 0.0; // Σ_k weight·g_k (output, chosen model)
+    let mut gains = vec![(0.0, 0.0); nbins]; // (differences, readings), unfiltered
+    for k in 1..nbins {
+        let v = &table.v[k * m1..(k + 1) * m1];
+        let w = &table.w[k * m1..(k + 1) * m1];
+        let v2: f64 = v.iter().map(|x| x.norm_sqr()).sum();
+        let vs: C64 = v.iter().sum();
+        let ws: C64 = w.iter().sum();
+        let s: f64 = w.iter().map(|x| x.norm_sqr()).sum();
+        let vw: C64 = v.iter().zip(w).map(|(a, b)| a * b).sum();
+        let g_d = v2;
+        let g_r = v2 + vs.norm_sqr();
+        gains[k] = (g_d, g_r);
+        // tr((I − w vᵀ) C (I − w vᵀ)ᴴ) for C = I, plus |(I − w vᵀ)1|² for C = I + 11ᵀ.
+        let mut tr = m1f - 2.0 * vw.re + s * v2;
+        if readings {
+            tr += m1f - 2.0 * (vs * ws).re + s * vs.norm_sqr();
+        }
+        trace_sum += bin_weight(k) * tr;
+        let f2 = filt[k].norm_sqr();
+        gain_sum += bin_weight(k) * f2 * if readings { g_r } else { g_d };
+    }
+    let dof = trace_sum * nt as f64;
+    let sigma2 = if dof > 0.0 {
+        rss_parseval / (nsf * dof)
+    } else {
+        0.0
+    };
+    let u_res = (sigma2 * gain_sum / nsf / nt as f64).sqrt();
+    let rms = (rss_parseval / nsf / (nsf * m1f * nt as f64)).sqrt();
+
+    let u_turns = (nt >= 2).then(|| {
+        let ntf = nt as f64;
+        let pooled: f64 = sum_a
+            .iter()
+            .zip(&sumsq_a)
+            .map(|(s, q)| ((q - s * s / ntf) / (ntf - 1.0)).max(0.0))
+            .sum::<f64>()
+            / nsf;
+        (pooled / ntf).sqrt()
+    });
+    let (u, nu, source) = match u_turns {
+        Some(ut) => (ut, (nt - 1) as f64, "repeated turns"),
+        None => (u_res, dof, "residuals"),
+    };
+    let k_cov = t975(nu);
+    let step = 360.0 / nsf;
+    let errors = sum_a
+        .iter()
+        .enumerate()
+        .map(|(i, s)| ErrorPoint {
+            position_deg: gonio_core::Degrees(theta0 + i as f64 * step).normalized().0,
+            value_arcsec: s / nt as f64,
+            u_arcsec: u,
+            expanded_arcsec: k_cov * u,
+            k: k_cov,
+            nu_eff: nu,
+        })
+        .collect();
+
+    let max_order = options.max_order.min(((ns - 1) / 2) as u32);
+    let sigma_turn_mean = (sigma2 / nt as f64).sqrt();
+    let mut harmonics = Vec::with_capacity(max_order as usize);
+    let mut undetectable_orders = Vec::new();
+    for order in 1..=max_order {
+        let k = order as usize;
+        let x = sum_spec[k] / nt as f64;
+        let ph = -(order as f64) * theta0.to_radians();
+        let c = x * 2.0 / nsf * C64::new(ph.cos(), ph.sin());
+        let h = Harmonic::from_cos_sin(order, c.re, -c.im);
+        let det = table.detectable[k];
+        if !det {
+            undetectable_orders.push(order);
+        }
+        let f2 = filt[k].norm_sqr();
+        let g = if readings { gains[k].1 } else { gains[k].0 };
+        harmonics.push(HarmonicRow {
+            order,
+            amplitude_arcsec: h.amplitude,
+            phase_rad: h.phase_rad,
+            detectable: det,
+            noise_gain: if det { gains[k].0 } else { 0.0 },
+            noise_gain_readings: if det { gains[k].1 } else { 0.0 },
+            u_coefficient_arcsec: sigma_turn_mean * (2.0 * f2 * g / nsf).sqrt(),
+        });
+    }
+
+    Ok(SelfcalResult {
+        format: SELFCAL_FORMAT.to_string(),
+        method: method_name.to_string(),
+        heads_deg: heads.angles_deg().to_vec(),
+        reference_heads: options.reference_heads.iter().map(|r| r + 1).collect(),
+        positions: ns,
+        turns: nt,
+        noise_model: options.noise_model,
+        errors,
+        harmonics,
+        undetectable_orders,
+        max_order,
+        head_offsets_arcsec: offsets,
+        residuals: Residuals {
+            rms_arcsec: rms,
+            max_abs_arcsec: max_abs,
+            dof,
+            sigma_arcsec: sigma2.sqrt(),
+        },
+        uncertainty: UncertaintyInfo {
+            source: source.to_string(),
+            u_residuals_arcsec: u_res,
+            u_turns_arcsec: u_turns,
+            coverage: 0.95,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t_quantiles() {
+        // JCGM 100 Table G.2 (95 %): ν = 10 → 2.23, ν = 5 → 2.57; seed: ν = 53 → 2.006.
+        assert!((t975(10.0) - 2.228).abs() < 1e-3);
+        assert!((t975(5.0) - 2.571).abs() < 1e-3);
+        assert!((t975(53.0) - 2.006).abs() < 1e-3);
+        assert!((t975(1e9) - 1.960).abs() < 1e-3);
+    }
+
+    #[test]
+    fn raw_readings_give_differences() {
+        let heads = Heads::preset("eda:3").unwrap();
+        let t = Turn::from_raw(
+            &heads,
+            vec![0.0, 1.0],
+            &[
+                vec![0.0, 1.0],
+                vec![120.0 + 1.0 / 3600.0, 121.0],
+                vec![-120.0 - 2.0 / 3600.0, 241.0 + 0.5 / 3600.0],
+            ],
+        )
+        .unwrap();
+        assert!((t.differences_arcsec[0][0] - 1.0).abs() < 1e-9);
+        assert!((t.differences_arcsec[1][0] + 2.0).abs() < 1e-9);
+        assert!((t.differences_arcsec[1][1] - 0.5).abs() < 1e-9);
+    }
+}
