@@ -1,0 +1,834 @@
+//! Monte Carlo propagation of distributions (JCGM 101:2008): adaptive, seeded, with
+//! probabilistically symmetric and shortest coverage intervals, and the GUM validation of §8.
+//!
+//! Each input is drawn from its distribution (JCGM 101 §6.4: normal; rectangular; symmetric
+//! triangular; arcsine; scaled-and-shifted t for a Type A input with ν degrees of freedom), the
+//! measurement function supplied by the caller maps each draw to a value of the output, and the
+//! sorted values give the coverage intervals (§7.7). Inputs that take part in a correlation are
+//! drawn jointly from a multivariate normal with their standard uncertainties (§6.4.8), whatever
+//! their declared shape.
+//!
+//! Adaptive mode (§7.9.4): batches of M = max(⌈100/(1−p)⌉, 10⁴) trials are added until twice the
+//! standard deviation of the batch means, standard uncertainties and interval end points is below
+//! the numerical tolerance δ = ½·10^l of u(y) written with `ndig` significant digits (§7.9.2).
+//! Draws come from ChaCha20 seeded with the configured seed: the same seed gives the same result,
+//! bit for bit. Inputs are generated a batch at a time, column by column, and the model is called
+//! with one reused slice, so the trial loop never allocates.
+//!
+//! ```
+//! use gonio_uncertainty::{InputDistribution, McConfig, monte_carlo};
+//! // Y = X1 + X2 with two standard normal inputs: u(y) = √2.
+//! let inputs = [InputDistribution::Normal { mean: 0.0, sd: 1.0 }; 2];
+//! let r = monte_carlo(&inputs, &[], |x: &[f64]| x[0] + x[1], &McConfig::default()).unwrap();
+//! assert!(r.converged);
+//! assert!((r.std_uncertainty - 2f64.sqrt()).abs() < 0.01);
+//! ```
+
+use crate::{UncertaintyError, check_coverage};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha20Rng;
+use rand_distr::{Distribution, StandardNormal, StudentT};
+use serde::Serialize;
+
+/// The probability distribution of one input quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "distribution", rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum InputDistribution {
+    /// Normal N(mean, sd²).
+    Normal {
+        /// Expectation.
+        mean: f64,
+        /// Standard deviation.
+        sd: f64,
+    },
+    /// Rectangular on [mean − a, mean + a].
+    Rectangular {
+        /// Centre.
+        mean: f64,
+        /// Half-width a.
+        half_width: f64,
+    },
+    /// Symmetric triangular on [mean − a, mean + a].
+    Triangular {
+        /// Centre.
+        mean: f64,
+        /// Half-width a.
+        half_width: f64,
+    },
+    /// Arcsine (U-shaped) on [mean − a, mean + a].
+    Arcsine {
+        /// Centre.
+        mean: f64,
+        /// Half-width a.
+        half_width: f64,
+    },
+    /// Scaled and shifted t: mean + scale·T_ν (JCGM 101 §6.4.9; for n observations, mean x̄,
+    /// scale s/√n, ν = n − 1). Its standard deviation is scale·√(ν/(ν − 2)) for ν > 2.
+    StudentT {
+        /// Location.
+        mean: f64,
+        /// Scale.
+        scale: f64,
+        /// Degrees of freedom (> 0; infinite gives the normal).
+        nu: f64,
+    },
+}
+
+impl InputDistribution {
+    /// The distribution's expectation.
+    pub fn mean(&self) -> f64 {
+        match *self {
+            InputDistribution::Normal { mean, .. }
+            | InputDistribution::Rectangular { mean, .. }
+            | InputDistribution::Triangular { mean, .. }
+            | InputDistribution::Arcsine { mean, .. }
+            | InputDistribution::StudentT { mean, .. } => mean,
+        }
+    }
+
+    /// The standard deviation used when the input is drawn as part of a correlated (normal) group:
+    /// the GUM standard uncertainty (for the t, its scale).
+    pub fn std_uncertainty(&self) -> f64 {
+        match *self {
+            InputDistribution::Normal { sd, .. } => sd,
+            InputDistribution::Rectangular { half_width, .. } => half_width / 3f64.sqrt(),
+            InputDistribution::Triangular { half_width, .. } => half_width / 6f64.sqrt(),
+            InputDistribution::Arcsine { half_width, .. } => half_width / 2f64.sqrt(),
+            InputDistribution::StudentT { scale, .. } => scale,
+        }
+    }
+
+    fn check(&self, i: usize) -> Result<(), UncertaintyError> {
+        let ok = |x: f64| x.is_finite() && x >= 0.0;
+        let good = self.mean().is_finite()
+            && match *self {
+                InputDistribution::Normal { sd, .. } => ok(sd),
+                InputDistribution::Rectangular { half_width, .. }
+                | InputDistribution::Triangular { half_width, .. }
+                | InputDistribution::Arcsine { half_width, .. } => ok(half_width),
+                InputDistribution::StudentT { scale, nu, .. } => ok(scale) && nu > 0.0,
+            };
+        if good {
+            Ok(())
+        } else {
+            Err(UncertaintyError::MonteCarlo {
+                what: format!("input {i}: invalid distribution {self:?}"),
+            })
+        }
+    }
+
+    /// Fills `out` with draws.
+    fn fill(&self, rng: &mut ChaCha20Rng, out: &mut [f64]) {
+        match *self {
+            InputDistribution::Normal { mean, sd } => {
+                for v in out {
+                    let z: f64 = StandardNormal.sample(rng);
+                    *v = mean + sd * z;
+                }
+            }
+            InputDistribution::Rectangular { mean, half_width } => {
+                for v in out {
+                    *v = mean + half_width * (2.0 * rng.random::<f64>() - 1.0);
+                }
+            }
+            InputDistribution::Triangular { mean, half_width } => {
+                for v in out {
+                    let s = rng.random::<f64>() + rng.random::<f64>();
+                    *v = mean + half_width * (s - 1.0);
+                }
+            }
+            InputDistribution::Arcsine { mean, half_width } => {
+                for v in out {
+                    let r: f64 = rng.random();
+                    *v = mean + half_width * (std::f64::consts::TAU * r).sin();
+                }
+            }
+            InputDistribution::StudentT { mean, scale, nu } => match StudentT::new(nu) {
+                Ok(t) if nu.is_finite() => {
+                    for v in out {
+                        *v = mean + scale * t.sample(rng);
+                    }
+                }
+                _ => {
+                    for v in out {
+                        let z: f64 = StandardNormal.sample(rng);
+                        *v = mean + scale * z;
+                    }
+                }
+            },
+        }
+    }
+}
+
+/// How many trials to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum McTrials {
+    /// JCGM 101 §7.9 adaptive procedure, stopping at `max_trials` at the latest (then
+    /// [`McResult::converged`] is false).
+    Adaptive {
+        /// Upper limit on the number of trials.
+        max_trials: usize,
+    },
+    /// Exactly this many trials (no stability check).
+    Fixed(usize),
+}
+
+/// Monte Carlo settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct McConfig {
+    /// Coverage probability p (0 < p < 1).
+    pub coverage: f64,
+    /// Seed of the ChaCha20 generator.
+    pub seed: u64,
+    /// Significant decimal digits of u(y) regarded as meaningful (JCGM 101 §7.9.2; usually 1 or 2).
+    pub ndig: u32,
+    /// Adaptive or fixed number of trials.
+    pub trials: McTrials,
+}
+
+impl Default for McConfig {
+    /// p = 0.95, seed 1, ndig = 2, adaptive up to 10⁷ trials.
+    fn default() -> McConfig {
+        McConfig {
+            coverage: 0.95,
+            seed: 1,
+            ndig: 2,
+            trials: McTrials::Adaptive {
+                max_trials: 10_000_000,
+            },
+        }
+    }
+}
+
+/// A coverage interval [low, high].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Interval {
+    /// Lower end point.
+    pub low: f64,
+    /// Upper end point.
+    pub high: f64,
+}
+
+/// Monte Carlo summary of the output quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct McResult {
+    /// Estimate y: the mean of the model values.
+    pub estimate: f64,
+    /// Standard uncertainty u(y): their standard deviation.
+    pub std_uncertainty: f64,
+    /// Coverage probability p.
+    pub coverage: f64,
+    /// Probabilistically symmetric coverage interval.
+    pub symmetric: Interval,
+    /// Shortest coverage interval.
+    pub shortest: Interval,
+    /// Number of trials used.
+    pub trials: usize,
+    /// Number of batches (1 for a fixed run).
+    pub batches: usize,
+    /// Whether the adaptive procedure reached its tolerance (true for fixed runs).
+    pub converged: bool,
+    /// Numerical tolerance δ of u(y) at `ndig` digits.
+    pub tolerance: f64,
+    /// The seed used.
+    pub seed: u64,
+}
+
+/// The numerical tolerance δ = ½·10^l where u = c·10^l and c has `ndig` digits (JCGM 101 §7.9.2).
+///
+/// ```
+/// use gonio_uncertainty::montecarlo::numerical_tolerance;
+/// assert!((numerical_tolerance(0.0692, 2) - 0.0005).abs() < 1e-15);
+/// assert!((numerical_tolerance(32.0, 1) - 5.0).abs() < 1e-12);
+/// ```
+pub fn numerical_tolerance(u: f64, ndig: u32) -> f64 {
+    if u.is_nan() || u <= 0.0 || !u.is_finite() {
+        return 0.0;
+    }
+    let l = u.log10().floor() as i32 - (ndig.max(1) as i32 - 1);
+    0.5 * 10f64.powi(l)
+}
+
+/// Lower Cholesky factor in place (row-major n×n); `None` if not positive semi-definite.
+/// Zero pivots (perfect correlation) are allowed.
+pub(crate) fn cholesky(m: &mut [f64], n: usize) -> Option<()> {
+    for j in 0..n {
+        let mut d = m[j * n + j];
+        for k in 0..j {
+            d -= m[j * n + k] * m[j * n + k];
+        }
+        if d < -1e-10 {
+            return None;
+        }
+        let d = d.max(0.0).sqrt();
+        m[j * n + j] = d;
+        for i in j + 1..n {
+            let mut s = m[i * n + j];
+            for k in 0..j {
+                s -= m[i * n + k] * m[j * n + k];
+            }
+            m[i * n + j] = if d > 0.0 {
+                s / d
+            } else if s.abs() < 1e-10 {
+                0.0
+            } else {
+                return None;
+            };
+        }
+        for k in j + 1..n {
+            m[j * n + k] = 0.0;
+        }
+    }
+    Some(())
+}
+
+/// (q, r) of JCGM 101 §7.7: q values cover p; the symmetric interval starts at the r-th (1-based).
+fn interval_indices(m: usize, p: f64) -> (usize, usize) {
+    let pm = p * m as f64;
+    let q = if pm.fract() == 0.0 {
+        pm as usize
+    } else {
+        (pm + 0.5).floor() as usize
+    };
+    let rest = m - q;
+    let r = if rest % 2 == 0 {
+        rest / 2
+    } else {
+        rest.div_ceil(2)
+    };
+    (q, r.max(1))
+}
+
+/// Intervals from sorted values.
+fn intervals(sorted: &[f64], p: f64) -> (Interval, Interval) {
+    let m = sorted.len();
+    let (q, r) = interval_indices(m, p);
+    let sym = Interval {
+        low: sorted[r - 1],
+        high: sorted[(r + q - 1).min(m - 1)],
+    };
+    let mut best = (f64::INFINITY, 0usize);
+    for s in 0..m - q {
+        let w = sorted[s + q] - sorted[s];
+        if w < best.0 {
+            best = (w, s);
+        }
+    }
+    let shortest = Interval {
+        low: sorted[best.1],
+        high: sorted[best.1 + q],
+    };
+    (sym, shortest)
+}
+
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let ss: f64 = v.iter().map(|x| (x - mean).powi(2)).sum();
+    (
+        mean,
+        if v.len() > 1 {
+            (ss / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        },
+    )
+}
+
+fn sort(v: &mut [f64]) {
+    v.sort_unstable_by(f64::total_cmp);
+}
+
+/// The sampler: inputs, the correlated group's Cholesky factor, and reusable buffers.
+struct Sampler<'a> {
+    inputs: &'a [InputDistribution],
+    /// Indices of the correlated inputs and the lower Cholesky factor of their correlation matrix.
+    group: Vec<usize>,
+    chol: Vec<f64>,
+    columns: Vec<f64>,
+    rng: ChaCha20Rng,
+}
+
+impl Sampler<'_> {
+    /// Draws `m` trials into column-major `columns` (input i at `i*m..(i+1)*m`).
+    fn draw(&mut self, m: usize) {
+        let n = self.inputs.len();
+        self.columns.resize(n * m, 0.0);
+        for (i, d) in self.inputs.iter().enumerate() {
+            if !self.group.contains(&i) {
+                d.fill(&mut self.rng, &mut self.columns[i * m..(i + 1) * m]);
+            }
+        }
+        let g = self.group.len();
+        if g > 0 {
+            let mut z = vec![0.0; g];
+            for j in 0..m {
+                for zk in z.iter_mut() {
+                    *zk = StandardNormal.sample(&mut self.rng);
+                }
+                for (a, &i) in self.group.iter().enumerate() {
+                    let mut s = 0.0;
+                    for (b, zb) in z.iter().enumerate().take(a + 1) {
+                        s += self.chol[a * g + b] * zb;
+                    }
+                    let d = &self.inputs[i];
+                    self.columns[i * m + j] = d.mean() + d.std_uncertainty() * s;
+                }
+            }
+        }
+    }
+}
+
+/// Runs the Monte Carlo method for `model` with independent `inputs` except for the correlations
+/// `(i, j, r_ij)`.
+///
+/// # Errors
+/// [`UncertaintyError::MonteCarlo`] for no inputs, an invalid distribution or trial count, a
+/// non-finite model value, or a bad correlation; [`UncertaintyError::BadCoverage`];
+/// [`UncertaintyError::NotPositiveDefinite`].
+pub fn monte_carlo<F>(
+    inputs: &[InputDistribution],
+    correlations: &[(usize, usize, f64)],
+    model: F,
+    cfg: &McConfig,
+) -> Result<McResult, UncertaintyError>
+where
+    F: Fn(&[f64]) -> f64,
+{
+    monte_carlo_with_progress(inputs, correlations, model, cfg, |_| {})
+}
+
+/// As [`monte_carlo`], calling `progress(trials_so_far)` after every batch.
+///
+/// # Errors
+/// As [`monte_carlo`].
+pub fn monte_carlo_with_progress<F, P>(
+    inputs: &[InputDistribution],
+    correlations: &[(usize, usize, f64)],
+    model: F,
+    cfg: &McConfig,
+    mut progress: P,
+) -> Result<McResult, UncertaintyError>
+where
+    F: Fn(&[f64]) -> f64,
+    P: FnMut(usize),
+{
+    let p = check_coverage(cfg.coverage)?;
+    let n = inputs.len();
+    if n == 0 {
+        return Err(UncertaintyError::MonteCarlo {
+            what: "no input quantities".into(),
+        });
+    }
+    for (i, d) in inputs.iter().enumerate() {
+        d.check(i)?;
+    }
+    // The correlated group.
+    let mut group: Vec<usize> = Vec::new();
+    for &(i, j, r) in correlations {
+        if i >= n || j >= n || i == j || r.is_nan() || r.abs() > 1.0 {
+            return Err(UncertaintyError::MonteCarlo {
+                what: format!("bad correlation ({i}, {j}, {r}) for {n} inputs"),
+            });
+        }
+        for k in [i, j] {
+            if !group.contains(&k) {
+                group.push(k);
+            }
+        }
+    }
+    group.sort_unstable();
+    let g = group.len();
+    let mut chol = vec![0.0; g * g];
+    for a in 0..g {
+        chol[a * g + a] = 1.0;
+    }
+    for &(i, j, r) in correlations {
+        let a = group.iter().position(|&x| x == i).unwrap_or(0);
+        let b = group.iter().position(|&x| x == j).unwrap_or(0);
+        chol[a * g + b] = r;
+        chol[b * g + a] = r;
+    }
+    if g > 0 && cholesky(&mut chol, g).is_none() {
+        return Err(UncertaintyError::NotPositiveDefinite {
+            context: "Monte Carlo inputs".into(),
+        });
+    }
+    let min_batch = ((1.0 / (1.0 - p)).ceil() as usize).max(2);
+    let (batch, fixed_total, max_trials) = match cfg.trials {
+        McTrials::Fixed(m) => {
+            if m < min_batch {
+                return Err(UncertaintyError::MonteCarlo {
+                    what: format!(
+                        "{m} trials are too few for a {p} coverage interval (need ≥ {min_batch})"
+                    ),
+                });
+            }
+            (m.min(16_384), Some(m), m)
+        }
+        McTrials::Adaptive { max_trials } => {
+            let b = ((100.0 / (1.0 - p)).ceil() as usize).max(10_000);
+            (b, None, max_trials.max(2 * b))
+        }
+    };
+    let mut sampler = Sampler {
+        inputs,
+        group,
+        chol,
+        columns: Vec::new(),
+        rng: ChaCha20Rng::seed_from_u64(cfg.seed),
+    };
+    let mut values: Vec<f64> = Vec::with_capacity(fixed_total.unwrap_or(4 * batch));
+    let mut x = vec![0.0; n];
+    let mut scratch: Vec<f64> = Vec::with_capacity(batch);
+    // Per-batch statistics for the adaptive stop: mean, u, symmetric and shortest end points.
+    let mut stats: Vec<[f64; 6]> = Vec::new();
+    let mut converged = fixed_total.is_some();
+    let mut batches = 0usize;
+    loop {
+        let todo = match fixed_total {
+            Some(total) => (total - values.len()).min(batch),
+            None => batch,
+        };
+        if todo == 0 {
+            break;
+        }
+        sampler.draw(todo);
+        let start = values.len();
+        let cols = &sampler.columns;
+        for j in 0..todo {
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi = cols[i * todo + j];
+            }
+            values.push(model(&x));
+        }
+        if let Some(bad) = values[start..].iter().find(|v| !v.is_finite()) {
+            return Err(UncertaintyError::MonteCarlo {
+                what: format!("the measurement function returned {bad}"),
+            });
+        }
+        batches += 1;
+        progress(values.len());
+        if fixed_total.is_some() {
+            continue;
+        }
+        scratch.clear();
+        scratch.extend_from_slice(&values[start..]);
+        let (m, s) = mean_sd(&scratch);
+        sort(&mut scratch);
+        let (sym, short) = intervals(&scratch, p);
+        stats.push([m, s, sym.low, sym.high, short.low, short.high]);
+        let h = stats.len();
+        if h >= 2 {
+            let (_, u_all) = mean_sd(&values);
+            let delta = numerical_tolerance(u_all, cfg.ndig);
+            let stable = (0..6).all(|c| {
+                let col: Vec<f64> = stats.iter().map(|st| st[c]).collect();
+                let (_, sd) = mean_sd(&col);
+                2.0 * sd / (h as f64).sqrt() <= delta
+            });
+            if stable {
+                converged = true;
+                break;
+            }
+        }
+        if values.len() + batch > max_trials {
+            break;
+        }
+    }
+    let (estimate, std_uncertainty) = mean_sd(&values);
+    sort(&mut values);
+    let (symmetric, shortest) = intervals(&values, p);
+    Ok(McResult {
+        estimate,
+        std_uncertainty,
+        coverage: p,
+        symmetric,
+        shortest,
+        trials: values.len(),
+        batches,
+        converged,
+        tolerance: numerical_tolerance(std_uncertainty, cfg.ndig),
+        seed: cfg.seed,
+    })
+}
+
+/// The GUM-vs-Monte-Carlo comparison of JCGM 101 §8.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Validation {
+    /// GUM interval y ± U.
+    pub gum: Interval,
+    /// Monte Carlo probabilistically symmetric interval.
+    pub monte_carlo: Interval,
+    /// |y − U − y_low|.
+    pub d_low: f64,
+    /// |y + U − y_high|.
+    pub d_high: f64,
+    /// Numerical tolerance δ of the GUM u_c at `ndig` digits.
+    pub tolerance: f64,
+    /// Both differences within δ: the GUM result is validated and is the one to report;
+    /// otherwise report the Monte Carlo result.
+    pub passed: bool,
+}
+
+/// Compares the GUM interval y ± U with the Monte Carlo probabilistically symmetric interval
+/// (JCGM 101 §8.2): validated when both end points differ by no more than δ, the numerical
+/// tolerance of u_c at `ndig` significant digits.
+///
+/// ```
+/// use gonio_uncertainty::montecarlo::{Interval, McResult, validate};
+/// let mc = McResult { estimate: 0.0, std_uncertainty: 1.0, coverage: 0.95,
+///     symmetric: Interval { low: -1.962, high: 1.958 }, shortest: Interval { low: -1.96, high: 1.96 },
+///     trials: 100_000, batches: 10, converged: true, tolerance: 0.05, seed: 1 };
+/// assert!(validate(0.0, 1.0, 1.96, &mc, 2).passed);
+/// assert!(!validate(0.0, 1.0, 2.10, &mc, 2).passed);
+/// ```
+pub fn validate(y: f64, u_c: f64, expanded: f64, mc: &McResult, ndig: u32) -> Validation {
+    let d_low = (y - expanded - mc.symmetric.low).abs();
+    let d_high = (y + expanded - mc.symmetric.high).abs();
+    let tolerance = numerical_tolerance(u_c, ndig);
+    Validation {
+        gum: Interval {
+            low: y - expanded,
+            high: y + expanded,
+        },
+        monte_carlo: mc.symmetric,
+        d_low,
+        d_high,
+        tolerance,
+        passed: d_low <= tolerance && d_high <= tolerance,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::student::coverage_factor;
+    use gonio_core::special::normal_quantile;
+
+    #[test]
+    fn same_seed_same_bits_other_seed_differs() {
+        let inputs = [
+            InputDistribution::Normal { mean: 1.0, sd: 0.1 },
+            InputDistribution::Rectangular {
+                mean: 0.0,
+                half_width: 0.2,
+            },
+            InputDistribution::StudentT {
+                mean: 0.0,
+                scale: 0.05,
+                nu: 5.0,
+            },
+        ];
+        let f = |x: &[f64]| x[0] * x[0] + x[1] - x[2];
+        let cfg = McConfig::default();
+        let a = monte_carlo(&inputs, &[], f, &cfg).unwrap();
+        let b = monte_carlo(&inputs, &[], f, &cfg).unwrap();
+        assert_eq!(a, b);
+        let c = monte_carlo(&inputs, &[], f, &McConfig { seed: 2, ..cfg }).unwrap();
+        assert_ne!(a.estimate.to_bits(), c.estimate.to_bits());
+    }
+
+    #[test]
+    fn input_distributions_have_their_moments() {
+        // Each distribution alone through Y = X: the standard deviation of 10⁶ draws must match the
+        // GUM u within 4 standard errors (se(s) ≈ s·√((κ − 1)/(4M)), κ ≤ 9 here for t₅).
+        let m = 1_000_000;
+        let cases = [
+            (InputDistribution::Normal { mean: 2.0, sd: 0.5 }, 0.5, 3.0),
+            (
+                InputDistribution::Rectangular {
+                    mean: 2.0,
+                    half_width: 1.0,
+                },
+                1.0 / 3f64.sqrt(),
+                1.8,
+            ),
+            (
+                InputDistribution::Triangular {
+                    mean: 2.0,
+                    half_width: 1.0,
+                },
+                1.0 / 6f64.sqrt(),
+                2.4,
+            ),
+            (
+                InputDistribution::Arcsine {
+                    mean: 2.0,
+                    half_width: 1.0,
+                },
+                1.0 / 2f64.sqrt(),
+                1.5,
+            ),
+            (
+                InputDistribution::StudentT {
+                    mean: 2.0,
+                    scale: 1.0,
+                    nu: 10.0,
+                },
+                (10.0f64 / 8.0).sqrt(),
+                4.0,
+            ),
+        ];
+        for (d, u, kurtosis) in cases {
+            let r = monte_carlo(
+                &[d],
+                &[],
+                |x: &[f64]| x[0],
+                &McConfig {
+                    trials: McTrials::Fixed(m),
+                    ..McConfig::default()
+                },
+            )
+            .unwrap();
+            let se_s = u * ((kurtosis - 1.0) / (4.0 * m as f64)).sqrt();
+            assert!((r.std_uncertainty - u).abs() < 4.0 * se_s, "{d:?}: {r:?}");
+            assert!(
+                (r.estimate - 2.0).abs() < 4.0 * u / (m as f64).sqrt(),
+                "{d:?}"
+            );
+        }
+    }
+
+    /// JCGM 101 §9.2.2: Y = X1 + X2 + X3 + X4, Xi ~ N(0, 1): GUM and Monte Carlo agree
+    /// (the GUM interval ±1.96·2 is exact here), so the validation must pass.
+    #[test]
+    fn linear_normal_model_validates() {
+        let inputs = [InputDistribution::Normal { mean: 0.0, sd: 1.0 }; 4];
+        let r = monte_carlo(
+            &inputs,
+            &[],
+            |x: &[f64]| x.iter().sum(),
+            &McConfig::default(),
+        )
+        .unwrap();
+        assert!(r.converged);
+        let k = coverage_factor(0.95, f64::INFINITY);
+        let v = validate(0.0, 2.0, 2.0 * k, &r, 2);
+        assert!(v.passed, "{v:?} {r:?}");
+    }
+
+    /// A ten-input linear model of mixed distributions (rectangular, triangular, arcsine, normal)
+    /// with no dominant term: the output is close to normal and the GUM (ν = ∞) validates at
+    /// ndig = 1 (JCGM 101 §8: a coarser tolerance accepts the small non-normality).
+    #[test]
+    fn linear_mixed_model_validates_at_one_digit() {
+        let mut inputs = Vec::new();
+        let mut var = 0.0;
+        for i in 0..10 {
+            let a = 1.0 + 0.1 * i as f64;
+            let d = match i % 4 {
+                0 => InputDistribution::Rectangular {
+                    mean: 0.0,
+                    half_width: a,
+                },
+                1 => InputDistribution::Triangular {
+                    mean: 0.0,
+                    half_width: a,
+                },
+                2 => InputDistribution::Arcsine {
+                    mean: 0.0,
+                    half_width: a,
+                },
+                _ => InputDistribution::Normal { mean: 0.0, sd: a },
+            };
+            var += d.std_uncertainty().powi(2);
+            inputs.push(d);
+        }
+        let r = monte_carlo(
+            &inputs,
+            &[],
+            |x: &[f64]| x.iter().sum(),
+            &McConfig::default(),
+        )
+        .unwrap();
+        let u = var.sqrt();
+        let v = validate(0.0, u, 1.959964 * u, &r, 1);
+        assert!(v.passed, "{v:?}");
+    }
+
+    /// A non-linear model where the GUM must fail: Y = exp(X), X ~ N(0, 0.5²). The GUM gives
+    /// y = 1, u = 0.5 and a symmetric interval 1 ± 0.98; the true 95 % interval of the log-normal
+    /// is [e^(−0.98), e^(0.98)] = [0.375, 2.66]. Monte Carlo must find the true interval (within its
+    /// tolerance) and the validation must fail.
+    #[test]
+    fn nonlinear_model_fails_validation_and_mc_finds_the_truth() {
+        let s = 0.5;
+        let inputs = [InputDistribution::Normal { mean: 0.0, sd: s }];
+        let r = monte_carlo(&inputs, &[], |x: &[f64]| x[0].exp(), &McConfig::default()).unwrap();
+        assert!(r.converged);
+        let z = normal_quantile(0.975);
+        let (lo, hi) = ((-z * s).exp(), (z * s).exp());
+        // Tolerance: 4 times the stopping criterion's standard deviation of an end point (δ/2).
+        assert!((r.symmetric.low - lo).abs() < 2.0 * r.tolerance, "{r:?}");
+        assert!((r.symmetric.high - hi).abs() < 2.0 * r.tolerance, "{r:?}");
+        // Log-normal moments: mean e^(s²/2), sd mean·√(e^(s²) − 1).
+        let mean = (s * s / 2.0).exp();
+        assert!((r.estimate - mean).abs() < 2.0 * r.tolerance);
+        assert!(
+            (r.std_uncertainty - mean * ((s * s).exp() - 1.0).sqrt()).abs() < 2.0 * r.tolerance
+        );
+        // The shortest interval of a right-skewed output lies left of the symmetric one.
+        assert!(r.shortest.low < r.symmetric.low && r.shortest.high < r.symmetric.high);
+        assert!(r.shortest.high - r.shortest.low < r.symmetric.high - r.symmetric.low);
+        let v = validate(1.0, s, z * s, &r, 2);
+        // The end points differ by |1 − zs − e^(−zs)| = 0.355 and |1 + zs − e^(zs)| = 0.684, far
+        // beyond δ = 0.005.
+        assert!(!v.passed, "{v:?}");
+        assert!(
+            (v.d_low - (1.0 - z * s - lo).abs()).abs() < 2.0 * r.tolerance,
+            "{v:?}"
+        );
+        assert!(
+            (v.d_high - (1.0 + z * s - hi).abs()).abs() < 2.0 * r.tolerance,
+            "{v:?}"
+        );
+    }
+
+    #[test]
+    fn correlated_inputs_follow_their_correlation() {
+        let inputs = [
+            InputDistribution::Normal { mean: 0.0, sd: 3.0 },
+            InputDistribution::Normal { mean: 0.0, sd: 4.0 },
+        ];
+        let r = monte_carlo(
+            &inputs,
+            &[(0, 1, 0.5)],
+            |x: &[f64]| x[0] + x[1],
+            &McConfig::default(),
+        )
+        .unwrap();
+        // u² = 9 + 16 + 2·0.5·12 = 37.
+        let u = 37f64.sqrt();
+        assert!((r.std_uncertainty - u).abs() < 2.0 * r.tolerance, "{r:?}");
+        assert!(matches!(
+            monte_carlo(
+                &inputs,
+                &[(0, 1, 1.5)],
+                |x: &[f64]| x[0],
+                &McConfig::default()
+            ),
+            Err(UncertaintyError::MonteCarlo { .. })
+        ));
+    }
+
+    #[test]
+    fn interval_indices_follow_jcgm_101() {
+        // M = 10⁴, p = 0.95: q = 9500, r = 250 (1-based).
+        assert_eq!(interval_indices(10_000, 0.95), (9500, 250));
+        // M = 10001: pM = 9500.95 → q = 9501; M − q = 500 → r = 250.
+        assert_eq!(interval_indices(10_001, 0.95), (9501, 250));
+        let v: Vec<f64> = (1..=100).map(f64::from).collect();
+        let (s, sh) = intervals(&v, 0.9);
+        assert_eq!((s.low, s.high), (5.0, 95.0));
+        assert_eq!(sh.high - sh.low, 90.0);
+    }
+
+    #[test]
+    fn bad_model_value_is_an_error() {
+        let inputs = [InputDistribution::Normal { mean: 0.0, sd: 1.0 }];
+        let e = monte_carlo(&inputs, &[], |x: &[f64]| x[0].ln(), &McConfig::default());
+        assert!(matches!(e, Err(UncertaintyError::MonteCarlo { .. })));
+    }
+}
