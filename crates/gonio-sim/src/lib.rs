@@ -4,6 +4,7 @@
 //! - [`encoder`]: an encoder's angle error (harmonics + random graduation error with circle
 //!   closure), saved to and loaded from a JSON model file so every simulator calibrates the
 //!   same encoder.
+//! - [`selfcal`]: one scale read by several heads over full turns (seed 000 §2.3).
 //! - [`shift_angle`]: a polygon on the encoder's table read by an autocollimator at shifted start
 //!   angles (seed 000 §2.2).
 //!
@@ -13,6 +14,7 @@
 
 pub mod encoder;
 pub mod error;
+pub mod selfcal;
 pub mod shift_angle;
 
 pub use encoder::{EncoderModel, Graduation};
