@@ -32,6 +32,8 @@ enum Command {
     Budget(cmd::budget::Args),
     /// Run the built-in simulated lab end to end and report how close each method came.
     Demo(cmd::demo::Args),
+    /// Eccentricity of a grating from one turn's (θ, c) samples.
+    Eccentricity(cmd::eccentricity::Args),
 }
 
 fn main() {
@@ -41,6 +43,7 @@ fn main() {
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),
         Command::Budget(a) => cmd::budget::run(a),
         Command::Demo(a) => cmd::demo::run(a),
+        Command::Eccentricity(a) => cmd::eccentricity::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ".
