@@ -36,7 +36,11 @@ fn options(method: Method) -> Options {
 fn max_error(cal: &gonio_calib::shift_angle::Calibration, truth: &ShiftAngleTruth) -> f64 {
     let mut worst: f64 = 0.0;
     for t in &truth.encoder_errors {
-        let s = cal.shifts.iter().find(|s| s.shift_deg == t.shift_deg).unwrap();
+        let s = cal
+            .shifts
+            .iter()
+            .find(|s| s.shift_deg == t.shift_deg)
+            .unwrap();
         worst = worst.max((s.alpha_arcsec[t.step - 1] - t.value_arcsec).abs());
     }
     for p in &truth.pitch_deviations {
@@ -97,14 +101,26 @@ fn reported_uncertainties_match_the_spec_formulas() {
     let pa = calibrate(&set, &opts(Method::Paper)).unwrap();
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
     for i in 0..n {
-        assert!(close(ls.shifts[0].u_alpha_arcsec[i], sigma * (nf - 1.0).sqrt() / nf));
-        assert!(close(pa.shifts[0].u_alpha_arcsec[i], sigma * (nf - 1.0) / nf));
-        assert!(close(pa.shifts[1].u_alpha_arcsec[i], sigma * (nf * nf - 1.0).sqrt() / nf));
+        assert!(close(
+            ls.shifts[0].u_alpha_arcsec[i],
+            sigma * (nf - 1.0).sqrt() / nf
+        ));
+        assert!(close(
+            pa.shifts[0].u_alpha_arcsec[i],
+            sigma * (nf - 1.0) / nf
+        ));
+        assert!(close(
+            pa.shifts[1].u_alpha_arcsec[i],
+            sigma * (nf * nf - 1.0).sqrt() / nf
+        ));
         assert!(close(ls.u_beta_arcsec[i], sigma * (2.0 / nf).sqrt()));
         assert!(close(pa.u_beta_arcsec[i], sigma * (2.0 / nf).sqrt()));
     }
     for u in ls.setup.iter().filter(|u| u.shift_deg == 0.0) {
-        assert!(close(u.u_arcsec, sigma * (2.0 * nf - 1.0).sqrt() / nf), "{u:?}");
+        assert!(
+            close(u.u_arcsec, sigma * (2.0 * nf - 1.0).sqrt() / nf),
+            "{u:?}"
+        );
     }
 }
 
@@ -134,7 +150,12 @@ fn monte_carlo_least_squares_gain_and_honest_uncertainty() {
         let set = ReadingSet::new(n, sim.readings).unwrap();
         let ls = calibrate(&set, &options(Method::LeastSquares)).unwrap();
         let pa = calibrate(&set, &options(Method::Paper)).unwrap();
-        for a in sim.truth.encoder_errors.iter().filter(|a| a.shift_deg == 0.0) {
+        for a in sim
+            .truth
+            .encoder_errors
+            .iter()
+            .filter(|a| a.shift_deg == 0.0)
+        {
             let i = a.step - 1;
             ss_ls += (ls.shifts[0].alpha_arcsec[i] - a.value_arcsec).powi(2);
             ss_pa += (pa.shifts[0].alpha_arcsec[i] - a.value_arcsec).powi(2);
@@ -153,9 +174,20 @@ fn monte_carlo_least_squares_gain_and_honest_uncertainty() {
     let expected = ((n - 1) as f64).sqrt();
     // 7200 pooled errors: the relative standard error of an RMS is ≈ 1/√(2·7200) ≈ 0.8 %
     // (more with the correlation inside a shift); 10 % is the tolerance.
-    assert!((ratio / expected - 1.0).abs() < 0.10, "ratio {ratio}, expected {expected}");
-    assert!((rms(u_ls, count) / e_ls - 1.0).abs() < 0.10, "LS u {} vs spread {e_ls}", rms(u_ls, count));
-    assert!((rms(u_pa, count) / e_pa - 1.0).abs() < 0.10, "paper u {} vs spread {e_pa}", rms(u_pa, count));
+    assert!(
+        (ratio / expected - 1.0).abs() < 0.10,
+        "ratio {ratio}, expected {expected}"
+    );
+    assert!(
+        (rms(u_ls, count) / e_ls - 1.0).abs() < 0.10,
+        "LS u {} vs spread {e_ls}",
+        rms(u_ls, count)
+    );
+    assert!(
+        (rms(u_pa, count) / e_pa - 1.0).abs() < 0.10,
+        "paper u {} vs spread {e_pa}",
+        rms(u_pa, count)
+    );
     let k = trials as usize * n;
     assert!((rms(u_beta, k) / rms(ss_beta, k) - 1.0).abs() < 0.10);
 }
@@ -195,7 +227,10 @@ fn harmonic_check_recovers_planted_a_b_u() {
                 .find(|u| u.shift_deg == s.shift_deg && u.start_face == 1)
                 .unwrap()
                 .planted_arcsec;
-            assert!((s.u_fit_arcsec - planted).abs() < 1e-9, "{s:?} vs {planted}");
+            assert!(
+                (s.u_fit_arcsec - planted).abs() < 1e-9,
+                "{s:?} vs {planted}"
+            );
             assert!(s.difference_arcsec.abs() < 1e-9);
         }
     }
@@ -221,7 +256,9 @@ fn missing_step_names_the_undetermined_angle() {
     // One row per shift cannot separate α from β.
     let one = noise_free(6, &[0.0, 10.0], Rows::One, 8);
     let set = ReadingSet::new(6, one.readings).unwrap();
-    let err = calibrate(&set, &Options::default()).unwrap_err().to_string();
+    let err = calibrate(&set, &Options::default())
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("β_"), "{err}");
 }
 
@@ -267,7 +304,10 @@ fn repeats_average_and_chi2_accepts_the_true_sigma() {
     let chi = cal.residuals.chi2.unwrap();
     // χ²/dof ≈ 1 ± √(2/dof) (dof ≈ 5000); 5 standard deviations.
     let dof = chi.dof as f64;
-    assert!((chi.chi2 / dof - 1.0).abs() < 5.0 * (2.0 / dof).sqrt(), "{chi:?}");
+    assert!(
+        (chi.chi2 / dof - 1.0).abs() < 5.0 * (2.0 / dof).sqrt(),
+        "{chi:?}"
+    );
     // A stated σ twice too small is flagged.
     let bad = calibrate(
         &set,
@@ -283,7 +323,14 @@ fn repeats_average_and_chi2_accepts_the_true_sigma() {
 #[test]
 fn full_covariance_diagonal_matches_the_reported_u() {
     let enc = EncoderModel::default_with_seed(2);
-    let sim = simulate(&enc, &ShiftAngleConfig { seed: 5, ..ShiftAngleConfig::default() }).unwrap();
+    let sim = simulate(
+        &enc,
+        &ShiftAngleConfig {
+            seed: 5,
+            ..ShiftAngleConfig::default()
+        },
+    )
+    .unwrap();
     let set = ReadingSet::new(24, sim.readings).unwrap();
     let cal = calibrate(
         &set,
@@ -314,7 +361,11 @@ fn bad_readings_are_typed_errors() {
     let r = |face, step, v| Reading::new(0.0, face, step, v);
     assert!(matches!(
         ReadingSet::new(6, vec![r(7, 1, 0.0)]),
-        Err(ShiftAngleError::OutOfRange { what: "start_face", found: 7, .. })
+        Err(ShiftAngleError::OutOfRange {
+            what: "start_face",
+            found: 7,
+            ..
+        })
     ));
     assert!(matches!(
         ReadingSet::new(6, vec![r(1, 0, 0.0)]),
@@ -322,9 +373,24 @@ fn bad_readings_are_typed_errors() {
     ));
     assert!(matches!(
         ReadingSet::new(6, vec![r(1, 1, 0.0), r(1, 1, 0.5)]),
-        Err(ShiftAngleError::ConflictingDuplicate { index: 1, first: 0, .. })
+        Err(ShiftAngleError::ConflictingDuplicate {
+            index: 1,
+            first: 0,
+            ..
+        })
     ));
-    assert_eq!(ReadingSet::new(6, vec![r(1, 1, 0.5), r(1, 1, 0.5)]).unwrap().duplicates_ignored(), 1);
-    assert!(matches!(ReadingSet::new(2, vec![r(1, 1, 0.0)]), Err(ShiftAngleError::TooFewFaces { .. })));
-    assert!(matches!(ReadingSet::new(6, vec![r(1, 1, f64::NAN)]), Err(ShiftAngleError::NotFinite { .. })));
+    assert_eq!(
+        ReadingSet::new(6, vec![r(1, 1, 0.5), r(1, 1, 0.5)])
+            .unwrap()
+            .duplicates_ignored(),
+        1
+    );
+    assert!(matches!(
+        ReadingSet::new(2, vec![r(1, 1, 0.0)]),
+        Err(ShiftAngleError::TooFewFaces { .. })
+    ));
+    assert!(matches!(
+        ReadingSet::new(6, vec![r(1, 1, f64::NAN)]),
+        Err(ShiftAngleError::NotFinite { .. })
+    ));
 }

@@ -17,7 +17,12 @@ fn determined(n: usize, readings: &[Reading]) -> bool {
     shifts.dedup();
     let mut runs: Vec<(usize, usize)> = readings
         .iter()
-        .map(|r| (shifts.iter().position(|&s| s == r.shift_deg).unwrap(), r.start_face))
+        .map(|r| {
+            (
+                shifts.iter().position(|&s| s == r.shift_deg).unwrap(),
+                r.start_face,
+            )
+        })
         .collect();
     runs.sort_unstable();
     runs.dedup();

@@ -195,7 +195,11 @@ pub fn simulate(encoder: &EncoderModel, cfg: &ShiftAngleConfig) -> Result<ShiftA
         return Err(SimError::parameter("repeats", 0, "at least 1"));
     }
     if !(0.0..1.0).contains(&cfg.drop_fraction) {
-        return Err(SimError::parameter("drop fraction", cfg.drop_fraction, "0 ≤ f < 1"));
+        return Err(SimError::parameter(
+            "drop fraction",
+            cfg.drop_fraction,
+            "0 ≤ f < 1",
+        ));
     }
     let normal = |s: f64| Normal::new(0.0, s).expect("σ checked");
     let mut beta: Vec<f64> = {
@@ -259,7 +263,8 @@ pub fn simulate(encoder: &EncoderModel, cfg: &ShiftAngleConfig) -> Result<ShiftA
                 let exact = model[i - 1] + cyclic_sum(&beta, j, i) + u;
                 for repeat in 1..=cfg.repeats {
                     let noisy = exact + d_noise.sample(&mut r_noise);
-                    let dropped = cfg.drop_fraction > 0.0 && unit.sample(&mut r_drop) < cfg.drop_fraction;
+                    let dropped =
+                        cfg.drop_fraction > 0.0 && unit.sample(&mut r_drop) < cfg.drop_fraction;
                     if !dropped {
                         readings.push(Reading {
                             shift_deg: shift,
@@ -330,12 +335,31 @@ mod tests {
         };
         let sim = simulate(&enc, &cfg).unwrap();
         assert_eq!(sim.readings.len(), 2 * 36);
-        let sum_beta: f64 = sim.truth.pitch_deviations.iter().map(|p| p.value_arcsec).sum();
+        let sum_beta: f64 = sim
+            .truth
+            .pitch_deviations
+            .iter()
+            .map(|p| p.value_arcsec)
+            .sum();
         assert!(sum_beta.abs() < 1e-14);
         // Step N of any run: C(j, N) = Σβ = 0, so ε = α(θ_N) + U.
-        let r = sim.readings.iter().find(|r| r.start_face == 3 && r.step == 6 && r.shift_deg == 20.0).unwrap();
-        let a = sim.truth.encoder_errors.iter().find(|a| a.shift_deg == 20.0 && a.step == 6).unwrap();
-        let u = sim.truth.setup_errors.iter().find(|u| u.shift_deg == 20.0 && u.start_face == 3).unwrap();
+        let r = sim
+            .readings
+            .iter()
+            .find(|r| r.start_face == 3 && r.step == 6 && r.shift_deg == 20.0)
+            .unwrap();
+        let a = sim
+            .truth
+            .encoder_errors
+            .iter()
+            .find(|a| a.shift_deg == 20.0 && a.step == 6)
+            .unwrap();
+        let u = sim
+            .truth
+            .setup_errors
+            .iter()
+            .find(|u| u.shift_deg == 20.0 && u.start_face == 3)
+            .unwrap();
         assert!((r.value_arcsec - (a.model_arcsec + u.planted_arcsec)).abs() < 1e-12);
         assert!((a.angle_deg - 20.0 - 5.0 * 60.0).abs() < 1e-12);
     }

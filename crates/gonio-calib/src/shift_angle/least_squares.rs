@@ -220,7 +220,10 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
         let t = &wa * &sg; // n × g
         let mut c = a_inv[s].view((0, 0), (n, n)).clone_owned();
         c += &t * wa.transpose();
-        let u_alpha = centred_diag(&c).into_iter().map(|v| (s2 * v).sqrt()).collect();
+        let u_alpha = centred_diag(&c)
+            .into_iter()
+            .map(|v| (s2 * v).sqrt())
+            .collect();
         let shift_deg = set.shifts_deg()[s];
         shifts.push(ShiftResult {
             shift_deg,
@@ -260,8 +263,8 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
         let mut ca = DMatrix::zeros(ns * n, ns * n);
         let z: Vec<DMatrix<f64>> = y_blocks.iter().map(|y| y * &sg).collect();
         for s in 0..ns {
-            for t in s..ns {
-                let mut blk = &z[s] * y_blocks[t].transpose();
+            for (t, yt) in y_blocks.iter().enumerate().skip(s) {
+                let mut blk = &z[s] * yt.transpose();
                 if s == t {
                     let ai = a_inv[s].view((0, 0), (n, n)).clone_owned();
                     blk += centre_both(&ai);
@@ -358,7 +361,8 @@ fn diagnose(set: &ReadingSet, lay: &[ShiftLayout], ne: &Normal) -> ShiftAngleErr
         let l = lay[s].len;
         m.view_mut((o, o), (l, l)).copy_from(&ne.a[s]);
         m.view_mut((o, local), (l, g)).copy_from(&ne.b[s]);
-        m.view_mut((local, o), (g, l)).copy_from(&ne.b[s].transpose());
+        m.view_mut((local, o), (g, l))
+            .copy_from(&ne.b[s].transpose());
     }
     m.view_mut((local, local), (g, g)).copy_from(&ne.d);
     let eig = m.symmetric_eigen();
@@ -417,7 +421,11 @@ fn diagnose(set: &ReadingSet, lay: &[ShiftLayout], ne: &Normal) -> ShiftAngleErr
                 t[local + j - 1] += 1.0;
             }
             if undetermined(&t) {
-                names.push(format!("U [shift {}°, start face {}]", shift_name(s), j + 1));
+                names.push(format!(
+                    "U [shift {}°, start face {}]",
+                    shift_name(s),
+                    j + 1
+                ));
             }
         }
     }

@@ -92,13 +92,14 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
         c.0 += o.value;
         c.1 += 1;
     }
-    let reference = (0..ns).find(|&s| grid.full_matrix(s)).ok_or_else(|| {
-        ShiftAngleError::PaperNeeds {
-            needs: format!(
-                "a full {n}×{n} matrix (every start face at every step) at one shift angle"
-            ),
-        }
-    })?;
+    let reference =
+        (0..ns)
+            .find(|&s| grid.full_matrix(s))
+            .ok_or_else(|| ShiftAngleError::PaperNeeds {
+                needs: format!(
+                    "a full {n}×{n} matrix (every start face at every step) at one shift angle"
+                ),
+            })?;
     let mut rows = Vec::with_capacity(ns);
     for s in 0..ns {
         let mut complete: Vec<usize> = (0..n).filter(|&j| grid.complete_row(s, j)).collect();
@@ -125,11 +126,9 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
     // no residuals of its own that estimate σ without bias).
     let sigma = match opts.sigma_arcsec {
         Some(s) => s,
-        None => {
-            super::least_squares::solve(set, opts)
-                .map(|c| c.residuals.sigma_hat_arcsec)
-                .unwrap_or(f64::NAN)
-        }
+        None => super::least_squares::solve(set, opts)
+            .map(|c| c.residuals.sigma_hat_arcsec)
+            .unwrap_or(f64::NAN),
     };
 
     // Exact propagation. Every output is d·ε(own row) + e·β, and β = R·ε(reference matrix),
@@ -194,14 +193,14 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
         );
         let j0 = rows[0];
         let eu = e_setup(j0);
-        for i in 0..n {
+        for (i, va) in var_alpha[s].iter_mut().enumerate() {
             let e: Vec<f64> = (0..n)
                 .map(|k| -(if offset(k, j0) <= i { 1.0 } else { 0.0 }) - eu[k])
                 .collect();
             let d: Vec<f64> = (0..n)
                 .map(|q| if q == i { 1.0 } else { 0.0 } - 1.0 / n as f64)
                 .collect();
-            var_alpha[s][i] = variance(s, j0, &d, &e);
+            *va = variance(s, j0, &d, &e);
         }
     }
 
