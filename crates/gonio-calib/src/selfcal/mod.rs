@@ -548,8 +548,10 @@ fn bin_table(
         for (wc, &p) in row_w.iter_mut().zip(phi) {
             *wc = w_of(kf, p);
         }
-        if Some(k) == nyquist {
-            continue; // not estimated: v = 0
+        if Some(k) == nyquist && !(method == Method::Eda && sets.len() == 1) {
+            // Not estimated (v = 0): the sign of the order is ambiguous at NS/2. Plain EDA keeps
+            // it, its coefficients being real (the seed's formula in the position domain).
+            continue;
         }
         let row_v = &mut v[k * m1..(k + 1) * m1];
         match method {
