@@ -1,2 +1,43 @@
-//! gonio-vision (in progress).
+//! The streaming baseline detector of the mounting station: from camera rows to the alignment
+//! ring's column c, row by row as the sensor reads out (spec `eccentricity-detector.md`, seed 004
+//! §4).
+//!
+//! One module per stage, each a push-model streaming type (`push_row` → an output row after a
+//! fixed lag, `flush_row` after the frame's last row), sized at construction, integer arithmetic:
+//!
+//! 1. [`morphology`]: black top-hat (closing with a 2d + 1 disk, minus the input) and opening
+//!    with a ≈ d/2 disk; [`gaussian`]: 5×5 blur;
+//! 2. [`gradient`]: Sobel; [`segment`]: NMS, dual threshold, baseline filter;
+//! 3. [`fill`]: edge filling; [`label`]: single-pass 8-connected labelling with per-component
+//!    sums;
+//! 4. [`features`]: the two edges, validity checks and reasons, c, each edge's fitted line;
+//! 5. the focus measure, in the same pass ([`pipeline`]).
+//!
+//! [`Detector`] chains them; [`Optics`] derives every parameter; [`reference`] holds the
+//! whole-frame implementations the streaming ones equal bit for bit.
+//!
+//! ```
+//! use gonio_vision::{Detector, Optics};
+//! let mut det = Detector::new(&Optics::default()).unwrap();
+//! let frame = vec![128u8; 1440 * 540]; // a blank, featureless frame
+//! let r = det.detect(&frame).unwrap();
+//! assert!(!r.valid);
+//! ```
 #![deny(missing_docs)]
+
+pub mod error;
+pub mod features;
+pub mod fill;
+pub mod gaussian;
+pub mod gradient;
+pub mod label;
+pub mod morphology;
+pub mod optics;
+pub mod pipeline;
+pub mod reference;
+pub mod segment;
+
+pub use error::VisionError;
+pub use features::{EdgeLine, FrameResult, InvalidReason};
+pub use optics::{Optics, Params, Polarity};
+pub use pipeline::{Detector, StageImages};

@@ -1,0 +1,169 @@
+//! Edge filling (seed Algorithm 1); lag 1 row.
+//!
+//! NMS's four-way quantisation leaves one-pixel gaps in slanted edges. An empty pixel is filled
+//! when two opposite neighbours (W–E, N–S, NW–SE, NE–SW, checked in that order) are both edge
+//! pixels whose directions differ by less than 45°; the filled pixel is weak, takes the mean of
+//! the two directions and has no sub-pixel position of its own ([`FILLED`]). Filling looks at
+//! the unfilled input only, so it never cascades.
+//!
+//! ```
+//! use gonio_vision::fill::fill_pixel;
+//! use gonio_vision::segment::{WEAK, STRONG, FILLED};
+//! // A gap between two strong pixels left and right with directions 2 and 6: filled, dir 4.
+//! let class = [[0, 0, 0], [STRONG, 0, STRONG], [0, 0, 0]];
+//! let dir = [[0, 0, 0], [2, 0, 6], [0, 0, 0]];
+//! assert_eq!(fill_pixel(&class, &dir), Some((WEAK, 4, FILLED)));
+//! // Directions 45° or more apart: left empty.
+//! let dir = [[0, 0, 0], [0, 0, 32], [0, 0, 0]];
+//! assert_eq!(fill_pixel(&class, &dir), None);
+//! ```
+
+use crate::segment::{EdgeRow, FILLED, NONE, WEAK};
+
+/// Opposite neighbour pairs ((dy, dx) offsets into a 3×3 block), in the order they are tried.
+const PAIRS: [((usize, usize), (usize, usize)); 4] = [
+    ((1, 0), (1, 2)),
+    ((0, 1), (2, 1)),
+    ((0, 0), (2, 2)),
+    ((0, 2), (2, 0)),
+];
+
+/// Decides whether the empty centre of a 3×3 block (`class[dy][dx]`, `dir[dy][dx]`) is filled;
+/// returns its (class, dir, sub) if so.
+pub fn fill_pixel(class: &[[u8; 3]; 3], dir: &[[u8; 3]; 3]) -> Option<(u8, u8, i8)> {
+    if class[1][1] != NONE {
+        return None;
+    }
+    for ((ay, ax), (by, bx)) in PAIRS {
+        if class[ay][ax] != NONE && class[by][bx] != NONE {
+            let (da, db) = (dir[ay][ax], dir[by][bx]);
+            let diff = db.wrapping_sub(da) as i8;
+            if (diff as i32).abs() < 32 {
+                return Some((WEAK, da.wrapping_add((diff / 2) as u8), FILLED));
+            }
+        }
+    }
+    None
+}
+
+/// Streaming edge filling.
+#[derive(Debug, Clone)]
+pub struct EdgeFill {
+    width: usize,
+    ring: [EdgeRow; 3],
+    empty: EdgeRow,
+    any: Vec<u8>,
+    n_in: usize,
+    n_out: usize,
+}
+
+impl EdgeFill {
+    /// A filler for rows of `width` pixels.
+    pub fn new(width: usize) -> Self {
+        EdgeFill {
+            width,
+            ring: [
+                EdgeRow::new(width),
+                EdgeRow::new(width),
+                EdgeRow::new(width),
+            ],
+            empty: EdgeRow::new(width),
+            any: vec![0; width],
+            n_in: 0,
+            n_out: 0,
+        }
+    }
+    /// Lag in rows (1).
+    pub fn lag(&self) -> usize {
+        1
+    }
+    /// Starts a new frame.
+    pub fn reset(&mut self) {
+        self.n_in = 0;
+        self.n_out = 0;
+    }
+    /// Pushes one edge row; true when `out` holds the next output row.
+    pub fn push_row(&mut self, row: &EdgeRow, out: &mut EdgeRow) -> bool {
+        self.ring[self.n_in % 3].copy_from(row);
+        self.n_in += 1;
+        if self.n_in > 1 {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
+    /// After the last row: the next pending output row, false when none is left.
+    pub fn flush_row(&mut self, out: &mut EdgeRow) -> bool {
+        if self.n_out < self.n_in {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
+    fn emit(&mut self, out: &mut EdgeRow) {
+        let w = self.width;
+        let y = self.n_out;
+        let cur = &self.ring[y % 3];
+        let up = if y > 0 {
+            &self.ring[(y - 1) % 3]
+        } else {
+            &self.empty
+        };
+        let down = if y + 1 < self.n_in {
+            &self.ring[(y + 1) % 3]
+        } else {
+            &self.empty
+        };
+        out.copy_from(cur);
+        // Pixels with no edge in their column band of 3 rows can never be filled: skip fast.
+        for (((a, &u), &c), &d) in self
+            .any
+            .iter_mut()
+            .zip(&up.class)
+            .zip(&cur.class)
+            .zip(&down.class)
+        {
+            *a = u | c | d;
+        }
+        const CH: usize = 32;
+        let mut x0 = 0;
+        while x0 < w {
+            let x1 = (x0 + CH).min(w);
+            let lo = x0.saturating_sub(1);
+            let hi = (x1 + 1).min(w);
+            if self.any[lo..hi].iter().fold(0u8, |a, &b| a | b) != 0 {
+                for x in x0..x1 {
+                    if cur.class[x] != NONE {
+                        continue;
+                    }
+                    let get = |r: &EdgeRow, dx: isize| {
+                        let xx = x as isize + dx;
+                        if xx < 0 || xx >= w as isize {
+                            (0, 0)
+                        } else {
+                            (r.class[xx as usize], r.dir[xx as usize])
+                        }
+                    };
+                    let mut class = [[0u8; 3]; 3];
+                    let mut dir = [[0u8; 3]; 3];
+                    for (dy, r) in [up, cur, down].into_iter().enumerate() {
+                        for dx in 0..3 {
+                            let (c, d) = get(r, dx as isize - 1);
+                            class[dy][dx] = c;
+                            dir[dy][dx] = d;
+                        }
+                    }
+                    if let Some((c, d, s)) = fill_pixel(&class, &dir) {
+                        out.class[x] = c;
+                        out.dir[x] = d;
+                        out.sub[x] = s;
+                    }
+                }
+            }
+            x0 = x1;
+        }
+        self.n_out += 1;
+    }
+}

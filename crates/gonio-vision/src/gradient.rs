@@ -1,0 +1,128 @@
+//! Streaming Sobel gradient with replicated borders; lag 1 row.
+//!
+//! Gx = [−1 0 1; −2 0 2; −1 0 1] ∗ I, Gy = [−1 −2 −1; 0 0 0; 1 2 1] ∗ I (y grows downward), and
+//! the magnitude |G| = |Gx| + |Gy| (the L1 norm: integer, and what FPGA pipelines use).
+//!
+//! ```
+//! use gonio_vision::gradient::{GradRow, Sobel};
+//! let mut s = Sobel::new(4);
+//! let mut g = GradRow::new(4);
+//! let ramp = [0u8, 10, 20, 30];
+//! assert!(!s.push_row(&ramp, &mut g));
+//! assert!(s.push_row(&ramp, &mut g));
+//! assert_eq!(g.gx, [40, 80, 80, 40]); // 4·(I(x+1) − I(x−1)), replicated at the ends
+//! assert_eq!(g.gy, [0; 4]);
+//! ```
+
+/// One row of gradients.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct GradRow {
+    /// Horizontal derivative (positive: brighter to the right).
+    pub gx: Vec<i16>,
+    /// Vertical derivative (positive: brighter below).
+    pub gy: Vec<i16>,
+    /// |Gx| + |Gy|.
+    pub mag: Vec<u16>,
+}
+
+impl GradRow {
+    /// A zeroed row of `width` pixels.
+    pub fn new(width: usize) -> Self {
+        GradRow {
+            gx: vec![0; width],
+            gy: vec![0; width],
+            mag: vec![0; width],
+        }
+    }
+    /// Copies another row into this one.
+    pub fn copy_from(&mut self, o: &GradRow) {
+        self.gx.copy_from_slice(&o.gx);
+        self.gy.copy_from_slice(&o.gy);
+        self.mag.copy_from_slice(&o.mag);
+    }
+}
+
+/// Streaming Sobel operator.
+#[derive(Debug, Clone)]
+pub struct Sobel {
+    width: usize,
+    /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each.
+    smooth: Vec<i16>,
+    diff: Vec<i16>,
+    n_in: usize,
+    n_out: usize,
+}
+
+impl Sobel {
+    /// A gradient for rows of `width` pixels (≥ 2).
+    pub fn new(width: usize) -> Self {
+        Sobel {
+            width,
+            smooth: vec![0; 3 * width],
+            diff: vec![0; 3 * width],
+            n_in: 0,
+            n_out: 0,
+        }
+    }
+    /// Lag in rows (1).
+    pub fn lag(&self) -> usize {
+        1
+    }
+    /// Starts a new frame.
+    pub fn reset(&mut self) {
+        self.n_in = 0;
+        self.n_out = 0;
+    }
+    /// Pushes one row; true when `out` holds the next output row.
+    pub fn push_row(&mut self, row: &[u8], out: &mut GradRow) -> bool {
+        let w = self.width;
+        let s = (self.n_in % 3) * w;
+        let sm = &mut self.smooth[s..s + w];
+        let df = &mut self.diff[s..s + w];
+        sm[0] = 3 * row[0] as i16 + row[1] as i16;
+        df[0] = row[1] as i16 - row[0] as i16;
+        for x in 1..w - 1 {
+            sm[x] = row[x - 1] as i16 + 2 * row[x] as i16 + row[x + 1] as i16;
+            df[x] = row[x + 1] as i16 - row[x - 1] as i16;
+        }
+        sm[w - 1] = row[w - 2] as i16 + 3 * row[w - 1] as i16;
+        df[w - 1] = row[w - 1] as i16 - row[w - 2] as i16;
+        self.n_in += 1;
+        if self.n_in > 1 {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
+    /// After the last row: the next pending output row, false when none is left.
+    pub fn flush_row(&mut self, out: &mut GradRow) -> bool {
+        if self.n_out < self.n_in {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
+    fn emit(&mut self, out: &mut GradRow) {
+        let w = self.width;
+        let y = self.n_out as isize;
+        let last = self.n_in as isize - 1;
+        let slot = |dy: isize| ((y + dy).clamp(0, last) as usize % 3) * w;
+        let (a, b, c) = (slot(-1), slot(0), slot(1));
+        let (sa, sc) = (&self.smooth[a..a + w], &self.smooth[c..c + w]);
+        let (da, db, dc) = (
+            &self.diff[a..a + w],
+            &self.diff[b..b + w],
+            &self.diff[c..c + w],
+        );
+        for x in 0..w {
+            let gx = da[x] + 2 * db[x] + dc[x];
+            let gy = sc[x] - sa[x];
+            out.gx[x] = gx;
+            out.gy[x] = gy;
+            out.mag[x] = gx.unsigned_abs() + gy.unsigned_abs();
+        }
+        self.n_out += 1;
+    }
+}

@@ -1,0 +1,344 @@
+//! Streaming grey-scale morphology with disks: dilation, erosion, the black top-hat and the
+//! opening of the morphology filter (seed Fig. 6a).
+//!
+//! The algorithm is the product here, so it is hand-written. A disk is a stack of horizontal
+//! chords; the dilation of a row set is the maximum over the disk's rows of the row-wise running
+//! maximum of that row's chord width. Each input row's running maxima are computed once per
+//! distinct chord width from a doubling pyramid (max of 1, 2, 4, 8, 16… pixels; any width is the
+//! max of two overlapping power-of-two windows), so the cost is a few vectorisable `max` passes per
+//! row — never one pass per structuring-element pixel. Pixels outside the frame are ignored
+//! (padding with the operation's neutral value), above, below and on the sides.
+//!
+//! ```
+//! use gonio_vision::morphology::{Disk, Dilate};
+//! let mut dil = Dilate::new(8, Disk::new(1));
+//! let rows = [[0u8; 8], [0, 0, 0, 9, 0, 0, 0, 0], [0u8; 8]];
+//! let mut out = [0u8; 8];
+//! let mut got = Vec::new();
+//! for r in &rows {
+//!     if dil.push_row(r, &mut out) { got.push(out); }
+//! }
+//! while dil.flush_row(&mut out) { got.push(out); }
+//! // r = 1 is the full 3×3 square (dx² + dy² ≤ 2): every output row sees the 9.
+//! assert_eq!(got, vec![[0, 0, 9, 9, 9, 0, 0, 0]; 3]);
+//! ```
+
+/// A discrete disk of radius r: the pixels (dx, dy) with dx² + dy² ≤ r² + r, i.e. within
+/// r + ½ of the centre. Diameter 2r + 1 (r = 11: 23×23; r = 2: 5×5 without its corners).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Disk {
+    radius: usize,
+    /// Half chord width for |dy| = 0 … r.
+    half_widths: Vec<usize>,
+}
+
+impl Disk {
+    /// The disk of the given radius (0 is a single pixel).
+    pub fn new(radius: usize) -> Self {
+        let lim = radius * radius + radius;
+        let half_widths = (0..=radius)
+            .map(|dy| {
+                let mut w = radius;
+                while w * w + dy * dy > lim {
+                    w -= 1;
+                }
+                w
+            })
+            .collect();
+        Disk {
+            radius,
+            half_widths,
+        }
+    }
+
+    /// Radius r.
+    pub fn radius(&self) -> usize {
+        self.radius
+    }
+
+    /// Half chord width at vertical offset `dy` (|dy| ≤ r).
+    pub fn half_width(&self, dy: isize) -> usize {
+        self.half_widths[dy.unsigned_abs()]
+    }
+
+    /// True if (dx, dy) belongs to the disk.
+    pub fn contains(&self, dx: isize, dy: isize) -> bool {
+        dy.unsigned_abs() <= self.radius && dx.unsigned_abs() <= self.half_width(dy)
+    }
+}
+
+/// Streaming dilation (`MAX = true`) or erosion (`MAX = false`) by a disk; lag r rows.
+#[derive(Debug, Clone)]
+pub struct Morph<const MAX: bool> {
+    width: usize,
+    radius: usize,
+    pad: usize,
+    /// Distinct half-widths, and for each |dy| the index of its class.
+    class_half: Vec<usize>,
+    class_of_dy: Vec<usize>,
+    /// Doubling pyramid; level 0 is the padded row.
+    levels: Vec<Vec<u8>>,
+    /// (2r + 1) slots × classes × width.
+    ring: Vec<u8>,
+    n_in: usize,
+    n_out: usize,
+}
+
+/// Streaming dilation (maximum over a disk).
+pub type Dilate = Morph<true>;
+/// Streaming erosion (minimum over a disk).
+pub type Erode = Morph<false>;
+
+#[inline(always)]
+fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
+    if MAX { a.max(b) } else { a.min(b) }
+}
+
+impl<const MAX: bool> Morph<MAX> {
+    const NEUTRAL: u8 = if MAX { 0 } else { 255 };
+
+    /// A filter for rows of `width` pixels. Allocates all its memory here:
+    /// (2r + 1) × (distinct chord widths) rows plus a pyramid of a few rows.
+    pub fn new(width: usize, disk: Disk) -> Self {
+        let r = disk.radius;
+        let mut class_half: Vec<usize> = Vec::new();
+        let mut class_of_dy = Vec::with_capacity(r + 1);
+        for dy in 0..=r {
+            let w = disk.half_widths[dy];
+            let c = match class_half.iter().position(|&h| h == w) {
+                Some(c) => c,
+                None => {
+                    class_half.push(w);
+                    class_half.len() - 1
+                }
+            };
+            class_of_dy.push(c);
+        }
+        let pad = r;
+        let n = width + 2 * pad;
+        let max_span = 2 * r + 1;
+        let mut nlev = 1;
+        while (1usize << nlev) <= max_span {
+            nlev += 1;
+        }
+        Morph {
+            width,
+            radius: r,
+            pad,
+            levels: vec![vec![Self::NEUTRAL; n]; nlev],
+            ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * width],
+            class_half,
+            class_of_dy,
+            n_in: 0,
+            n_out: 0,
+        }
+    }
+
+    /// Lag in rows between an input row and the output row of the same index.
+    pub fn lag(&self) -> usize {
+        self.radius
+    }
+
+    /// Starts a new frame.
+    pub fn reset(&mut self) {
+        self.n_in = 0;
+        self.n_out = 0;
+    }
+
+    fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
+        let nc = self.class_half.len();
+        let s = ((row % (2 * self.radius + 1)) * nc + class) * self.width;
+        s..s + self.width
+    }
+
+    /// Pushes one input row (`width` pixels); writes output row `pushed − 1 − r` into `out` and
+    /// returns true once enough rows have arrived.
+    pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+        debug_assert_eq!(row.len(), self.width);
+        let (w, p) = (self.width, self.pad);
+        {
+            let l0 = &mut self.levels[0];
+            l0[p..p + w].copy_from_slice(row);
+        }
+        let n = w + 2 * p;
+        for k in 1..self.levels.len() {
+            let s = 1usize << (k - 1);
+            let len = n + 1 - (1usize << k);
+            let (lo, hi) = self.levels.split_at_mut(k);
+            let src = &lo[k - 1];
+            let dst = &mut hi[0][..len];
+            for ((d, &a), &b) in dst.iter_mut().zip(&src[..len]).zip(&src[s..s + len]) {
+                *d = ext::<MAX>(a, b);
+            }
+        }
+        let row_idx = self.n_in;
+        for c in 0..self.class_half.len() {
+            let hw = self.class_half[c];
+            let span = 2 * hw + 1;
+            let k = (usize::BITS - 1 - span.leading_zeros()) as usize;
+            let pk = 1usize << k;
+            let lev = &self.levels[k];
+            let a = &lev[p - hw..p - hw + w];
+            let b = &lev[p + hw + 1 - pk..p + hw + 1 - pk + w];
+            let range = self.slot(row_idx, c);
+            let dst = &mut self.ring[range];
+            for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
+                *d = ext::<MAX>(x, y);
+            }
+        }
+        self.n_in += 1;
+        if self.n_in > self.radius {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// After the frame's last row: writes the next pending output row, false when none is left.
+    pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
+        if self.n_out < self.n_in {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
+
+    fn emit(&mut self, out: &mut [u8]) {
+        let y = self.n_out as isize;
+        let r = self.radius as isize;
+        let lo = (y - r).max(0);
+        let hi = (y + r).min(self.n_in as isize - 1);
+        let first = self.slot(lo as usize, self.class_of_dy[(lo - y).unsigned_abs()]);
+        out.copy_from_slice(&self.ring[first]);
+        for yy in lo + 1..=hi {
+            let c = self.class_of_dy[(yy - y).unsigned_abs()];
+            let src = &self.ring[self.slot(yy as usize, c)];
+            for (o, &s) in out.iter_mut().zip(src) {
+                *o = ext::<MAX>(*o, s);
+            }
+        }
+        self.n_out += 1;
+    }
+}
+
+/// Streaming morphological closing (dilate, then erode) by a disk.
+#[derive(Debug, Clone)]
+pub struct Closing {
+    dil: Dilate,
+    ero: Erode,
+    mid: Vec<u8>,
+}
+
+/// Streaming morphological opening (erode, then dilate) by a disk.
+#[derive(Debug, Clone)]
+pub struct Opening {
+    ero: Erode,
+    dil: Dilate,
+    mid: Vec<u8>,
+}
+
+macro_rules! two_stage {
+    ($t:ident, $a:ident, $b:ident) => {
+        impl $t {
+            /// A filter for rows of `width` pixels with the given disk.
+            pub fn new(width: usize, disk: Disk) -> Self {
+                $t {
+                    $a: Morph::new(width, disk.clone()),
+                    $b: Morph::new(width, disk),
+                    mid: vec![0; width],
+                }
+            }
+            /// Lag in rows (2r).
+            pub fn lag(&self) -> usize {
+                self.$a.lag() + self.$b.lag()
+            }
+            /// Starts a new frame.
+            pub fn reset(&mut self) {
+                self.$a.reset();
+                self.$b.reset();
+            }
+            /// Pushes one row; true when `out` holds the next output row.
+            pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+                self.$a.push_row(row, &mut self.mid) && self.$b.push_row(&self.mid, out)
+            }
+            /// After the last row: the next pending output row, false when none is left.
+            pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
+                while self.$a.flush_row(&mut self.mid) {
+                    if self.$b.push_row(&self.mid, out) {
+                        return true;
+                    }
+                }
+                self.$b.flush_row(out)
+            }
+        }
+    };
+}
+two_stage!(Closing, dil, ero);
+two_stage!(Opening, ero, dil);
+
+/// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
+/// bright ones); lag 2r. Holds 2r + 1 input rows to subtract.
+#[derive(Debug, Clone)]
+pub struct BlackTopHat {
+    close: Closing,
+    delay: Vec<u8>,
+    width: usize,
+    slots: usize,
+    n_in: usize,
+    n_out: usize,
+}
+
+impl BlackTopHat {
+    /// A filter for rows of `width` pixels with the given closing disk.
+    pub fn new(width: usize, disk: Disk) -> Self {
+        let slots = 2 * disk.radius() + 1;
+        BlackTopHat {
+            close: Closing::new(width, disk),
+            delay: vec![0; slots * width],
+            width,
+            slots,
+            n_in: 0,
+            n_out: 0,
+        }
+    }
+    /// Lag in rows (2r).
+    pub fn lag(&self) -> usize {
+        self.close.lag()
+    }
+    /// Starts a new frame.
+    pub fn reset(&mut self) {
+        self.close.reset();
+        self.n_in = 0;
+        self.n_out = 0;
+    }
+    fn subtract(&mut self, out: &mut [u8]) {
+        let s = (self.n_out % self.slots) * self.width;
+        for (o, &i) in out.iter_mut().zip(&self.delay[s..s + self.width]) {
+            *o = o.saturating_sub(i);
+        }
+        self.n_out += 1;
+    }
+    /// Pushes one row; true when `out` holds the next output row.
+    pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+        let s = (self.n_in % self.slots) * self.width;
+        self.delay[s..s + self.width].copy_from_slice(row);
+        self.n_in += 1;
+        if self.close.push_row(row, out) {
+            self.subtract(out);
+            true
+        } else {
+            false
+        }
+    }
+    /// After the last row: the next pending output row, false when none is left.
+    pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
+        if self.close.flush_row(out) {
+            self.subtract(out);
+            true
+        } else {
+            false
+        }
+    }
+}

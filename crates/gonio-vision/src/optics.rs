@@ -1,0 +1,247 @@
+//! The station's optics and the detector parameters derived from them.
+//!
+//! A user describes the camera and the grating ([`Optics`], loadable from TOML by the CLI's
+//! `--optics`); everything the stages need — the baseline width d, the structuring elements, the
+//! gradient thresholds and the direction range — is derived in [`Params`]. Change the optics, not
+//! magic numbers.
+//!
+//! ```
+//! use gonio_vision::Optics;
+//! let p = Optics::default().params().unwrap();
+//! assert_eq!(p.um_per_px, 0.75);        // 4.5 µm pixels behind a 6× lens
+//! assert_eq!(p.baseline_width_px, 11);  // 8 µm ring → 10.7 → 11 px
+//! assert_eq!(p.close_radius_px, 11);    // 23×23 disk
+//! assert_eq!(p.open_radius_px, 2);      // 5×5 disk
+//! ```
+
+use crate::VisionError;
+use serde::{Deserialize, Serialize};
+
+/// Whether the alignment ring is darker or brighter than its surroundings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Polarity {
+    /// A dark ring on a bright background (the seed's; a black top-hat keeps it).
+    #[default]
+    Dark,
+    /// A bright ring on a dark background (a white top-hat keeps it).
+    Bright,
+}
+
+/// The camera, lens and grating as the user knows them. Every field has the seed's default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Optics {
+    /// Sensor width in pixels (1920).
+    pub sensor_width_px: u32,
+    /// Sensor height in pixels (1080).
+    pub sensor_height_px: u32,
+    /// Processing window width in pixels, centred on the sensor (1440).
+    pub window_width_px: u32,
+    /// Processing window height in pixels, centred on the sensor (540).
+    pub window_height_px: u32,
+    /// Sensor pixel pitch in µm (4.5).
+    pub pixel_pitch_um: f64,
+    /// Lens magnification (6).
+    pub magnification: f64,
+    /// Width of the alignment ring on the grating in µm (8).
+    pub ring_width_um: f64,
+    /// Radius of the alignment ring in µm (4500: gives the seed's ≈ 2 px curvature over the window).
+    pub ring_radius_um: f64,
+    /// Largest eccentricity the station must see, µm (450); widens the direction range.
+    pub max_eccentricity_um: f64,
+    /// Dark or bright ring.
+    pub polarity: Polarity,
+    /// The faintest ring depth (grey levels) that must still be detected (30); sets the thresholds.
+    pub min_ring_contrast_grey: f64,
+    /// Override of the low gradient threshold (Sobel L1 units); derived when absent.
+    pub grad_low: Option<u16>,
+    /// Override of the high gradient threshold (Sobel L1 units); derived when absent.
+    pub grad_high: Option<u16>,
+    /// Override of the baseline filter's half-range around the horizontal gradient, degrees.
+    pub direction_tolerance_deg: Option<f64>,
+    /// An edge must cover at least this fraction of the window's rows (0.5).
+    pub min_edge_fraction: f64,
+    /// A frame with more than this fraction of pixels at 255 is saturated (0.01).
+    pub max_saturated_fraction: f64,
+    /// Below this focus measure (mean raw gradient, grey levels per px) a frame whose ring is not
+    /// found is reported out of focus rather than ring-less (2.0).
+    pub min_focus: f64,
+}
+
+impl Default for Optics {
+    fn default() -> Self {
+        Optics {
+            sensor_width_px: 1920,
+            sensor_height_px: 1080,
+            window_width_px: 1440,
+            window_height_px: 540,
+            pixel_pitch_um: 4.5,
+            magnification: 6.0,
+            ring_width_um: 8.0,
+            ring_radius_um: 4500.0,
+            max_eccentricity_um: 450.0,
+            polarity: Polarity::Dark,
+            min_ring_contrast_grey: 30.0,
+            grad_low: None,
+            grad_high: None,
+            direction_tolerance_deg: None,
+            min_edge_fraction: 0.5,
+            max_saturated_fraction: 0.01,
+            min_focus: 2.0,
+        }
+    }
+}
+
+/// Everything the stages need, derived from [`Optics`] by [`Optics::params`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Params {
+    /// Window width (pixels per row).
+    pub width: usize,
+    /// Window height (rows per frame).
+    pub height: usize,
+    /// Size of one pixel on the grating, µm.
+    pub um_per_px: f64,
+    /// Baseline (ring) width d in pixels, rounded.
+    pub baseline_width_px: usize,
+    /// Radius of the closing disk: d, so its diameter 2d + 1 is odd (23 for d = 11).
+    pub close_radius_px: usize,
+    /// Radius of the opening disk: ⌊d/4⌋ ≥ 1, diameter ≈ d/2 (5 for d = 11).
+    pub open_radius_px: usize,
+    /// Low gradient threshold (Sobel L1 magnitude).
+    pub grad_low: u16,
+    /// High gradient threshold (Sobel L1 magnitude).
+    pub grad_high: u16,
+    /// Half-range of the baseline filter around 0°/180°, degrees.
+    pub direction_tolerance_deg: f64,
+    /// `tan(direction_tolerance)` in Q10 fixed point: keep |Gy|·1024 ≤ this·|Gx|.
+    pub tan_tolerance_q10: u32,
+    /// Minimum pixels of an edge (min_edge_fraction × height).
+    pub min_edge_pixels: usize,
+    /// Allowed distance between the two edges' columns, px (0.5 d … 1.5 d).
+    pub separation_px: (f64, f64),
+    /// More saturated pixels than this make the frame invalid.
+    pub max_saturated_pixels: usize,
+    /// Focus threshold (see [`Optics::min_focus`]).
+    pub min_focus: f64,
+    /// True for a bright ring: the input is inverted before the black top-hat.
+    pub invert: bool,
+}
+
+fn bad(name: &'static str, found: impl ToString, expected: &str) -> VisionError {
+    VisionError::Optics {
+        name,
+        found: found.to_string(),
+        expected: expected.to_string(),
+    }
+}
+
+impl Optics {
+    /// Derives the detector parameters.
+    ///
+    /// # Errors
+    /// [`VisionError::Optics`] naming the first parameter out of range (non-positive sizes, a
+    /// window larger than the sensor, a ring narrower than 2 px or wider than a quarter of the
+    /// window, thresholds with low > high, fractions outside 0–1).
+    pub fn params(&self) -> Result<Params, VisionError> {
+        let pos = |name, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(name, v, "a finite number > 0"))
+            }
+        };
+        pos("pixel_pitch_um", self.pixel_pitch_um)?;
+        pos("magnification", self.magnification)?;
+        pos("ring_width_um", self.ring_width_um)?;
+        pos("ring_radius_um", self.ring_radius_um)?;
+        pos("min_ring_contrast_grey", self.min_ring_contrast_grey)?;
+        if !(self.max_eccentricity_um.is_finite() && self.max_eccentricity_um >= 0.0) {
+            return Err(bad(
+                "max_eccentricity_um",
+                self.max_eccentricity_um,
+                "a finite number ≥ 0",
+            ));
+        }
+        if self.window_width_px < 16 || self.window_width_px > self.sensor_width_px {
+            return Err(bad(
+                "window_width_px",
+                self.window_width_px,
+                &format!("16 … sensor_width_px ({})", self.sensor_width_px),
+            ));
+        }
+        if self.window_height_px < 16 || self.window_height_px > self.sensor_height_px {
+            return Err(bad(
+                "window_height_px",
+                self.window_height_px,
+                &format!("16 … sensor_height_px ({})", self.sensor_height_px),
+            ));
+        }
+        for (name, v) in [
+            ("min_edge_fraction", self.min_edge_fraction),
+            ("max_saturated_fraction", self.max_saturated_fraction),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(bad(name, v, "a fraction 0 … 1"));
+            }
+        }
+        if !(self.min_focus.is_finite() && self.min_focus >= 0.0) {
+            return Err(bad("min_focus", self.min_focus, "a finite number ≥ 0"));
+        }
+        let um_per_px = self.pixel_pitch_um / self.magnification;
+        let width = self.window_width_px as usize;
+        let height = self.window_height_px as usize;
+        let d = (self.ring_width_um / um_per_px).round();
+        if !(2.0..=(width.min(height) as f64 / 4.0)).contains(&d) {
+            return Err(bad(
+                "ring_width_um",
+                self.ring_width_um,
+                "a ring 2 px … a quarter of the window wide once imaged",
+            ));
+        }
+        let d = d as usize;
+        // Sobel L1 peak on a blurred step of height A is ≈ 8·A/3; the high threshold sits at half
+        // of that for the faintest ring accepted, the low one at half the high one.
+        let high = self
+            .grad_high
+            .unwrap_or((self.min_ring_contrast_grey * 4.0 / 3.0).round().max(2.0) as u16);
+        let low = self.grad_low.unwrap_or((high / 2).max(1));
+        if low > high || low == 0 {
+            return Err(bad("grad_low", low, &format!("1 … grad_high ({high})")));
+        }
+        // The ring's tangent tilts by asin(y/R) at the window's top and bottom rows, and the
+        // eccentricity's tangential part moves the visible arc by up to e: keep that plus 10°.
+        let tol = match self.direction_tolerance_deg {
+            Some(t) => t,
+            None => {
+                let half_um = height as f64 * um_per_px / 2.0;
+                let s = ((half_um + self.max_eccentricity_um) / self.ring_radius_um).min(1.0);
+                s.asin().to_degrees() + 10.0
+            }
+        };
+        if !(tol > 0.0 && tol < 45.0) {
+            return Err(bad(
+                "direction_tolerance_deg",
+                tol,
+                "0 … 45 (derived from ring_radius_um and max_eccentricity_um when absent)",
+            ));
+        }
+        Ok(Params {
+            width,
+            height,
+            um_per_px,
+            baseline_width_px: d,
+            close_radius_px: d,
+            open_radius_px: (d / 4).max(1),
+            grad_low: low,
+            grad_high: high,
+            direction_tolerance_deg: tol,
+            tan_tolerance_q10: (tol.to_radians().tan() * 1024.0).round() as u32,
+            min_edge_pixels: (self.min_edge_fraction * height as f64).ceil() as usize,
+            separation_px: (0.5 * d as f64, 1.5 * d as f64),
+            max_saturated_pixels: (self.max_saturated_fraction * (width * height) as f64) as usize,
+            min_focus: self.min_focus,
+            invert: self.polarity == Polarity::Bright,
+        })
+    }
+}

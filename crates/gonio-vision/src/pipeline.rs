@@ -1,0 +1,452 @@
+//! The detector: every stage chained row by row, from camera rows to the frame's result.
+//!
+//! `push_row` drives the rows through top-hat → opening → blur → Sobel → segmentation → filling
+//! → labelling as far as each stage's lag allows; `finish_frame` flushes the last rows and
+//! computes the baseline features. All memory is allocated in [`Detector::new`]: the working set
+//! is a few dozen rows (O(width × (4d + 12))), independent of the frame's height, and nothing is
+//! allocated per frame (apart from the result's two edge lines) unless stage dumps are enabled.
+//!
+//! ```
+//! use gonio_vision::{Detector, Optics};
+//! let optics = Optics { window_width_px: 96, window_height_px: 48, ..Optics::default() };
+//! let mut det = Detector::new(&optics).unwrap();
+//! // A dark 11 px ring, vertical, centred on column 30, on a grey background.
+//! let mut frame = vec![200u8; 96 * 48];
+//! for row in frame.chunks_mut(96) {
+//!     for x in 25..=35 { row[x] = 60; }
+//! }
+//! let r = det.detect(&frame).unwrap();
+//! assert!(r.valid, "{:?}", r.reason);
+//! assert!((r.c_px.unwrap() - 30.0).abs() < 0.05);
+//! ```
+
+use crate::VisionError;
+use crate::features::{FrameResult, RawStats, baseline_features};
+use crate::fill::EdgeFill;
+use crate::gaussian::Gaussian5;
+use crate::gradient::{GradRow, Sobel};
+use crate::label::{Component, Labeller};
+use crate::morphology::{BlackTopHat, Disk, Opening};
+use crate::optics::{Optics, Params};
+use crate::segment::{EdgeRow, SegmentParams, Segmenter};
+
+/// Every stage's output for one frame, whole (filled only when dumps are enabled).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StageImages {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in rows.
+    pub height: usize,
+    /// The input as processed (inverted for a bright ring).
+    pub input: Vec<u8>,
+    /// Black top-hat: closing − input.
+    pub tophat: Vec<u8>,
+    /// Opening of the top-hat.
+    pub opened: Vec<u8>,
+    /// Gaussian blur of the opening.
+    pub blurred: Vec<u8>,
+    /// Sobel Gx.
+    pub gx: Vec<i16>,
+    /// Sobel Gy.
+    pub gy: Vec<i16>,
+    /// |Gx| + |Gy|.
+    pub mag: Vec<u16>,
+    /// Segmented edges (class 0/1/2), directions, sub-pixel offsets.
+    pub edges: EdgeRowsImage,
+    /// Edges after filling.
+    pub filled: EdgeRowsImage,
+    /// Every connected component (completion order).
+    pub components: Vec<Component>,
+}
+
+/// A whole-frame edge image.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EdgeRowsImage {
+    /// Class per pixel.
+    pub class: Vec<u8>,
+    /// Direction per pixel (binary angle).
+    pub dir: Vec<u8>,
+    /// Sub-pixel offset per pixel.
+    pub sub: Vec<i8>,
+}
+
+impl EdgeRowsImage {
+    fn push(&mut self, r: &EdgeRow) {
+        self.class.extend_from_slice(&r.class);
+        self.dir.extend_from_slice(&r.dir);
+        self.sub.extend_from_slice(&r.sub);
+    }
+}
+
+/// The streaming baseline detector.
+#[derive(Debug, Clone)]
+pub struct Detector {
+    p: Params,
+    tophat: BlackTopHat,
+    open: Opening,
+    gauss: Gaussian5,
+    sobel: Sobel,
+    seg: Segmenter,
+    fill: EdgeFill,
+    label: Labeller,
+    b_in: Vec<u8>,
+    b_top: Vec<u8>,
+    b_open: Vec<u8>,
+    b_blur: Vec<u8>,
+    b_grad: GradRow,
+    b_edge: EdgeRow,
+    b_fill: EdgeRow,
+    /// Raw rows y−2, y−1 for the focus measure.
+    raw_prev: [Vec<u8>; 2],
+    rows: usize,
+    saturated: u64,
+    focus_sum: u64,
+    dump: Option<Box<StageImages>>,
+}
+
+impl Detector {
+    /// A detector for the optics' window.
+    ///
+    /// # Errors
+    /// [`VisionError::Optics`] if the optics are invalid (see [`Optics::params`]).
+    pub fn new(optics: &Optics) -> Result<Self, VisionError> {
+        Ok(Self::from_params(optics.params()?))
+    }
+
+    /// A detector from already derived parameters.
+    pub fn from_params(p: Params) -> Self {
+        let w = p.width;
+        let seg = SegmentParams {
+            low: p.grad_low,
+            high: p.grad_high,
+            tan_q10: p.tan_tolerance_q10,
+        };
+        Detector {
+            tophat: BlackTopHat::new(w, Disk::new(p.close_radius_px)),
+            open: Opening::new(w, Disk::new(p.open_radius_px)),
+            gauss: Gaussian5::new(w),
+            sobel: Sobel::new(w),
+            seg: Segmenter::new(w, seg),
+            fill: EdgeFill::new(w),
+            label: Labeller::new(w, p.height, false),
+            b_in: vec![0; w],
+            b_top: vec![0; w],
+            b_open: vec![0; w],
+            b_blur: vec![0; w],
+            b_grad: GradRow::new(w),
+            b_edge: EdgeRow::new(w),
+            b_fill: EdgeRow::new(w),
+            raw_prev: [vec![0; w], vec![0; w]],
+            rows: 0,
+            saturated: 0,
+            focus_sum: 0,
+            dump: None,
+            p,
+        }
+    }
+
+    /// The derived parameters.
+    pub fn params(&self) -> &Params {
+        &self.p
+    }
+
+    /// Rows between a row's arrival and its edges reaching the labeller.
+    pub fn lag_rows(&self) -> usize {
+        self.tophat.lag()
+            + self.open.lag()
+            + self.gauss.lag()
+            + self.sobel.lag()
+            + self.seg.lag()
+            + self.fill.lag()
+    }
+
+    /// Keeps every stage's output of the following frames (for test vectors); allocates.
+    pub fn set_dump(&mut self, on: bool) {
+        if on {
+            self.label = Labeller::new(self.p.width, self.p.height, true);
+            self.dump = Some(Box::default());
+        } else {
+            self.label = Labeller::new(self.p.width, self.p.height, false);
+            self.dump = None;
+        }
+    }
+
+    /// The stage images of the last finished frame (with [`Detector::set_dump`]).
+    pub fn dump(&self) -> Option<&StageImages> {
+        self.dump.as_deref()
+    }
+
+    /// Starts a new frame, dropping any rows pushed so far.
+    pub fn begin_frame(&mut self) {
+        self.tophat.reset();
+        self.open.reset();
+        self.gauss.reset();
+        self.sobel.reset();
+        self.seg.reset();
+        self.fill.reset();
+        self.label.reset();
+        self.rows = 0;
+        self.saturated = 0;
+        self.focus_sum = 0;
+        if let Some(d) = self.dump.as_deref_mut() {
+            *d = StageImages {
+                width: self.p.width,
+                height: self.p.height,
+                ..Default::default()
+            };
+        }
+    }
+
+    /// Pushes the frame's next row (window width pixels). The first row of a frame starts it.
+    ///
+    /// # Errors
+    /// [`VisionError::RowLength`] for a row of the wrong length, [`VisionError::FrameHeight`]
+    /// for more rows than the window has.
+    pub fn push_row(&mut self, row: &[u8]) -> Result<(), VisionError> {
+        let w = self.p.width;
+        if row.len() != w {
+            return Err(VisionError::RowLength {
+                row: self.rows,
+                expected: w,
+                found: row.len(),
+            });
+        }
+        if self.rows >= self.p.height {
+            return Err(VisionError::FrameHeight {
+                expected: self.p.height,
+                found: self.rows + 1,
+            });
+        }
+        if self.rows == 0 {
+            self.begin_frame();
+        }
+        self.saturated += row.iter().map(|&v| (v == 255) as u64).sum::<u64>();
+        // Focus at row y − 1 needs rows y − 2 and y.
+        if self.rows >= 2 {
+            let (a, b) = (
+                &self.raw_prev[self.rows % 2],
+                &self.raw_prev[(self.rows + 1) % 2],
+            );
+            // a = row y − 2, b = row y − 1.
+            let mut s = 0u64;
+            for x in 1..w - 1 {
+                s += (b[x + 1].abs_diff(b[x - 1]) as u64) + (row[x].abs_diff(a[x]) as u64);
+            }
+            self.focus_sum += s;
+        }
+        self.raw_prev[self.rows % 2].copy_from_slice(row);
+        if self.p.invert {
+            for (o, &v) in self.b_in.iter_mut().zip(row) {
+                *o = 255 - v;
+            }
+        } else {
+            self.b_in.copy_from_slice(row);
+        }
+        self.rows += 1;
+        let inp = std::mem::take(&mut self.b_in);
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.input.extend_from_slice(&inp);
+        }
+        self.feed_tophat(Some(&inp));
+        self.b_in = inp;
+        Ok(())
+    }
+
+    /// Ends the frame: flushes the stages and computes the result.
+    ///
+    /// # Errors
+    /// [`VisionError::FrameHeight`] if fewer rows than the window's height were pushed.
+    pub fn finish_frame(&mut self) -> Result<FrameResult, VisionError> {
+        if self.rows != self.p.height {
+            let found = self.rows;
+            self.rows = 0;
+            return Err(VisionError::FrameHeight {
+                expected: self.p.height,
+                found,
+            });
+        }
+        self.feed_tophat(None);
+        self.label.finish();
+        let (w, h) = (self.p.width, self.p.height);
+        let interior = ((w - 2) * (h - 2)) as f64;
+        let stats = RawStats {
+            saturated_px: self.saturated,
+            focus: self.focus_sum as f64 / interior / 2.0,
+        };
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.components = self.label.all().to_vec();
+        }
+        let res = baseline_features(
+            self.label.best(),
+            self.label.component_count(),
+            stats,
+            &self.p,
+        );
+        self.rows = 0;
+        Ok(res)
+    }
+
+    /// Runs a whole frame (row-major, window size) through the detector.
+    ///
+    /// # Errors
+    /// [`VisionError::FrameSize`] if `frame` is not width × height bytes.
+    pub fn detect(&mut self, frame: &[u8]) -> Result<FrameResult, VisionError> {
+        let (w, h) = (self.p.width, self.p.height);
+        if frame.len() != w * h {
+            return Err(VisionError::FrameSize {
+                expected: w * h,
+                found: frame.len(),
+                width: w,
+                height: h,
+            });
+        }
+        self.begin_frame();
+        for row in frame.chunks_exact(w) {
+            self.push_row(row)?;
+        }
+        self.finish_frame()
+    }
+
+    fn feed_tophat(&mut self, input: Option<&[u8]>) {
+        match input {
+            Some(r) => {
+                if self.tophat.push_row(r, &mut self.b_top) {
+                    self.pass_tophat();
+                }
+            }
+            None => {
+                while self.tophat.flush_row(&mut self.b_top) {
+                    self.pass_tophat();
+                }
+                self.feed_open(None);
+            }
+        }
+    }
+    fn pass_tophat(&mut self) {
+        let b = std::mem::take(&mut self.b_top);
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.tophat.extend_from_slice(&b);
+        }
+        self.feed_open(Some(&b));
+        self.b_top = b;
+    }
+
+    fn feed_open(&mut self, input: Option<&[u8]>) {
+        match input {
+            Some(r) => {
+                if self.open.push_row(r, &mut self.b_open) {
+                    self.pass_open();
+                }
+            }
+            None => {
+                while self.open.flush_row(&mut self.b_open) {
+                    self.pass_open();
+                }
+                self.feed_gauss(None);
+            }
+        }
+    }
+    fn pass_open(&mut self) {
+        let b = std::mem::take(&mut self.b_open);
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.opened.extend_from_slice(&b);
+        }
+        self.feed_gauss(Some(&b));
+        self.b_open = b;
+    }
+
+    fn feed_gauss(&mut self, input: Option<&[u8]>) {
+        match input {
+            Some(r) => {
+                if self.gauss.push_row(r, &mut self.b_blur) {
+                    self.pass_gauss();
+                }
+            }
+            None => {
+                while self.gauss.flush_row(&mut self.b_blur) {
+                    self.pass_gauss();
+                }
+                self.feed_sobel(None);
+            }
+        }
+    }
+    fn pass_gauss(&mut self) {
+        let b = std::mem::take(&mut self.b_blur);
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.blurred.extend_from_slice(&b);
+        }
+        self.feed_sobel(Some(&b));
+        self.b_blur = b;
+    }
+
+    fn feed_sobel(&mut self, input: Option<&[u8]>) {
+        match input {
+            Some(r) => {
+                if self.sobel.push_row(r, &mut self.b_grad) {
+                    self.pass_sobel();
+                }
+            }
+            None => {
+                while self.sobel.flush_row(&mut self.b_grad) {
+                    self.pass_sobel();
+                }
+                self.feed_seg(None);
+            }
+        }
+    }
+    fn pass_sobel(&mut self) {
+        let b = std::mem::take(&mut self.b_grad);
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.gx.extend_from_slice(&b.gx);
+            d.gy.extend_from_slice(&b.gy);
+            d.mag.extend_from_slice(&b.mag);
+        }
+        self.feed_seg(Some(&b));
+        self.b_grad = b;
+    }
+
+    fn feed_seg(&mut self, input: Option<&GradRow>) {
+        match input {
+            Some(r) => {
+                if self.seg.push_row(r, &mut self.b_edge) {
+                    self.pass_seg();
+                }
+            }
+            None => {
+                while self.seg.flush_row(&mut self.b_edge) {
+                    self.pass_seg();
+                }
+                self.feed_fill(None);
+            }
+        }
+    }
+    fn pass_seg(&mut self) {
+        let b = std::mem::take(&mut self.b_edge);
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.edges.push(&b);
+        }
+        self.feed_fill(Some(&b));
+        self.b_edge = b;
+    }
+
+    fn feed_fill(&mut self, input: Option<&EdgeRow>) {
+        match input {
+            Some(r) => {
+                if self.fill.push_row(r, &mut self.b_fill) {
+                    self.pass_fill();
+                }
+            }
+            None => {
+                while self.fill.flush_row(&mut self.b_fill) {
+                    self.pass_fill();
+                }
+            }
+        }
+    }
+    fn pass_fill(&mut self) {
+        if let Some(d) = self.dump.as_deref_mut() {
+            d.filled.push(&self.b_fill);
+        }
+        self.label.push_row(&self.b_fill);
+    }
+}
