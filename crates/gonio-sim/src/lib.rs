@@ -14,8 +14,10 @@
 
 pub mod encoder;
 pub mod error;
+pub mod frames;
 pub mod selfcal;
 pub mod shift_angle;
+pub mod station;
 
 pub use encoder::{EncoderModel, Graduation};
 pub use error::SimError;

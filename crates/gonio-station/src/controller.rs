@@ -570,6 +570,9 @@ impl Controller {
             let goal_um = -ps.spring_back * e_um;
             let mut stalls = 0;
             let mut last = f64::INFINITY;
+            // The gain of this push, measured from the first step under feedback.
+            let mut k_live = gain;
+            let mut prev: Option<(f64, f64)> = None;
             for _ in 0..60 {
                 let mut sum = 0.0;
                 let mut cnt = 0;
@@ -585,6 +588,11 @@ impl Controller {
                     break;
                 }
                 let along_um = (sum / cnt as f64 - c_target) * um;
+                if let Some((a_prev, d_prev)) = prev {
+                    if d_prev * k_live > 10.0 {
+                        k_live = ((a_prev - along_um) / d_prev).clamp(0.5, 1.5);
+                    }
+                }
                 let remaining = along_um - goal_um;
                 if remaining < ps.live_tolerance_um {
                     break;
@@ -596,14 +604,21 @@ impl Controller {
                     }
                 }
                 last = remaining;
-                let frac = if remaining > 10.0 { 0.9 } else { 1.0 };
-                let dd = (frac * remaining / gain)
-                    .max(1.05 / gain)
+                // The first step stops short (the push's gain is not known yet); later steps
+                // use the gain just measured.
+                let frac = if steps == 0 && remaining > 10.0 {
+                    0.85
+                } else {
+                    1.0
+                };
+                let dd = (frac * remaining / k_live)
+                    .max(1.05 / k_live)
                     .min(ps.max_push_um - commanded);
                 if dd <= 0.0 {
                     break;
                 }
                 d.rod.push_um(dd).map_err(dev("push rod"))?;
+                prev = Some((along_um, dd));
                 commanded += dd;
                 steps += 1;
             }

@@ -1,0 +1,221 @@
+//! A batch of parts mounted on the simulated station, with the station's records and the
+//! simulation's ground truth side by side.
+
+use super::plant::{PartTruth, PlantConfig, StationTruth};
+use super::twin::{Faults, SimCamera, SimClock, SimFocus, SimRod, SimServo, Twin};
+use gonio_station::controller::Learned;
+use gonio_station::{Controller, Devices, PartRecord, PartResult, Recipe, StationError, Strategy};
+use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// How frames are simulated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Fidelity {
+    /// Ring column from the geometry plus the detector's noise.
+    #[default]
+    Fast,
+    /// Frames rendered and run through the real detector.
+    Frames,
+}
+
+/// What to simulate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BatchConfig {
+    /// Number of parts.
+    pub parts: usize,
+    /// The push strategy.
+    pub strategy: Strategy,
+    /// Frame fidelity.
+    pub fidelity: Fidelity,
+    /// The recipe.
+    pub recipe: Recipe,
+    /// The plant.
+    pub plant: PlantConfig,
+    /// Injected faults.
+    pub faults: Faults,
+}
+
+impl Default for BatchConfig {
+    fn default() -> Self {
+        BatchConfig {
+            parts: 25,
+            strategy: Strategy::default(),
+            fidelity: Fidelity::Fast,
+            recipe: Recipe::default(),
+            plant: PlantConfig::default(),
+            faults: Faults::default(),
+        }
+    }
+}
+
+/// One part: the station's record and the simulation's truth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimPartRecord {
+    /// What the station recorded.
+    #[serde(flatten)]
+    pub record: PartRecord,
+    /// True initial eccentricity, µm.
+    pub true_initial_e_um: f64,
+    /// True final eccentricity, µm.
+    pub true_final_e_um: f64,
+}
+
+/// The batch's summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatchSummary {
+    /// Parts mounted.
+    pub parts: usize,
+    /// Mean time per part, s.
+    pub mean_time_s: f64,
+    /// Mean final eccentricity as measured by the station, µm.
+    pub mean_final_e_um: f64,
+    /// Mean true final eccentricity, µm.
+    pub mean_true_final_e_um: f64,
+    /// Mean pushes per part.
+    pub mean_pushes: f64,
+    /// Most pushes on one part.
+    pub max_pushes: u32,
+    /// Parts rejected.
+    pub rejected: usize,
+    /// Total simulated station time, s.
+    pub total_time_s: f64,
+}
+
+/// The batch's result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatchReport {
+    /// The seed.
+    pub seed: u64,
+    /// Strategy name.
+    pub strategy: String,
+    /// Fidelity.
+    pub fidelity: Fidelity,
+    /// Recipe name.
+    pub recipe: String,
+    /// The simulated station's true constants.
+    pub station_truth: StationTruth,
+    /// What the controller learned by the end.
+    pub learned: Learned,
+    /// Every part.
+    pub parts: Vec<SimPartRecord>,
+    /// Summary.
+    pub summary: BatchSummary,
+}
+
+/// Summarises part records.
+pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
+    let n = parts.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&SimPartRecord) -> f64| parts.iter().map(f).sum::<f64>() / n;
+    BatchSummary {
+        parts: parts.len(),
+        mean_time_s: mean(&|p| p.record.time_s),
+        mean_final_e_um: mean(&|p| {
+            if p.record.final_e_um.is_finite() {
+                p.record.final_e_um
+            } else {
+                0.0
+            }
+        }),
+        mean_true_final_e_um: mean(&|p| p.true_final_e_um),
+        mean_pushes: mean(&|p| p.record.pushes as f64),
+        max_pushes: parts.iter().map(|p| p.record.pushes).max().unwrap_or(0),
+        rejected: parts
+            .iter()
+            .filter(|p| p.record.result != PartResult::Accepted)
+            .count(),
+        total_time_s: parts.iter().map(|p| p.record.time_s).sum(),
+    }
+}
+
+/// Mounts `cfg.parts` simulated parts with one controller (learning carries across parts).
+/// `progress(done, total, part)` is called after every part. The same seed gives the same
+/// report; part `i` is the same part for every strategy.
+///
+/// # Errors
+/// A device error (injected through [`Faults`]) aborts the batch with
+/// [`StationError::Device`]; an invalid recipe gives [`StationError::Recipe`]; the `frames`
+/// fidelity without a detector gives [`StationError::OutOfRange`] (use [`run_batch_with`]).
+pub fn run_batch(
+    cfg: &BatchConfig,
+    seed: u64,
+    progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
+) -> Result<BatchReport, StationError> {
+    if cfg.fidelity == Fidelity::Frames {
+        return Err(StationError::OutOfRange {
+            name: "fidelity",
+            value: f64::NAN,
+            expected: "fast (the frames fidelity needs a detector: run_batch_with)",
+        });
+    }
+    run_batch_with(cfg, seed, None, progress)
+}
+
+/// As [`run_batch`], with an optional frame detector for [`Fidelity::Frames`].
+///
+/// # Errors
+/// As [`run_batch`].
+pub fn run_batch_with(
+    cfg: &BatchConfig,
+    seed: u64,
+    detector: Option<Box<dyn super::FrameDetector>>,
+    progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
+) -> Result<BatchReport, StationError> {
+    cfg.recipe.validate()?;
+    let r = &cfg.recipe;
+    let mut twin = Twin::new(
+        cfg.plant.clone(),
+        r.um_per_px,
+        r.measure.fps,
+        r.measure.exposure_s,
+        seed,
+    );
+    twin.faults = cfg.faults.clone();
+    if let Some(d) = detector {
+        twin.set_detector(d);
+    }
+    let station_truth = twin.station;
+    let shared = Rc::new(RefCell::new(twin));
+    let mut devices = Devices {
+        servo: SimServo(shared.clone()),
+        camera: SimCamera(shared.clone()),
+        focus: SimFocus(shared.clone()),
+        rod: SimRod(shared.clone()),
+        clock: SimClock(shared.clone()),
+    };
+    let mut ctl = Controller::new(cfg.recipe.clone(), cfg.strategy);
+    let mut parts = Vec::with_capacity(cfg.parts);
+    for i in 0..cfg.parts {
+        let truth = PartTruth::draw(&cfg.plant, seed, i as u64 + 1);
+        let true_initial = truth.e_um();
+        shared.borrow_mut().load_part(truth);
+        let serial = format!("SIM-{seed}-{:04}", i + 1);
+        let record = ctl.mount(&mut devices, &serial)?;
+        let true_final = shared.borrow().true_e_um();
+        let p = SimPartRecord {
+            record,
+            true_initial_e_um: true_initial,
+            true_final_e_um: true_final,
+        };
+        progress(i + 1, cfg.parts, &p);
+        parts.push(p);
+    }
+    let summary = summarise(&parts);
+    Ok(BatchReport {
+        seed,
+        strategy: cfg.strategy.name().to_string(),
+        fidelity: cfg.fidelity,
+        recipe: cfg.recipe.name.clone(),
+        station_truth,
+        learned: ctl.learned,
+        parts,
+        summary,
+    })
+}
+
+/// The plant's parameters, for reports.
+pub fn default_plant() -> PlantConfig {
+    PlantConfig::default()
+}

@@ -1,0 +1,24 @@
+//! The mounting station's digital twin (`mounting-station.md`, "Simulation"): the default plant,
+//! a discrete-event clock, simulated servo, camera, focus drive and push rod implementing
+//! `gonio_station::hal`, and a batch runner.
+//!
+//! Two fidelities: [`Fidelity::Fast`] computes each frame's ring column from the geometry plus
+//! the detector's noise; [`Fidelity::Frames`] renders each frame and runs it through a
+//! [`FrameDetector`] (the real detector).
+//!
+//! ```
+//! use gonio_sim::station::{BatchConfig, run_batch};
+//! let cfg = BatchConfig { parts: 3, ..BatchConfig::default() };
+//! let report = run_batch(&cfg, 7, &mut |_, _, _| {}).unwrap();
+//! assert_eq!(report.parts.len(), 3);
+//! let again = run_batch(&cfg, 7, &mut |_, _, _| {}).unwrap();
+//! assert_eq!(report.summary, again.summary);
+//! ```
+
+pub mod batch;
+pub mod plant;
+pub mod twin;
+
+pub use batch::{BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch};
+pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
+pub use twin::{DeviceId, Faults, FrameDetector, SimDeviceError, Twin};

@@ -1,0 +1,545 @@
+//! The simulated station: one shared state (plant, part, simulated clock) behind five devices
+//! that implement `gonio_station::hal`.
+//!
+//! The clock is discrete-event: every device action takes its duration from the plant's
+//! [`Timing`](super::plant::Timing) and moves the simulated time forward to the action's end,
+//! so a part that takes 25 s on the real station simulates in microseconds. The servo's angle is
+//! a function of that time (ramps and constant speed), logged every millisecond with a random
+//! phase; each frame's ring column is computed at mid-exposure.
+
+use super::plant::{PartTruth, PlantConfig, StationTruth};
+use gonio_station::hal::{
+    ApproachSpeed, Camera, CameraFrame, Clock, DeviceError, DeviceErrorKind, FocusDrive, PushRod,
+    Servo,
+};
+use gonio_station::interval::AngleSample;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// Which device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeviceId {
+    /// The servo.
+    Servo,
+    /// The camera.
+    Camera,
+    /// The focus drive.
+    Focus,
+    /// The push rod.
+    Rod,
+    /// The clock.
+    Clock,
+}
+
+/// Faults to inject through the traits (for testing the controller's paths).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Faults {
+    /// The `n`-th call (1-based, counted over the whole batch) to this device fails.
+    pub device_error: Option<(DeviceId, u64)>,
+    /// The ring is lost (no valid frames) after this many pushes on a part.
+    pub ring_lost_after_pushes: Option<u32>,
+    /// The focus measure is flat (no peak): autofocus fails.
+    pub focus_dead: bool,
+}
+
+/// An error of a simulated device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimDeviceError {
+    /// Which device.
+    pub device: DeviceId,
+    /// Its kind.
+    pub kind: DeviceErrorKind,
+    /// What happened.
+    pub message: String,
+}
+
+impl std::fmt::Display for SimDeviceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "simulated {:?}: {}", self.device, self.message)
+    }
+}
+
+impl std::error::Error for SimDeviceError {}
+
+impl DeviceError for SimDeviceError {
+    fn kind(&self) -> DeviceErrorKind {
+        self.kind
+    }
+}
+
+/// Produces a frame's detector result at full fidelity (render → detect); the fast fidelity
+/// computes the column from the geometry instead.
+pub trait FrameDetector {
+    /// Renders a frame with the ring's centre line at column `c_true_px`, defocus `dz_um`, and
+    /// returns the detector's `(c_px or None with a reason, focus measure)`.
+    fn detect(
+        &mut self,
+        c_true_px: f64,
+        dz_um: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> (Option<f64>, String, f64);
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Motion {
+    /// Start of the current motion segment, s.
+    t0: f64,
+    /// Angle at t0, degrees.
+    theta0: f64,
+    /// Speed at the end of the ramp, °/s.
+    v: f64,
+    /// Ramp duration (accelerating from 0 when starting, decelerating to 0 when stopping), s.
+    ramp: f64,
+    /// Starting (true) or stopping (false).
+    starting: bool,
+}
+
+impl Motion {
+    fn angle(&self, t: f64) -> f64 {
+        let dt = (t - self.t0).max(0.0);
+        if self.starting {
+            if dt < self.ramp {
+                self.theta0 + 0.5 * self.v / self.ramp * dt * dt
+            } else {
+                self.theta0 + 0.5 * self.v * self.ramp + self.v * (dt - self.ramp)
+            }
+        } else {
+            let d = dt.min(self.ramp);
+            self.theta0 + self.v * d - 0.5 * self.v / self.ramp.max(1e-12) * d * d
+        }
+    }
+    fn speed(&self, t: f64) -> f64 {
+        let dt = (t - self.t0).max(0.0);
+        if self.starting {
+            self.v * (dt / self.ramp.max(1e-12)).min(1.0)
+        } else {
+            (self.v * (1.0 - dt / self.ramp.max(1e-12))).max(0.0)
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Contact {
+    gain: f64,
+    dir_deg: f64,
+    moved_um: f64,
+    pushes: u32,
+}
+
+/// The shared state of the simulated station.
+pub struct Twin {
+    /// Plant parameters.
+    pub plant: PlantConfig,
+    /// Pixel scale, µm per px.
+    pub um_per_px: f64,
+    /// Frame rate, fps.
+    pub fps: f64,
+    /// Exposure, s.
+    pub exposure_s: f64,
+    /// The station's constants.
+    pub station: StationTruth,
+    /// The current part.
+    pub part: PartTruth,
+    /// Pushes made on the current part.
+    pub part_pushes: u32,
+    /// Faults to inject.
+    pub faults: Faults,
+    /// Simulated time, s.
+    pub t_s: f64,
+    rng: ChaCha8Rng,
+    /// Motion segments, latest last (a few kept: enough for the last turn's log).
+    history: Vec<Motion>,
+    focus_um: f64,
+    contact: Option<Contact>,
+    calls: [u64; 5],
+    detector: Option<Box<dyn FrameDetector>>,
+}
+
+impl std::fmt::Debug for Twin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Twin")
+            .field("t_s", &self.t_s)
+            .field("station", &self.station)
+            .field("part", &self.part)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Twin {
+    /// A station with constants drawn from `seed`, empty until [`Twin::load_part`].
+    pub fn new(plant: PlantConfig, um_per_px: f64, fps: f64, exposure_s: f64, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let station = StationTruth::draw(&plant, &mut rng);
+        let part = PartTruth::draw(&plant, seed, 0);
+        Twin {
+            plant,
+            um_per_px,
+            fps,
+            exposure_s,
+            station,
+            part,
+            part_pushes: 0,
+            faults: Faults::default(),
+            t_s: 0.0,
+            rng,
+            history: vec![Motion {
+                t0: 0.0,
+                theta0: 0.0,
+                v: 0.0,
+                ramp: 0.0,
+                starting: false,
+            }],
+            focus_um: 0.0,
+            contact: None,
+            calls: [0; 5],
+            detector: None,
+        }
+    }
+
+    /// Uses `d` (render → detect) for every frame instead of the geometric fast fidelity.
+    pub fn set_detector(&mut self, d: Box<dyn FrameDetector>) {
+        self.detector = Some(d);
+    }
+
+    /// Places a new part on the shaft.
+    pub fn load_part(&mut self, part: PartTruth) {
+        let th = part.start_angle_deg;
+        self.part = part;
+        self.part_pushes = 0;
+        self.contact = None;
+        self.history.clear();
+        self.set_motion(Motion {
+            t0: self.t_s,
+            theta0: th,
+            v: 0.0,
+            ramp: 0.0,
+            starting: false,
+        });
+    }
+
+    /// The true eccentricity of the current part, µm.
+    pub fn true_e_um(&self) -> f64 {
+        self.part.e_um()
+    }
+
+    fn call(&mut self, d: DeviceId) -> Result<(), SimDeviceError> {
+        let i = d as usize;
+        self.calls[i] += 1;
+        if let Some((dev, n)) = self.faults.device_error {
+            if dev == d && self.calls[i] == n {
+                return Err(SimDeviceError {
+                    device: d,
+                    kind: DeviceErrorKind::Fault,
+                    message: format!("injected fault on call {n}"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn set_motion(&mut self, m: Motion) {
+        if self.history.len() >= 8 {
+            self.history.remove(0);
+        }
+        self.history.push(m);
+    }
+
+    fn motion_at(&self, t: f64) -> Motion {
+        self.history
+            .iter()
+            .rev()
+            .find(|m| m.t0 <= t)
+            .or(self.history.first())
+            .copied()
+            .unwrap_or(Motion {
+                t0: 0.0,
+                theta0: 0.0,
+                v: 0.0,
+                ramp: 0.0,
+                starting: false,
+            })
+    }
+
+    fn angle(&self, t: f64) -> f64 {
+        self.motion_at(t).angle(t)
+    }
+
+    fn frame(&mut self) -> CameraFrame {
+        let start = self.t_s;
+        let mid = start + 0.5 * self.exposure_s;
+        let theta = self.angle(mid);
+        let c_true = self.part.column_px(&self.plant, self.um_per_px, theta);
+        let dz = self.focus_um - self.part.best_focus_um;
+        let p = &self.plant;
+        let lost = self
+            .faults
+            .ring_lost_after_pushes
+            .is_some_and(|n| self.part_pushes >= n);
+        let (c, reason, focus) = if let Some(det) = self.detector.as_mut() {
+            if lost {
+                (None, "no ring".to_string(), 0.0)
+            } else {
+                det.detect(c_true, dz, &mut self.rng)
+            }
+        } else {
+            let w = dz / p.focus_depth_um;
+            let focus_measure = if self.faults.focus_dead {
+                0.3 * p.focus_peak
+            } else {
+                0.05 * p.focus_peak + p.focus_peak * (-0.5 * w * w).exp()
+            } * (1.0
+                + 0.01 * Normal::new(0.0, 1.0).unwrap().sample(&mut self.rng));
+            let sigma = p.noise_px * (1.0 + w * w).sqrt();
+            let noise = Normal::new(0.0, sigma).unwrap().sample(&mut self.rng);
+            if lost {
+                (None, "no ring".to_string(), focus_measure)
+            } else if w.abs() > 3.0 || self.faults.focus_dead {
+                (None, "out of focus".to_string(), focus_measure)
+            } else if !(0.0..p.window_width_px).contains(&c_true) {
+                (None, "ring outside the window".to_string(), focus_measure)
+            } else {
+                (Some(c_true + noise), String::new(), focus_measure)
+            }
+        };
+        self.t_s += 1.0 / self.fps;
+        CameraFrame {
+            start_s: start,
+            exposure_s: self.exposure_s,
+            c_px: c,
+            invalid_reason: reason,
+            focus_measure: focus,
+        }
+    }
+
+    fn apply_move(&mut self, dir_deg: f64, m_um: f64) {
+        let t = dir_deg.to_radians();
+        self.part.offset_um[0] -= m_um * t.cos();
+        self.part.offset_um[1] -= m_um * t.sin();
+    }
+}
+
+/// The shared handle every simulated device holds.
+pub type Shared = Rc<RefCell<Twin>>;
+
+/// The simulated servo.
+#[derive(Debug, Clone)]
+pub struct SimServo(pub Shared);
+/// The simulated camera (fast fidelity, or a [`FrameDetector`]).
+#[derive(Debug, Clone)]
+pub struct SimCamera(pub Shared);
+/// The simulated focus drive.
+#[derive(Debug, Clone)]
+pub struct SimFocus(pub Shared);
+/// The simulated push rod.
+#[derive(Debug, Clone)]
+pub struct SimRod(pub Shared);
+/// The simulated (discrete-event) clock.
+#[derive(Debug, Clone)]
+pub struct SimClock(pub Shared);
+
+impl Clock for SimClock {
+    type Error = SimDeviceError;
+    fn now_s(&mut self) -> Result<f64, SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Clock)?;
+        Ok(t.t_s)
+    }
+    fn wait_s(&mut self, dt_s: f64) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Clock)?;
+        t.t_s += dt_s.max(0.0);
+        Ok(())
+    }
+}
+
+impl Servo for SimServo {
+    type Error = SimDeviceError;
+    fn angle_deg(&mut self) -> Result<f64, SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Servo)?;
+        Ok(t.angle(t.t_s))
+    }
+    fn move_to_deg(&mut self, target_deg: f64) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Servo)?;
+        if !target_deg.is_finite() {
+            return Err(SimDeviceError {
+                device: DeviceId::Servo,
+                kind: DeviceErrorKind::Other,
+                message: format!("target {target_deg}° is not finite"),
+            });
+        }
+        t.t_s += t.plant.timing.align_s;
+        let now = t.t_s;
+        t.set_motion(Motion {
+            t0: now,
+            theta0: target_deg,
+            v: 0.0,
+            ramp: 0.0,
+            starting: false,
+        });
+        Ok(())
+    }
+    fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Servo)?;
+        let now = t.t_s;
+        let theta0 = t.angle(now);
+        let ramp = t.plant.timing.ramp_s;
+        t.set_motion(Motion {
+            t0: now,
+            theta0,
+            v: speed_deg_per_s,
+            ramp,
+            starting: true,
+        });
+        t.t_s += t.plant.timing.spin_up_s;
+        Ok(())
+    }
+    fn stop(&mut self) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Servo)?;
+        let now = t.t_s;
+        let (theta0, v) = (t.angle(now), t.motion_at(now).speed(now));
+        let ramp = t.plant.timing.ramp_s;
+        t.set_motion(Motion {
+            t0: now,
+            theta0,
+            v,
+            ramp,
+            starting: false,
+        });
+        t.t_s += t.plant.timing.stop_s;
+        Ok(())
+    }
+    fn angle_log(&mut self, since_s: f64) -> Result<Vec<AngleSample>, SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Servo)?;
+        let period = t.plant.log_period_s;
+        let phase = t.part.log_phase_s;
+        let k0 = ((since_s - phase) / period).ceil() as i64;
+        let k1 = ((t.t_s - phase) / period).floor() as i64;
+        let mut out = Vec::with_capacity((k1 - k0 + 1).max(0) as usize);
+        for k in k0..=k1 {
+            let ts = phase + k as f64 * period;
+            out.push(AngleSample {
+                t_s: ts,
+                theta_deg: t.angle(ts),
+            });
+        }
+        Ok(out)
+    }
+}
+
+impl Camera for SimCamera {
+    type Error = SimDeviceError;
+    fn capture(&mut self) -> Result<CameraFrame, SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Camera)?;
+        Ok(t.frame())
+    }
+}
+
+impl FocusDrive for SimFocus {
+    type Error = SimDeviceError;
+    fn position_um(&mut self) -> Result<f64, SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Focus)?;
+        Ok(t.focus_um)
+    }
+    fn move_to_um(&mut self, z_um: f64) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Focus)?;
+        t.focus_um = z_um;
+        t.t_s += t.plant.timing.focus_move_s;
+        Ok(())
+    }
+}
+
+impl PushRod for SimRod {
+    type Error = SimDeviceError;
+    fn approach(&mut self, speed: ApproachSpeed) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Rod)?;
+        let tm = t.plant.timing.clone();
+        t.t_s += tm.approach_fast_s
+            + if speed == ApproachSpeed::Slow {
+                tm.slow_extra_s
+            } else {
+                0.0
+            };
+        // The rod faces the shaft's current angle; the actual push direction is off by the
+        // station's offset plus a per-push scatter.
+        let now = t.t_s;
+        let facing = t.angle(now);
+        let p = t.plant.clone();
+        let station = t.station;
+        let rng = &mut t.rng;
+        let dir = facing
+            + station.offset_deg
+            + Normal::new(0.0, p.push_angle_sd_deg).unwrap().sample(rng);
+        let gain = Normal::new(station.gain, p.gain_sd).unwrap().sample(rng);
+        let sd = match speed {
+            ApproachSpeed::Fast => p.overshoot_fast_sd_um,
+            ApproachSpeed::Slow => p.overshoot_slow_sd_um,
+        };
+        let overshoot = Normal::new(0.0, sd).unwrap().sample(rng).abs();
+        t.apply_move(dir, overshoot);
+        t.contact = Some(Contact {
+            gain,
+            dir_deg: dir,
+            moved_um: overshoot,
+            pushes: 0,
+        });
+        Ok(())
+    }
+    fn push_um(&mut self, d_um: f64) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Rod)?;
+        let Some(mut c) = t.contact.clone() else {
+            return Err(SimDeviceError {
+                device: DeviceId::Rod,
+                kind: DeviceErrorKind::Other,
+                message: "push without contact".into(),
+            });
+        };
+        let tm = t.plant.timing.clone();
+        t.t_s += if c.pushes == 0 {
+            tm.push_s
+        } else {
+            tm.push_step_s
+        };
+        let p = t.plant.clone();
+        let mut m = c.gain * d_um.max(0.0);
+        if m < p.stiction_um {
+            m = 0.0;
+        } else if c.pushes == 0 {
+            let rng = &mut t.rng;
+            m += p.slip_max_um * rng.random::<f64>()
+                - Normal::new(0.0, p.contact_error_sd_um).unwrap().sample(rng);
+            m = m.max(0.0);
+        }
+        t.apply_move(c.dir_deg, m);
+        c.moved_um += m;
+        c.pushes += 1;
+        t.contact = Some(c);
+        Ok(())
+    }
+    fn retract(&mut self) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Rod)?;
+        t.t_s += t.plant.timing.retract_s;
+        if let Some(c) = t.contact.take() {
+            let sb = t.plant.spring_back_max * t.rng.random::<f64>();
+            t.apply_move(c.dir_deg, -sb * c.moved_um);
+            t.part_pushes += 1;
+        }
+        Ok(())
+    }
+}
