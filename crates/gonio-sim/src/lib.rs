@@ -14,7 +14,6 @@
 
 pub mod encoder;
 pub mod error;
-pub mod frames;
 pub mod selfcal;
 pub mod shift_angle;
 pub mod station;
