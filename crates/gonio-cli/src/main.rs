@@ -28,6 +28,10 @@ enum Command {
     Simulate(cmd::simulate::Simulate),
     /// Calibrate an encoder from polygon + autocollimator readings (shift-angle method).
     ShiftAngle(cmd::shift_angle::Args),
+    /// Self-calibrate an encoder from several read heads (EDA, SelfA, Fourier least squares).
+    Selfcal(cmd::selfcal::Args),
+    /// Compare two calibrations of one encoder at their common angles (differences, En).
+    Compare(cmd::compare::Args),
     /// Evaluate a GUM uncertainty budget (TOML).
     Budget(cmd::budget::Args),
     /// Run the built-in simulated lab end to end and report how close each method came.
@@ -41,6 +45,8 @@ fn main() {
     let result = match cli.command {
         Command::Simulate(s) => cmd::simulate::run(s),
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),
+        Command::Selfcal(a) => cmd::selfcal::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
         Command::Budget(a) => cmd::budget::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Eccentricity(a) => cmd::eccentricity::run(a),

@@ -401,7 +401,7 @@ pub fn eda_direct(set: &[usize], turn: &Turn) -> Vec<f64> {
 
 /// Two-sided 95 % Student-t quantile t_0.975(ν) (normal limit for ν > 1e7).
 fn t975(nu: f64) -> f64 {
-    if !(nu > 0.0) {
+    if nu.is_nan() || nu <= 0.0 {
         return f64::INFINITY;
     }
     if nu > 1e7 {

@@ -1,7 +1,10 @@
 //! One module per subcommand.
 
 pub mod budget;
+pub mod compare;
 pub mod demo;
 pub mod eccentricity;
+pub mod mount;
+pub mod selfcal;
 pub mod shift_angle;
 pub mod simulate;

@@ -1,6 +1,7 @@
 //! `gonio simulate …`: the digital twin's instruments, writing readings and ground truth.
 
 pub mod encoder;
+pub mod selfcal;
 pub mod shift_angle;
 
 use anyhow::Result;
@@ -12,6 +13,8 @@ pub enum Simulate {
     Encoder(encoder::Args),
     /// Polygon + autocollimator readings at shifted start angles.
     ShiftAngle(shift_angle::Args),
+    /// One encoder scale read by several heads over full turns (self-calibration readings).
+    Selfcal(selfcal::Args),
 }
 
 /// Runs `gonio simulate …`.
@@ -19,5 +22,6 @@ pub fn run(s: Simulate) -> Result<()> {
     match s {
         Simulate::Encoder(a) => encoder::run(a),
         Simulate::ShiftAngle(a) => shift_angle::run(a),
+        Simulate::Selfcal(a) => selfcal::run(a),
     }
 }

@@ -1,0 +1,396 @@
+//! `gonio selfcal`: self-calibration of an encoder from several read heads (EDA, SelfA, Fourier).
+
+use crate::io::{self, CsvTable};
+use anyhow::{Context, Result, anyhow, bail};
+use gonio_calib::selfcal::{
+    Heads, Method, NoiseModel, SelfcalError, SelfcalOptions, SelfcalResult, Turn, calibrate,
+};
+use serde::Deserialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `gonio selfcal`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Input (one rotation position a row, NS rows equally spaced over one turn, header required):
+  position_deg,head_2,…,head_M      head h minus head 1, arcsec (default)
+  position_deg,head_1,…,head_M      raw head readings, degrees (--raw)
+  an optional `turn` column (1, 2, …) holds repeated turns; u then comes from their spread.
+Heads: `selfa12` (seed 000's 12 heads: 3, 4 and 7 equal divisions), `eda:N` (N equally spaced),
+or a TOML/JSON file:  angles_deg = [0, 90, 180, 270]   (optional: sets = [[1, 3], [1, 2, 3, 4]])
+
+Examples:
+  gonio simulate selfcal --heads selfa12 --positions 36000 --seed 1 --out sc
+  gonio selfcal sc/readings.csv --heads selfa12 --json sc/result.json
+  gonio selfcal sc/readings.csv --heads selfa12 --method eda --reference 1,7
+  gonio selfcal raw.csv --raw --heads heads.toml --max-order 100")]
+pub struct Args {
+    /// Readings CSV (`-` for standard input).
+    pub readings: PathBuf,
+    /// Head arrangement: `selfa12`, `eda:N`, or a TOML/JSON heads file.
+    #[arg(long)]
+    pub heads: String,
+    /// Estimator: `fourier` (least squares, any heads) or `eda` (equal-division averaging;
+    /// the SelfA combination when the heads have several sets).
+    #[arg(long, default_value = "fourier")]
+    pub method: String,
+    /// The CSV holds raw head readings in degrees (`head_1..head_M`).
+    #[arg(long)]
+    pub raw: bool,
+    /// Noise model for the uncertainty: `readings` (independent noise per head reading, so
+    /// head 1's noise is common to every difference) or `differences`.
+    #[arg(long, default_value = "readings")]
+    pub noise_model: String,
+    /// Heads (1-based) whose averaged reading is calibrated, e.g. `1,7` as in SelfA.
+    #[arg(long, default_value = "1")]
+    pub reference: String,
+    /// Largest harmonic order in the harmonic table and the undetectable list.
+    #[arg(long, default_value_t = 360)]
+    pub max_order: u32,
+    /// Write the result as JSON here (`-` for standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HeadsFile {
+    angles_deg: Vec<f64>,
+    #[serde(default)]
+    offsets_arcsec: Option<Vec<f64>>,
+    #[serde(default)]
+    sets: Option<Vec<Vec<usize>>>,
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |s| s.chars().count()) + 1;
+    (line, col)
+}
+
+/// Loads a head arrangement (`selfa12`, `eda:N` or a TOML/JSON file) and the file's optional
+/// mounting offsets (arcsec, one per head; used by the simulator).
+pub fn load_heads(spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
+    if spec == "selfa12" || spec.starts_with("eda:") {
+        return Ok((
+            Heads::preset(spec).map_err(|e| anyhow!("--heads {spec}: {e}"))?,
+            None,
+        ));
+    }
+    let path = Path::new(spec);
+    if !path.exists() {
+        bail!("--heads {spec:?}: expected selfa12, eda:N or a heads file (no such file)");
+    }
+    let text = io::read_text(path)?;
+    let is_json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let f: HeadsFile = if is_json {
+        serde_json::from_str(&text)
+            .map_err(|e| anyhow!("{spec}:{}:{}: {e}", e.line(), e.column()))?
+    } else {
+        toml::from_str(&text).map_err(|e| {
+            let (l, c) = e.span().map_or((1, 1), |s| line_col(&text, s.start));
+            anyhow!("{spec}:{l}:{c}: {}", e.message())
+        })?
+    };
+    let mut heads = Heads::new(f.angles_deg).map_err(|e| anyhow!("{spec}: angles_deg: {e}"))?;
+    if let Some(sets) = f.sets {
+        let mut z = Vec::with_capacity(sets.len());
+        for s in sets {
+            if s.contains(&0) {
+                bail!("{spec}: sets: head numbers are 1-based, found 0");
+            }
+            z.push(s.into_iter().map(|h| h - 1).collect());
+        }
+        heads = heads
+            .with_sets(z)
+            .map_err(|e| anyhow!("{spec}: sets: {e}"))?;
+    }
+    if let Some(o) = &f.offsets_arcsec {
+        if o.len() != heads.len() {
+            bail!(
+                "{spec}: offsets_arcsec: expected {} values (one per head), found {}",
+                heads.len(),
+                o.len()
+            );
+        }
+    }
+    Ok((heads, f.offsets_arcsec))
+}
+
+/// Parses a list of 1-based head numbers (`1,7`) into 0-based indices.
+fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
+    s.split(',')
+        .map(|p| {
+            let h: usize = p
+                .trim()
+                .parse()
+                .ok()
+                .filter(|h| (1..=m).contains(h))
+                .with_context(|| {
+                    format!("--reference {s:?}: {p:?} is not a head number in 1..={m}")
+                })?;
+            Ok(h - 1)
+        })
+        .collect()
+}
+
+/// One turn's rows: positions, head columns, CSV lines.
+type TurnRows = (Vec<f64>, Vec<Vec<f64>>, Vec<u64>);
+
+/// Readings per turn with the CSV line of every row.
+pub struct ReadTurns {
+    /// Turns in order of their number.
+    pub turns: Vec<Turn>,
+    /// `lines[t][i]`: CSV line of row i of turn t.
+    pub lines: Vec<Vec<u64>>,
+}
+
+/// Reads a readings CSV for `heads` (differences, or raw readings with `raw`).
+pub fn read_readings(table: &CsvTable, heads: &Heads, raw: bool) -> Result<ReadTurns> {
+    let m = heads.len();
+    let first = if raw { 1 } else { 2 };
+    let want: Vec<String> = (first..=m).map(|h| format!("head_{h}")).collect();
+    let expected_header = format!(
+        "position_deg,{}{}",
+        if want.len() > 3 {
+            format!("{},…,{}", want[0], want[want.len() - 1])
+        } else {
+            want.join(",")
+        },
+        " (optional: turn)"
+    );
+    let pos_col = table.require("position_deg", &expected_header)?;
+    let turn_col = table.column("turn");
+    let found: Vec<&String> = table
+        .headers
+        .iter()
+        .filter(|h| h.starts_with("head_"))
+        .collect();
+    let missing: Vec<&String> = want.iter().filter(|w| table.column(w).is_none()).collect();
+    let extra: Vec<&&String> = found.iter().filter(|f| !want.contains(f)).collect();
+    if !missing.is_empty() || !extra.is_empty() {
+        bail!(
+            "{}:{}: {} head columns for {} heads{}: expected {}, found {}{}",
+            table.name,
+            table.header_line,
+            found.len(),
+            m,
+            if raw {
+                " (raw readings)"
+            } else {
+                " (differences to head 1)"
+            },
+            want.join(","),
+            found
+                .iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(","),
+            if !raw && table.column("head_1").is_some() {
+                " (head_1 present: use --raw for raw readings in degrees)"
+            } else {
+                ""
+            }
+        );
+    }
+    let cols: Vec<usize> = want.iter().map(|w| table.column(w).unwrap()).collect();
+    // Group rows by turn, in file order.
+    let mut order: Vec<i64> = Vec::new();
+    let mut groups: std::collections::HashMap<i64, TurnRows> = std::collections::HashMap::new();
+    for (line, f) in &table.rows {
+        let t = match turn_col {
+            Some(c) => {
+                let t = table.int_at(*line, f, c)?;
+                if t < 1 {
+                    return Err(table.error_at(*line, c, "expected a turn number ≥ 1"));
+                }
+                t
+            }
+            None => 1,
+        };
+        let g = groups.entry(t).or_insert_with(|| {
+            order.push(t);
+            (Vec::new(), vec![Vec::new(); cols.len()], Vec::new())
+        });
+        g.0.push(table.f64_at(*line, f, pos_col)?);
+        for (k, &c) in cols.iter().enumerate() {
+            g.1[k].push(table.f64_at(*line, f, c)?);
+        }
+        g.2.push(*line);
+    }
+    if order.is_empty() {
+        bail!(
+            "{}:{}: no readings: expected rows after the header",
+            table.name,
+            table.header_line
+        );
+    }
+    order.sort_unstable();
+    let mut turns = Vec::new();
+    let mut lines = Vec::new();
+    for t in order {
+        let (positions_deg, cols, l) = groups.remove(&t).expect("grouped");
+        let turn = if raw {
+            Turn::from_raw(heads, positions_deg, &cols)
+                .map_err(|e| anyhow!("{}: {e}", table.name))?
+        } else {
+            Turn {
+                positions_deg,
+                differences_arcsec: cols,
+            }
+        };
+        turns.push(turn);
+        lines.push(l);
+    }
+    Ok(ReadTurns { turns, lines })
+}
+
+/// Turns a library error into a one-line message with the file and line.
+pub fn locate(e: SelfcalError, table: &CsvTable, lines: &[Vec<u64>]) -> anyhow::Error {
+    let at = |turn: usize, index: usize| {
+        lines
+            .get(turn.wrapping_sub(1))
+            .and_then(|l| l.get(index))
+            .copied()
+            .unwrap_or(table.header_line)
+    };
+    match e {
+        SelfcalError::Spacing {
+            turn,
+            index,
+            found_deg,
+            expected_deg,
+        } => {
+            let ns = lines.get(turn - 1).map_or(0, |l| l.len());
+            anyhow!(
+                "{}:{}: column 'position_deg': found {found_deg}°, expected {expected_deg}° ({ns} rows in turn {turn}: positions must be equally spaced by 360°/{ns} = {}° over one full turn, in order)",
+                table.name,
+                at(turn, index),
+                360.0 / ns.max(1) as f64
+            )
+        }
+        SelfcalError::TooFewPositions {
+            turn,
+            expected,
+            found,
+        } => anyhow!(
+            "{}:{}: turn {turn}: expected at least {expected} rotation positions, found {found}",
+            table.name,
+            lines
+                .get(turn - 1)
+                .and_then(|l| l.last())
+                .copied()
+                .unwrap_or(table.header_line)
+        ),
+        SelfcalError::NotFinite {
+            turn, index, head, ..
+        } => anyhow!(
+            "{}:{}: head {head}: expected a finite number",
+            table.name,
+            at(turn, index)
+        ),
+        other => anyhow!("{}: {other}", table.name),
+    }
+}
+
+/// Runs `gonio selfcal`.
+pub fn run(args: Args) -> Result<()> {
+    let (heads, _) = load_heads(&args.heads)?;
+    let method = match args.method.as_str() {
+        "fourier" => Method::Fourier,
+        "eda" | "selfa" => Method::Eda,
+        s => bail!("--method {s:?}: expected fourier or eda"),
+    };
+    let noise_model = match args.noise_model.as_str() {
+        "readings" => NoiseModel::Readings,
+        "differences" => NoiseModel::Differences,
+        s => bail!("--noise-model {s:?}: expected readings or differences"),
+    };
+    let reference_heads = parse_reference(&args.reference, heads.len())?;
+    let table = CsvTable::read(&args.readings)?;
+    let rt = read_readings(&table, &heads, args.raw)?;
+    let opts = SelfcalOptions {
+        method,
+        noise_model,
+        reference_heads,
+        max_order: args.max_order,
+    };
+    let r = calibrate(&heads, &rt.turns, &opts).map_err(|e| locate(e, &table, &rt.lines))?;
+    if let Some(p) = &args.json {
+        io::write_json(p, &r)?;
+    }
+    if args.json.as_deref() != Some(Path::new("-")) {
+        print_summary(&r);
+    }
+    Ok(())
+}
+
+fn print_summary(r: &SelfcalResult) {
+    let mut out = String::new();
+    let e0 = &r.errors[0];
+    let (lo, hi) = r
+        .errors
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), e| {
+            (a.min(e.value_arcsec), b.max(e.value_arcsec))
+        });
+    let _ = writeln!(
+        out,
+        "{}: {} heads, {} positions × {} turn(s); reference head(s) {:?}",
+        r.method,
+        r.heads_deg.len(),
+        r.positions,
+        r.turns,
+        r.reference_heads
+    );
+    let _ = writeln!(
+        out,
+        "a(θ): {lo:+.4}″ … {hi:+.4}″; u = {:.4}″, U = {:.4}″ (k = {:.3}, ν = {:.0}, from {})",
+        e0.u_arcsec, e0.expanded_arcsec, e0.k, e0.nu_eff, r.uncertainty.source
+    );
+    let _ = writeln!(
+        out,
+        "residuals: rms {:.4}″, max {:.4}″, σ̂ {:.4}″ per {} ({:.0} dof)",
+        r.residuals.rms_arcsec,
+        r.residuals.max_abs_arcsec,
+        r.residuals.sigma_arcsec,
+        match r.noise_model {
+            NoiseModel::Readings => "reading",
+            NoiseModel::Differences => "difference",
+        },
+        r.residuals.dof
+    );
+    let und = &r.undetectable_orders;
+    let _ = writeln!(
+        out,
+        "undetectable harmonics up to order {}: {}",
+        r.max_order,
+        if und.is_empty() {
+            "none".to_string()
+        } else if und.len() > 12 {
+            format!("{:?}… ({} orders)", &und[..12], und.len())
+        } else {
+            format!("{und:?}")
+        }
+    );
+    let mut top: Vec<_> = r.harmonics.iter().filter(|h| h.detectable).collect();
+    top.sort_by(|a, b| b.amplitude_arcsec.total_cmp(&a.amplitude_arcsec));
+    let _ = writeln!(out, "largest harmonics (A·sin(kθ + φ)):");
+    for h in top.iter().take(6) {
+        let _ = writeln!(
+            out,
+            "  k = {:>4}: A = {:.4}″ ± {:.4}″, φ = {:+.4} rad",
+            h.order, h.amplitude_arcsec, h.u_coefficient_arcsec, h.phase_rad
+        );
+    }
+    emit(&out);
+}
+
+/// Writes the summary to standard output, ignoring a closed pipe (`gonio … | head`).
+fn emit(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+}
