@@ -14,6 +14,7 @@
 
 pub mod encoder;
 pub mod error;
+pub mod frames;
 pub mod selfcal;
 pub mod shift_angle;
 pub mod station;

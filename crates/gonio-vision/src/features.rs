@@ -64,9 +64,14 @@ pub struct FrameResult {
     pub valid: bool,
     /// Why not, when invalid.
     pub reason: Option<InvalidReason>,
-    /// Focus measure: mean |∂I/∂x| + |∂I/∂y| of the raw frame (central differences / 2),
-    /// grey levels per px.
+    /// Focus measure: the raw frame's mean gradient energy (∂I/∂x)² + (∂I/∂y)² (central
+    /// differences), grey²/px². The autofocus maximises it. (The mean gradient magnitude is
+    /// nearly blind to blur — ∫|∇I| across an edge is its contrast whatever the blur — while
+    /// ∫|∇I|² ∝ contrast²/σ.)
     pub focus: f64,
+    /// The raw frame's mean gradient magnitude |∂I/∂x| + |∂I/∂y| (central differences), grey
+    /// levels per px.
+    pub mean_gradient: f64,
     /// Pixels at 255.
     pub saturated_px: u64,
     /// The ring's edges (left first) when two were paired; else the longest candidates.
@@ -180,6 +185,8 @@ pub struct RawStats {
     pub saturated_px: u64,
     /// The focus measure (see [`FrameResult::focus`]).
     pub focus: f64,
+    /// Mean gradient magnitude (see [`FrameResult::mean_gradient`]).
+    pub mean_gradient: f64,
 }
 
 fn touches_side(c: &Component, p: &Params) -> bool {
@@ -241,6 +248,7 @@ pub fn baseline_features(
         valid: false,
         reason: None,
         focus: stats.focus,
+        mean_gradient: stats.mean_gradient,
         saturated_px: stats.saturated_px,
         edges: long.iter().take(2).map(|(_, l)| *l).collect(),
         components,

@@ -64,8 +64,9 @@ pub struct Optics {
     pub min_edge_fraction: f64,
     /// A frame with more than this fraction of pixels at 255 is saturated (0.01).
     pub max_saturated_fraction: f64,
-    /// Below this focus measure (mean raw gradient, grey levels per px) a frame whose ring is not
-    /// found is reported out of focus rather than ring-less (2.0).
+    /// Below this focus measure (mean raw gradient energy, grey²/px², see
+    /// `FrameResult::focus`) a frame whose ring is not found is reported out of focus rather than
+    /// ring-less (15; sensor noise alone gives ≈ σ²: 8 for 2.9 grey levels RMS).
     pub min_focus: f64,
 }
 
@@ -88,7 +89,7 @@ impl Default for Optics {
             direction_tolerance_deg: None,
             min_edge_fraction: 0.5,
             max_saturated_fraction: 0.01,
-            min_focus: 2.0,
+            min_focus: 15.0,
         }
     }
 }
@@ -163,11 +164,17 @@ impl Optics {
                 "a finite number ≥ 0",
             ));
         }
-        if self.window_width_px < 16 || self.window_width_px > self.sensor_width_px {
+        if self.window_width_px < 16
+            || self.window_width_px > self.sensor_width_px
+            || self.window_width_px > 32768
+        {
             return Err(bad(
                 "window_width_px",
                 self.window_width_px,
-                &format!("16 … sensor_width_px ({})", self.sensor_width_px),
+                &format!(
+                    "16 … sensor_width_px ({}), at most 32768",
+                    self.sensor_width_px
+                ),
             ));
         }
         if self.window_height_px < 16 || self.window_height_px > self.sensor_height_px {

@@ -101,6 +101,7 @@ pub struct Detector {
     rows: usize,
     saturated: u64,
     focus_sum: u64,
+    grad_sum: u64,
     dump: Option<Box<StageImages>>,
 }
 
@@ -140,6 +141,7 @@ impl Detector {
             rows: 0,
             saturated: 0,
             focus_sum: 0,
+            grad_sum: 0,
             dump: None,
             p,
         }
@@ -188,6 +190,7 @@ impl Detector {
         self.rows = 0;
         self.saturated = 0;
         self.focus_sum = 0;
+        self.grad_sum = 0;
         if let Some(d) = self.dump.as_deref_mut() {
             *d = StageImages {
                 width: self.p.width,
@@ -228,11 +231,15 @@ impl Detector {
                 &self.raw_prev[(self.rows + 1) % 2],
             );
             // a = row y − 2, b = row y − 1.
-            let mut s = 0u64;
+            let (mut s1, mut s2) = (0u32, 0u32);
             for x in 1..w - 1 {
-                s += (b[x + 1].abs_diff(b[x - 1]) as u64) + (row[x].abs_diff(a[x]) as u64);
+                let dx = b[x + 1].abs_diff(b[x - 1]) as u32;
+                let dy = row[x].abs_diff(a[x]) as u32;
+                s1 += dx + dy;
+                s2 += dx * dx + dy * dy;
             }
-            self.focus_sum += s;
+            self.grad_sum += s1 as u64;
+            self.focus_sum += s2 as u64;
         }
         self.raw_prev[self.rows % 2].copy_from_slice(row);
         if self.p.invert {
@@ -271,7 +278,8 @@ impl Detector {
         let interior = ((w - 2) * (h - 2)) as f64;
         let stats = RawStats {
             saturated_px: self.saturated,
-            focus: self.focus_sum as f64 / interior / 2.0,
+            focus: self.focus_sum as f64 / interior / 4.0,
+            mean_gradient: self.grad_sum as f64 / interior / 2.0,
         };
         if let Some(d) = self.dump.as_deref_mut() {
             d.components = self.label.all().to_vec();

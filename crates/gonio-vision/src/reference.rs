@@ -332,16 +332,20 @@ pub fn run(frame: &Image<u8>, p: &Params) -> ReferenceRun {
     // Raw statistics.
     let (w, h) = (frame.width, frame.height);
     let saturated_px = frame.data.iter().filter(|&&v| v == 255).count() as u64;
-    let mut fs = 0u64;
+    let (mut g1, mut g2) = (0u64, 0u64);
     for y in 1..h - 1 {
         for x in 1..w - 1 {
-            fs += frame.get(x + 1, y).abs_diff(frame.get(x - 1, y)) as u64
-                + frame.get(x, y + 1).abs_diff(frame.get(x, y - 1)) as u64;
+            let dx = frame.get(x + 1, y).abs_diff(frame.get(x - 1, y)) as u64;
+            let dy = frame.get(x, y + 1).abs_diff(frame.get(x, y - 1)) as u64;
+            g1 += dx + dy;
+            g2 += dx * dx + dy * dy;
         }
     }
+    let n = ((w - 2) * (h - 2)) as f64;
     let stats = RawStats {
         saturated_px,
-        focus: fs as f64 / ((w - 2) * (h - 2)) as f64 / 2.0,
+        focus: g2 as f64 / n / 4.0,
+        mean_gradient: g1 as f64 / n / 2.0,
     };
     let mut best: Vec<Component> = components
         .iter()
