@@ -38,6 +38,8 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Eccentricity of a grating from one turn's (θ, c) samples.
     Eccentricity(cmd::eccentricity::Args),
+    /// Mount gratings on the automatic mounting station (simulated: --sim).
+    Mount(cmd::mount::Args),
 }
 
 fn main() {
@@ -50,6 +52,7 @@ fn main() {
         Command::Budget(a) => cmd::budget::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Eccentricity(a) => cmd::eccentricity::run(a),
+        Command::Mount(a) => cmd::mount::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ".
