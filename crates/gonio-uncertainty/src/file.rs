@@ -645,7 +645,7 @@ from = "inner"
         }
         let nus: Vec<f64> = c.iter().map(|c| c.nu).collect();
         assert_eq!(nus[..3], [5.0, 2.0, 5.0]);
-        assert!((nus[3] - 50.0).abs() < 1e-9 && nus[4].is_infinite());
+        assert!(nus[3] == 50.0 && nus[4].is_infinite());
         assert_eq!(c[6].sensitivity, -2.0);
         let r = set.evaluate(None, None).unwrap();
         assert_eq!(r.name, "outer");

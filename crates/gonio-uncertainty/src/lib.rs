@@ -31,8 +31,8 @@ pub mod montecarlo;
 pub mod student;
 
 pub use budget::{
-    Budget, BudgetResult, BudgetSet, Combined, Contribution, Correlation, Row, Source, Term,
-    combine, en,
+    Budget, BudgetResult, BudgetSet, Combined, Contribution, Correlation, LinearModel, Row, Source,
+    Term, combine, en,
 };
 pub use file::{BudgetFileError, parse_budget_file};
 pub use montecarlo::{

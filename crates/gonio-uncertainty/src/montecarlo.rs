@@ -484,6 +484,8 @@ where
     let mut scratch: Vec<f64> = Vec::with_capacity(batch);
     // Per-batch statistics for the adaptive stop: mean, u, symmetric and shortest end points.
     let mut stats: Vec<[f64; 6]> = Vec::new();
+    // (count, mean, sum of squared deviations) of all values so far.
+    let mut run = (0.0f64, 0.0f64, 0.0f64);
     let mut converged = fixed_total.is_some();
     let mut batches = 0usize;
     loop {
@@ -519,9 +521,16 @@ where
         sort(&mut scratch);
         let (sym, short) = intervals(&scratch, p);
         stats.push([m, s, sym.low, sym.high, short.low, short.high]);
+        // Running mean and sum of squared deviations of all values (Chan et al.'s update).
+        let nb = todo as f64;
+        let n_all = run.0 + nb;
+        let delta_mean = m - run.1;
+        run.2 += s * s * (nb - 1.0) + delta_mean * delta_mean * run.0 * nb / n_all;
+        run.1 += delta_mean * nb / n_all;
+        run.0 = n_all;
         let h = stats.len();
         if h >= 2 {
-            let (_, u_all) = mean_sd(&values);
+            let u_all = (run.2 / (run.0 - 1.0)).sqrt();
             let delta = numerical_tolerance(u_all, cfg.ndig);
             let stable = (0..6).all(|c| {
                 let col: Vec<f64> = stats.iter().map(|st| st[c]).collect();

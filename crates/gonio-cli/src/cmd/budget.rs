@@ -1,16 +1,454 @@
-//! `gonio budget`: evaluate a GUM uncertainty budget file.
+//! `gonio budget`: evaluate a GUM uncertainty budget file (TOML), optionally with Monte Carlo.
 
-use anyhow::{Result, bail};
+use crate::io;
+use anyhow::{Result, anyhow, bail};
+use gonio_uncertainty::montecarlo::{McConfig, McResult, McTrials, Validation, validate};
+use gonio_uncertainty::{BudgetResult, BudgetSet, Source, parse_budget_file};
+use serde::Serialize;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 /// Arguments of `gonio budget`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = "\
+The budget file format, with examples, is in docs/budget-format.md.
+
+Examples:
+  gonio budget examples/budgets/seed-table3.toml
+  gonio budget examples/budgets/jcgm100-h1.toml --coverage 0.99 --json h1.json
+  gonio budget examples/budgets/seed-table3.toml --monte-carlo --seed 7
+  gonio budget examples/budgets/seed-table3.toml --budget 'measured value' --format markdown")]
 pub struct Args {
-    /// Budget file (TOML).
+    /// Budget file (TOML; `-` for standard input).
     pub budget: PathBuf,
+    /// Coverage probability p, 0 < p < 1 (default: the file's `coverage`, else 0.95).
+    #[arg(long)]
+    pub coverage: Option<f64>,
+    /// Budget to report (default: the last one in the file).
+    #[arg(long = "budget", value_name = "NAME")]
+    pub name: Option<String>,
+    /// Also propagate the distributions by Monte Carlo (JCGM 101) and validate the GUM result.
+    #[arg(long)]
+    pub monte_carlo: bool,
+    /// Monte Carlo seed (same seed, same result).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Monte Carlo trials (default: adaptive, JCGM 101 §7.9, up to 10⁷).
+    #[arg(long)]
+    pub trials: Option<usize>,
+    /// Significant digits of u regarded as meaningful (Monte Carlo tolerance and validation).
+    #[arg(long, default_value_t = 2)]
+    pub ndig: u32,
+    /// Table format on standard output: text, markdown or csv.
+    #[arg(long, default_value = "text")]
+    pub format: String,
+    /// Write the result as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+}
+
+/// The Monte Carlo part of the JSON output.
+#[derive(Debug, Serialize)]
+struct McJson {
+    #[serde(flatten)]
+    result: McResult,
+    validation: Validation,
+    /// `GUM` when validated, else `Monte Carlo`.
+    reported: &'static str,
+}
+
+/// The JSON output: the reported budget's fields at the top level, then every budget evaluated.
+#[derive(Debug, Serialize)]
+struct Output<'a> {
+    file: String,
+    budget: &'a str,
+    #[serde(flatten)]
+    result: &'a BudgetResult,
+    budgets: &'a [BudgetResult],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo: Option<McJson>,
 }
 
 /// Runs `gonio budget`.
-pub fn run(_args: Args) -> Result<()> {
-    bail!("gonio budget is not implemented yet")
+pub fn run(args: Args) -> Result<()> {
+    let file = args.budget.display().to_string();
+    let format = args.format.to_ascii_lowercase();
+    if !matches!(format.as_str(), "text" | "markdown" | "md" | "csv") {
+        bail!(
+            "--format: expected text, markdown or csv, found '{}'",
+            args.format
+        );
+    }
+    if let Some(p) = args.coverage
+        && !(p > 0.0 && p < 1.0)
+    {
+        bail!("--coverage: expected a probability strictly between 0 and 1 (e.g. 0.95), found {p}");
+    }
+    let text = io::read_text(&args.budget)?;
+    let set = parse_budget_file(&text).map_err(|e| anyhow!("{file}:{e}"))?;
+    let selected = set
+        .select(args.name.as_deref())
+        .map_err(|_| {
+            let names: Vec<&str> = set.budgets.iter().map(|b| b.name.as_str()).collect();
+            anyhow!(
+                "--budget: no budget named '{}' in {file}; the file has: {}",
+                args.name.as_deref().unwrap_or(""),
+                names.join(", ")
+            )
+        })?
+        .name
+        .clone();
+    let all = set
+        .evaluate_all(args.coverage)
+        .map_err(|e| anyhow!("{file}: {e}"))?;
+    let shown = dependencies(&set, &selected);
+    let result = all
+        .iter()
+        .find(|r| r.name == selected)
+        .ok_or_else(|| anyhow!("{file}: budget '{selected}' was not evaluated"))?;
+
+    let mc = if args.monte_carlo {
+        let cfg = McConfig {
+            coverage: result.coverage,
+            seed: args.seed,
+            ndig: args.ndig,
+            trials: match args.trials {
+                Some(n) => McTrials::Fixed(n),
+                None => McTrials::Adaptive {
+                    max_trials: 10_000_000,
+                },
+            },
+        };
+        let model = set
+            .linear_model(Some(&selected))
+            .map_err(|e| anyhow!("{file}: {e}"))?;
+        let r = model
+            .monte_carlo(&cfg)
+            .map_err(|e| anyhow!("{file}: {e}"))?;
+        let v = validate(result.value, result.u_c, result.expanded, &r, args.ndig);
+        Some(McJson {
+            result: r,
+            validation: v,
+            reported: if v.passed { "GUM" } else { "Monte Carlo" },
+        })
+    } else {
+        None
+    };
+
+    let mut out = String::new();
+    for r in all.iter().filter(|r| shown.contains(&r.name)) {
+        match format.as_str() {
+            "csv" => csv_table(&mut out, r),
+            "markdown" | "md" => markdown_table(&mut out, r),
+            _ => text_table(&mut out, r),
+        }
+    }
+    if let Some(m) = &mc {
+        mc_summary(&mut out, m, result, format.as_str());
+    }
+    io::write_atomic(std::path::Path::new("-"), out.as_bytes())?;
+
+    if let Some(path) = &args.json {
+        io::write_json(
+            path,
+            &Output {
+                file: file.clone(),
+                budget: &selected,
+                result,
+                budgets: &all,
+                monte_carlo: mc,
+            },
+        )?;
+    }
+    Ok(())
+}
+
+/// The selected budget and every budget it refers to (transitively), by name.
+fn dependencies(set: &BudgetSet, name: &str) -> Vec<String> {
+    let mut out = vec![name.to_string()];
+    let mut i = 0;
+    while i < out.len() {
+        if let Some(b) = set.budgets.iter().find(|b| b.name == out[i]) {
+            for c in &b.contributions {
+                if let Source::Budget { name } = &c.source
+                    && !out.contains(name)
+                {
+                    out.push(name.clone());
+                }
+            }
+        }
+        i += 1;
+    }
+    out
+}
+
+/// A number with `sig` significant digits (plain notation for 1e-5 ≤ |x| < 1e6).
+fn sig(x: f64, digits: usize) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-5..6).contains(&mag) {
+        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = digits - 1)
+    }
+}
+
+fn dof(nu: f64) -> String {
+    if nu.is_infinite() {
+        "inf".into()
+    } else if nu.fract() == 0.0 {
+        format!("{nu:.0}")
+    } else {
+        format!("{nu:.2}")
+    }
+}
+
+fn unit(r: &BudgetResult) -> String {
+    r.unit.as_deref().map_or(String::new(), |u| format!(" {u}"))
+}
+
+fn summary_line(r: &BudgetResult) -> String {
+    format!(
+        "u_c = {}{u}   nu_eff = {} (raw {:.2})   k = {:.3}   U = {}{u}   (p = {} %)",
+        sig(r.u_c, 4),
+        dof(r.nu_eff),
+        r.nu_eff_raw,
+        r.k,
+        sig(r.expanded, 4),
+        r.coverage * 100.0,
+        u = unit(r),
+    )
+}
+
+fn text_table(out: &mut String, r: &BudgetResult) {
+    let w = r
+        .contributions
+        .iter()
+        .map(|c| c.name.chars().count())
+        .max()
+        .unwrap_or(12)
+        .max(12);
+    let _ = writeln!(out, "Budget \"{}\"{}", r.name, unit(r).replace(' ', " in "));
+    let _ = writeln!(
+        out,
+        "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>7}",
+        "contribution", "u", "c", "|c·u|", "ν", "share"
+    );
+    for c in &r.contributions {
+        let _ = writeln!(
+            out,
+            "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>6.1}%",
+            c.name,
+            sig(c.u, 4),
+            sig(c.c, 4),
+            sig(c.cu, 4),
+            dof(c.nu),
+            c.share * 100.0
+        );
+    }
+    for (a, b, rho) in &r.correlations {
+        let _ = writeln!(out, "  correlation r({a}, {b}) = {rho}");
+    }
+    let _ = writeln!(out, "  {}\n", summary_line(r));
+}
+
+fn markdown_table(out: &mut String, r: &BudgetResult) {
+    let _ = writeln!(out, "### {}{}\n", r.name, unit(r).replace(' ', " in "));
+    let _ = writeln!(out, "| contribution | u | c | \\|c·u\\| | ν | share |");
+    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|");
+    for c in &r.contributions {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {:.1} % |",
+            c.name.replace('|', "\\|"),
+            sig(c.u, 4),
+            sig(c.c, 4),
+            sig(c.cu, 4),
+            dof(c.nu),
+            c.share * 100.0
+        );
+    }
+    let _ = writeln!(out, "\n{}\n", summary_line(r));
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn csv_table(out: &mut String, r: &BudgetResult) {
+    if out.is_empty() {
+        out.push_str("budget,name,u,c,cu,nu,share\n");
+    }
+    for c in &r.contributions {
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{}",
+            csv_field(&r.name),
+            csv_field(&c.name),
+            c.u,
+            c.c,
+            c.cu,
+            dof(c.nu),
+            c.share
+        );
+    }
+    let _ = writeln!(
+        out,
+        "# {}: u_c={} nu_eff={} nu_eff_raw={} coverage={} k={} U={}",
+        r.name,
+        r.u_c,
+        dof(r.nu_eff),
+        r.nu_eff_raw,
+        r.coverage,
+        r.k,
+        r.expanded
+    );
+}
+
+fn mc_summary(out: &mut String, m: &McJson, gum: &BudgetResult, format: &str) {
+    let r = &m.result;
+    let v = &m.validation;
+    let p = if format == "csv" { "# " } else { "" };
+    let u = unit(gum);
+    let _ = writeln!(
+        out,
+        "{p}Monte Carlo (JCGM 101): {} trials in {} batches ({}), seed {}, tolerance δ = {}{u}",
+        r.trials,
+        r.batches,
+        if r.batches > 1 || r.converged {
+            if r.converged {
+                "adaptive, converged"
+            } else {
+                "adaptive, NOT converged at the trial limit"
+            }
+        } else {
+            "fixed"
+        },
+        r.seed,
+        sig(r.tolerance, 1),
+    );
+    let _ = writeln!(
+        out,
+        "{p}  y = {}{u}   u(y) = {}{u}   {} % interval: symmetric [{}, {}]   shortest [{}, {}]",
+        sig(r.estimate, 4),
+        sig(r.std_uncertainty, 4),
+        r.coverage * 100.0,
+        sig(r.symmetric.low, 4),
+        sig(r.symmetric.high, 4),
+        sig(r.shortest.low, 4),
+        sig(r.shortest.high, 4),
+    );
+    let _ = writeln!(
+        out,
+        "{p}  GUM [{}, {}]: d_low = {}, d_high = {} {} δ = {} → {}; reported: {}",
+        sig(v.gum.low, 4),
+        sig(v.gum.high, 4),
+        sig(v.d_low, 2),
+        sig(v.d_high, 2),
+        if v.passed { "≤" } else { "vs" },
+        sig(v.tolerance, 1),
+        if v.passed {
+            "GUM validated"
+        } else {
+            "GUM not validated"
+        },
+        m.reported
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn example(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples/budgets")
+            .join(name)
+    }
+
+    fn args(budget: PathBuf, json: Option<PathBuf>) -> Args {
+        Args {
+            budget,
+            coverage: None,
+            name: None,
+            monte_carlo: false,
+            seed: 1,
+            trials: None,
+            ndig: 2,
+            format: "text".into(),
+            json,
+        }
+    }
+
+    #[test]
+    fn seed_table3_json_has_the_contract_fields() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("t3.json");
+        run(args(example("seed-table3.toml"), Some(out.clone()))).unwrap();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        // Seed Table 3: u_c 0.069″, ν_eff 13, k 2.16, U 0.15″.
+        assert!((v["u_c"].as_f64().unwrap() - 0.069).abs() < 5e-4);
+        assert_eq!(v["nu_eff"], 13);
+        assert!((v["nu_eff_raw"].as_f64().unwrap() - 13.13).abs() < 5e-3);
+        assert_eq!(v["coverage"], 0.95);
+        assert!((v["k"].as_f64().unwrap() - 2.160).abs() < 5e-4);
+        assert!((v["U"].as_f64().unwrap() - 0.15).abs() < 5e-3);
+        let rows = v["contributions"].as_array().unwrap();
+        assert_eq!(rows.len(), 3);
+        for key in ["name", "u", "c", "cu", "nu", "share"] {
+            assert!(rows[0].get(key).is_some(), "missing {key}");
+        }
+        assert_eq!(rows[0]["nu"], 12);
+    }
+
+    #[test]
+    fn monte_carlo_json_and_infinite_dof() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("h1.json");
+        let mut a = args(example("jcgm100-h1.toml"), Some(out.clone()));
+        a.monte_carlo = true;
+        a.name = Some("theta".into());
+        run(a).unwrap();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        assert_eq!(v["nu_eff"], "inf");
+        assert_eq!(v["nu_eff_raw"], "inf");
+        let mc = &v["monte_carlo"];
+        assert!(mc["trials"].as_u64().unwrap() >= 20_000);
+        assert!(mc["validation"]["passed"].is_boolean());
+    }
+
+    #[test]
+    fn bad_files_name_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.toml");
+        std::fs::write(
+            &p,
+            "[[budget]]\nname = \"b\"\n[[budget.contribution]]\nname = \"r\"\nu = 1\ndof = -2\n",
+        )
+        .unwrap();
+        let e = crate::io::one_line(&run(args(p.clone(), None)).unwrap_err());
+        assert_eq!(
+            e,
+            format!(
+                "{}:6:7: contribution 'r': degrees of freedom must be > 0 (or \"inf\"), found -2",
+                p.display()
+            )
+        );
+        let mut a = args(example("seed-selfcal.toml"), None);
+        a.coverage = Some(0.0);
+        assert!(run(a).unwrap_err().to_string().starts_with("--coverage"));
+    }
 }
