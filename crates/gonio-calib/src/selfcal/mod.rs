@@ -542,11 +542,23 @@ fn bin_table(
             nh * nh / (nh - 1.0)
         })
         .collect();
+    // e^{ikφ_h} by recurrence (one complex product per head and order), re-anchored exactly
+    // every 64 orders so the rounding error stays below 1e-14.
+    let step: Vec<C64> = phi.iter().map(|&p| w_of(1.0, p) + 1.0).collect();
+    let mut cur: Vec<C64> = vec![C64::new(1.0, 0.0); m1];
     for k in 1..nbins {
         let kf = k as f64;
         let row_w = &mut w[k * m1..(k + 1) * m1];
-        for (wc, &p) in row_w.iter_mut().zip(phi) {
-            *wc = w_of(kf, p);
+        if k % 64 == 0 {
+            for ((wc, c), &p) in row_w.iter_mut().zip(cur.iter_mut()).zip(phi) {
+                *wc = w_of(kf, p);
+                *c = *wc + 1.0;
+            }
+        } else {
+            for ((wc, c), z) in row_w.iter_mut().zip(cur.iter_mut()).zip(&step) {
+                *c *= z;
+                *wc = *c - 1.0;
+            }
         }
         if Some(k) == nyquist && !(method == Method::Eda && sets.len() == 1) {
             // Not estimated (v = 0): the sign of the order is ambiguous at NS/2. Plain EDA keeps
