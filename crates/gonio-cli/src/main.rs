@@ -5,6 +5,7 @@
 
 mod cmd;
 mod io;
+mod uncertainty;
 
 use clap::{Parser, Subcommand};
 
@@ -40,6 +41,8 @@ enum Command {
     Eccentricity(cmd::eccentricity::Args),
     /// Mount gratings on the automatic mounting station (simulated: --sim).
     Mount(cmd::mount::Args),
+    /// Find the alignment ring's column c in camera frames (PNG/TIFF files or raw stdin).
+    Detect(cmd::detect::Args),
 }
 
 fn main() {
@@ -53,6 +56,7 @@ fn main() {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Eccentricity(a) => cmd::eccentricity::run(a),
         Command::Mount(a) => cmd::mount::run(a),
+        Command::Detect(a) => cmd::detect::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ".

@@ -143,3 +143,47 @@ fn help_has_an_example() {
         assert!(String::from_utf8_lossy(&o.stdout).contains("Example"), "{cmd:?}");
     }
 }
+
+#[test]
+fn instrument_terms_widen_every_u_and_give_k_and_nu_eff() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("lab");
+    let o = gonio(&["simulate", "shift-angle", "--seed", "2", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success());
+    let inst = d.path().join("inst.toml");
+    // u = 0.03/√3 and 0.01/2: two terms with ν = ∞.
+    std::fs::write(
+        &inst,
+        "[autocollimator_linearity]\ndistribution = \"rectangular\"\nhalf_width = 0.03\n\
+         [autocollimator_certificate]\ndistribution = \"normal\"\nexpanded = 0.01\nk = 2\n",
+    )
+    .unwrap();
+    let json = d.path().join("cal.json");
+    let o = gonio(&[
+        "shift-angle",
+        out.join("readings.csv").to_str().unwrap(),
+        "--sigma",
+        "0.05",
+        "--instrument",
+        inst.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cal: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let extra = (0.03f64 / 3f64.sqrt()).powi(2) + 0.005f64.powi(2);
+    for a in cal["encoder_errors"].as_array().unwrap() {
+        let ur = a["u_random_arcsec"].as_f64().unwrap();
+        let uc = a["u_arcsec"].as_f64().unwrap();
+        assert!((uc - (ur * ur + extra).sqrt()).abs() < 1e-12);
+        // σ stated and instrument terms exact: ν_eff = ∞, k = z(0.975).
+        assert_eq!(a["nu_eff"], "inf");
+        assert!((a["k"].as_f64().unwrap() - 1.959963984540054).abs() < 1e-9);
+        assert!((a["U_arcsec"].as_f64().unwrap() - 1.959963984540054 * uc).abs() < 1e-9);
+    }
+    // A malformed instrument file names its line.
+    std::fs::write(&inst, "[encoder_resolution]\ndistribution = \"triangle\"\n").unwrap();
+    let o = gonio(&["shift-angle", out.join("readings.csv").to_str().unwrap(), "--instrument", inst.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("inst.toml:2"), "{}", stderr(&o));
+}

@@ -6,7 +6,8 @@ use gonio_calib::shift_angle::{
     Calibration, HarmonicCheck, Method, Options, Reading, ReadingSet, ShiftAngleError, calibrate,
     harmonic_check,
 };
-use serde::{Deserialize, Serialize};
+use crate::uncertainty::{DofJson, Instrument, UncertaintySummary, dof_value};
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// The readings file's header.
@@ -41,6 +42,14 @@ pub struct Args {
     /// Write the result as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Instrument terms (TOML: autocollimator resolution, certificate, linearity, encoder
+    /// resolution, setup residual …) combined with the estimator's random part into the expanded
+    /// uncertainty U of every angle. See examples/instrument-shift-angle.toml.
+    #[arg(long)]
+    pub instrument: Option<PathBuf>,
+    /// Coverage probability of U (default: the instrument file's, else 0.95).
+    #[arg(long)]
+    pub coverage: Option<f64>,
     /// Write the compensation table `angle_deg,correction_arcsec` (correction = −α, to add to
     /// the encoder's reading).
     #[arg(long)]
@@ -48,7 +57,7 @@ pub struct Args {
 }
 
 /// A pitch deviation in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct PitchJson {
     /// Face (1-based).
     pub face: usize,
@@ -59,7 +68,7 @@ pub struct PitchJson {
 }
 
 /// A setup error in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct SetupJson {
     /// Shift, degrees.
     pub shift_deg: f64,
@@ -72,14 +81,23 @@ pub struct SetupJson {
 }
 
 /// An encoder error in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct AlphaJson {
     /// Table angle, degrees in [0, 360).
     pub angle_deg: f64,
     /// α, arcsec.
     pub value_arcsec: f64,
-    /// Standard uncertainty (random part), arcsec.
+    /// Combined standard uncertainty u_c, arcsec (the random part and any instrument terms).
     pub u_arcsec: f64,
+    /// The estimator's random part of u, arcsec.
+    pub u_random_arcsec: f64,
+    /// Expanded uncertainty U = k·u_c, arcsec (null when σ is unknown).
+    #[serde(rename = "U_arcsec")]
+    pub expanded_arcsec: Option<f64>,
+    /// Coverage factor.
+    pub k: Option<f64>,
+    /// Welch–Satterthwaite effective degrees of freedom (truncated), or "inf".
+    pub nu_eff: Option<DofJson>,
     /// Shift the angle was measured at, degrees.
     pub shift_deg: f64,
     /// Step (1-based).
@@ -87,7 +105,7 @@ pub struct AlphaJson {
 }
 
 /// The χ² check in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct Chi2Json {
     /// Stated σ, arcsec.
     pub sigma_arcsec: f64,
@@ -100,7 +118,7 @@ pub struct Chi2Json {
 }
 
 /// Residual statistics in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct ResidualsJson {
     /// RMS residual, arcsec.
     pub rms_arcsec: f64,
@@ -117,7 +135,7 @@ pub struct ResidualsJson {
 }
 
 /// The harmonic check of one shift in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct CheckShiftJson {
     /// Shift, degrees.
     pub shift_deg: f64,
@@ -132,7 +150,7 @@ pub struct CheckShiftJson {
 }
 
 /// The harmonic check in the JSON result.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct CheckJson {
     /// Harmonic order.
     pub order: u32,
@@ -149,7 +167,7 @@ pub struct CheckJson {
 }
 
 /// The result file of `gonio shift-angle`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct ShiftAngleReport {
     /// `least-squares` or `paper`.
     pub method: String,
@@ -173,6 +191,8 @@ pub struct ShiftAngleReport {
     pub residuals: ResidualsJson,
     /// Harmonic orders no polygon run can see (multiples of N).
     pub undetectable_harmonics: Vec<u32>,
+    /// How the expanded uncertainties were formed.
+    pub uncertainty: UncertaintySummary,
     /// Seed 000 §3.1 check, when it could be computed.
     pub harmonic_check: Option<CheckJson>,
     /// Identical duplicate readings kept once.
@@ -185,13 +205,33 @@ fn finite(v: f64) -> Option<f64> {
 
 impl ShiftAngleReport {
     /// Builds the report of a calibration.
+    ///
+    /// # Errors
+    /// An instrument term that cannot be combined (invalid u or ν).
     pub fn new(
         cal: &Calibration,
         set: &ReadingSet,
         check: Option<&HarmonicCheck>,
         sigma_stated: bool,
-    ) -> Self {
-        ShiftAngleReport {
+        instrument: &Instrument,
+    ) -> Result<Self> {
+        let random_dof = random_dof(cal, sigma_stated);
+        let mut encoder_errors = Vec::with_capacity(set.len());
+        for m in cal.merged() {
+            let c = instrument.combine(m.u_arcsec, random_dof)?;
+            encoder_errors.push(AlphaJson {
+                angle_deg: m.angle_deg,
+                value_arcsec: m.value_arcsec,
+                u_arcsec: c.as_ref().map_or(m.u_arcsec, |c| c.u_c),
+                u_random_arcsec: m.u_arcsec,
+                expanded_arcsec: c.as_ref().map(|c| c.expanded),
+                k: c.as_ref().map(|c| c.k),
+                nu_eff: c.as_ref().map(|c| dof_value(c.nu_eff)),
+                shift_deg: m.shift_deg,
+                step: m.step,
+            });
+        }
+        Ok(ShiftAngleReport {
             method: cal.method.name().to_string(),
             faces: cal.faces,
             readings: set.len(),
@@ -219,17 +259,7 @@ impl ShiftAngleReport {
                     u_arcsec: u.u_arcsec,
                 })
                 .collect(),
-            encoder_errors: cal
-                .merged()
-                .into_iter()
-                .map(|m| AlphaJson {
-                    angle_deg: m.angle_deg,
-                    value_arcsec: m.value_arcsec,
-                    u_arcsec: m.u_arcsec,
-                    shift_deg: m.shift_deg,
-                    step: m.step,
-                })
-                .collect(),
+            encoder_errors,
             residuals: ResidualsJson {
                 rms_arcsec: cal.residuals.rms_arcsec,
                 max_abs_arcsec: cal.residuals.max_abs_arcsec,
@@ -263,7 +293,17 @@ impl ShiftAngleReport {
                     .collect(),
             }),
             duplicates_ignored: cal.duplicates_ignored,
-        }
+            uncertainty: instrument.summary(random_dof),
+        })
+    }
+}
+
+/// Degrees of freedom of the random part: ∞ with a stated σ, else the residual dof.
+fn random_dof(cal: &Calibration, sigma_stated: bool) -> f64 {
+    if sigma_stated {
+        f64::INFINITY
+    } else {
+        cal.residuals.dof as f64
     }
 }
 
@@ -365,6 +405,7 @@ pub fn read_readings(path: &Path, faces: Option<usize>) -> Result<ReadingSet> {
 /// Runs `gonio shift-angle`.
 pub fn run(args: Args) -> Result<()> {
     let method = parse_method(&args.method)?;
+    let instrument = Instrument::load(args.instrument.as_deref(), args.coverage)?;
     let set = read_readings(&args.readings, args.faces)?;
     let opts = Options {
         method,
@@ -373,8 +414,24 @@ pub fn run(args: Args) -> Result<()> {
     };
     let cal = calibrate(&set, &opts).map_err(|e| anyhow!("{}: {e}", args.readings.display()))?;
     let check = harmonic_check(&cal, args.check_order).ok();
-    let report = ShiftAngleReport::new(&cal, &set, check.as_ref(), args.sigma.is_some());
+    let report = ShiftAngleReport::new(&cal, &set, check.as_ref(), args.sigma.is_some(), &instrument)?;
     print_summary(&report);
+    // The budget of the angle with the largest U.
+    if let Some(worst) = cal
+        .merged()
+        .into_iter()
+        .max_by(|a, b| a.u_arcsec.total_cmp(&b.u_arcsec))
+    {
+        let nu = random_dof(&cal, args.sigma.is_some());
+        if let Some(c) = instrument.combine(worst.u_arcsec, nu)? {
+            instrument.print_budget(
+                &format!("α at {}° (the largest U)", worst.angle_deg),
+                worst.u_arcsec,
+                nu,
+                &c,
+            );
+        }
+    }
     if let Some(p) = &args.json {
         io::write_json(p, &report).context("writing the JSON result")?;
         eprintln!("wrote {}", p.display());
