@@ -433,23 +433,39 @@ pub fn combine(
     coverage: f64,
 ) -> Result<Combined, UncertaintyError> {
     check_coverage(coverage)?;
-    let mut var: f64 = terms.iter().map(|t| (t.c * t.u).powi(2)).sum();
+    // Work in units of the largest |c·u| so that squares cannot overflow or underflow.
+    let scale = terms
+        .iter()
+        .map(|t| (t.c * t.u).abs())
+        .fold(0.0f64, f64::max);
+    let s = if scale > 0.0 && scale.is_finite() {
+        scale
+    } else {
+        1.0
+    };
+    let cu = |t: &Term| t.c * t.u / s;
+    let mut var: f64 = terms.iter().map(|t| cu(t).powi(2)).sum();
     for &(i, j, r) in correlations {
-        var += 2.0 * terms[i].c * terms[j].c * terms[i].u * terms[j].u * r;
+        var += 2.0 * cu(&terms[i]) * cu(&terms[j]) * r;
     }
-    if var < -1e-12 * terms.iter().map(|t| (t.c * t.u).powi(2)).sum::<f64>() {
+    if var < -1e-12 * terms.iter().map(|t| cu(t).powi(2)).sum::<f64>() {
         return Err(UncertaintyError::NotPositiveDefinite {
             context: "combination".into(),
         });
     }
-    let u_c = var.max(0.0).sqrt();
-    let denom: f64 = terms
-        .iter()
-        .filter(|t| t.nu.is_finite())
-        .map(|t| (t.c * t.u).powi(4) / t.nu)
-        .sum();
+    let u_c = s * var.max(0.0).sqrt();
+    // ν_eff = u_c⁴ / Σ (c u)⁴/ν, with every term divided by u_c first so that no power overflows.
+    let denom: f64 = if u_c > 0.0 {
+        terms
+            .iter()
+            .filter(|t| t.nu.is_finite())
+            .map(|t| (t.c * t.u / u_c).powi(4) / t.nu)
+            .sum()
+    } else {
+        0.0
+    };
     let nu_eff_raw = if denom > 0.0 {
-        u_c.powi(4) / denom
+        1.0 / denom
     } else {
         f64::INFINITY
     };
@@ -1179,6 +1195,16 @@ mod tests {
             (mc.std_uncertainty - var.sqrt()).abs() < 2.0 * mc.tolerance,
             "{mc:?}"
         );
+    }
+
+    #[test]
+    fn extreme_magnitudes_do_not_overflow() {
+        let mut b = Budget::new("big");
+        b.push(Contribution::direct("a", 1e200).with_dof(4.0));
+        b.push(Contribution::direct("b", 1e200).with_dof(4.0));
+        let r = b.evaluate(0.95).unwrap();
+        // Two equal terms with ν = 4: ν_eff = 4·(2u²)²/(2u⁴) = 8.
+        assert!((r.nu_eff_raw - 8.0).abs() < 1e-12 && r.k.is_finite());
     }
 
     #[test]

@@ -161,6 +161,9 @@ impl InputDistribution {
     }
 }
 
+/// The most trials one run may use (memory: 8 bytes per trial).
+pub const MAX_TRIALS: usize = 100_000_000;
+
 /// How many trials to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum McTrials {
@@ -465,11 +468,24 @@ where
                     ),
                 });
             }
+            if m > MAX_TRIALS {
+                return Err(UncertaintyError::MonteCarlo {
+                    what: format!("{m} trials is more than the limit of {MAX_TRIALS}"),
+                });
+            }
             (m.min(16_384), Some(m), m)
         }
         McTrials::Adaptive { max_trials } => {
             let b = ((100.0 / (1.0 - p)).ceil() as usize).max(10_000);
-            (b, None, max_trials.max(2 * b))
+            let max_trials = max_trials.min(MAX_TRIALS);
+            if 2 * b > max_trials {
+                return Err(UncertaintyError::MonteCarlo {
+                    what: format!(
+                        "coverage {p} needs batches of {b} trials (100/(1 − p)); the limit of {max_trials} trials allows fewer than 2"
+                    ),
+                });
+            }
+            (b, None, max_trials)
         }
     };
     let mut sampler = Sampler {
@@ -832,6 +848,27 @@ mod tests {
         let (s, sh) = intervals(&v, 0.9);
         assert_eq!((s.low, s.high), (5.0, 95.0));
         assert_eq!(sh.high - sh.low, 90.0);
+    }
+
+    #[test]
+    fn impractical_runs_are_errors_not_aborts() {
+        let inputs = [InputDistribution::Normal { mean: 0.0, sd: 1.0 }];
+        let f = |x: &[f64]| x[0];
+        let too_many = McConfig {
+            trials: McTrials::Fixed(MAX_TRIALS + 1),
+            ..McConfig::default()
+        };
+        assert!(monte_carlo(&inputs, &[], f, &too_many).is_err());
+        let too_close = McConfig {
+            coverage: 1.0 - 1e-9,
+            ..McConfig::default()
+        };
+        assert!(monte_carlo(&inputs, &[], f, &too_close).is_err());
+        let too_few = McConfig {
+            trials: McTrials::Fixed(10),
+            ..McConfig::default()
+        };
+        assert!(monte_carlo(&inputs, &[], f, &too_few).is_err());
     }
 
     #[test]
