@@ -172,6 +172,12 @@ fn monte_carlo_least_squares_gain_and_honest_uncertainty() {
     let (e_ls, e_pa) = (rms(ss_ls, count), rms(ss_pa, count));
     let ratio = e_pa / e_ls;
     let expected = ((n - 1) as f64).sqrt();
+    eprintln!(
+        "α at S=0 error RMS: least squares {e_ls:.5}″ (reported u {:.5}″), paper {e_pa:.5}″ \
+         (reported u {:.5}″); ratio {ratio:.3} vs √(N−1) = {expected:.3}",
+        rms(u_ls, count),
+        rms(u_pa, count)
+    );
     // 7200 pooled errors: the relative standard error of an RMS is ≈ 1/√(2·7200) ≈ 0.8 %
     // (more with the correlation inside a shift); 10 % is the issue's tolerance.
     assert!(
