@@ -136,24 +136,27 @@ pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
 ///
 /// # Errors
 /// A device error (injected through [`Faults`]) aborts the batch with
-/// [`StationError::Device`]; an invalid recipe gives [`StationError::Recipe`]; the `frames`
-/// fidelity without a detector gives [`StationError::OutOfRange`] (use [`run_batch_with`]).
+/// [`StationError::Device`]; an invalid recipe gives [`StationError::Recipe`]. The `frames`
+/// fidelity renders every frame and runs the real detector ([`super::RenderedDetector`]).
 pub fn run_batch(
     cfg: &BatchConfig,
     seed: u64,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
-    if cfg.fidelity == Fidelity::Frames {
-        return Err(StationError::OutOfRange {
-            name: "fidelity",
-            value: f64::NAN,
-            expected: "fast (the frames fidelity needs a detector: run_batch_with)",
-        });
-    }
-    run_batch_with(cfg, seed, None, progress)
+    let detector: Option<Box<dyn super::FrameDetector>> = match cfg.fidelity {
+        Fidelity::Fast => None,
+        Fidelity::Frames => Some(Box::new(super::RenderedDetector::seed_station().map_err(
+            |e| StationError::Device {
+                device: "camera",
+                kind: gonio_station::hal::DeviceErrorKind::Other,
+                message: format!("cannot set up the renderer and detector: {e}"),
+            },
+        )?)),
+    };
+    run_batch_with(cfg, seed, detector, progress)
 }
 
-/// As [`run_batch`], with an optional frame detector for [`Fidelity::Frames`].
+/// As [`run_batch`], with a frame detector of the caller's (`None`: fast fidelity).
 ///
 /// # Errors
 /// As [`run_batch`].

@@ -16,9 +16,11 @@
 //! ```
 
 pub mod batch;
+pub mod frames;
 pub mod plant;
 pub mod twin;
 
 pub use batch::{BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch};
+pub use frames::RenderedDetector;
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
 pub use twin::{DeviceId, Faults, FrameDetector, SimDeviceError, Twin};

@@ -76,13 +76,15 @@ impl DeviceError for SimDeviceError {
 /// Produces a frame's detector result at full fidelity (render → detect); the fast fidelity
 /// computes the column from the geometry instead.
 pub trait FrameDetector {
-    /// Renders a frame with the ring's centre line at column `c_true_px`, defocus `dz_um`, and
-    /// returns the detector's `(c_px or None with a reason, focus measure)`.
+    /// Renders the frame of the grating at servo angle `theta_deg` (mid-exposure) with its centre
+    /// offset `offset_um` (servo-angle coordinates: the camera sees `offset·(cos θ, sin θ)`) and
+    /// defocus `dz_um`, runs the detector, and returns `(c_px or None, why not, focus measure)`.
     fn detect(
         &mut self,
-        c_true_px: f64,
+        theta_deg: f64,
+        offset_um: [f64; 2],
         dz_um: f64,
-        rng: &mut ChaCha8Rng,
+        frame_seed: u64,
     ) -> (Option<f64>, String, f64);
 }
 
@@ -285,7 +287,8 @@ impl Twin {
             if lost {
                 (None, "no ring".to_string(), 0.0)
             } else {
-                det.detect(c_true, dz, &mut self.rng)
+                let frame_seed = self.rng.random::<u64>();
+                det.detect(theta, self.part.offset_um, dz, frame_seed)
             }
         } else {
             let w = dz / p.focus_depth_um;
