@@ -108,6 +108,28 @@ impl From<&SelfcalResult> for Curve {
     }
 }
 
+impl From<&crate::shift_angle::Calibration> for Curve {
+    /// The merged encoder errors of a shift-angle calibration, with their standard
+    /// uncertainties only (the comparison then uses k = 2·u; set `expanded_arcsec` from a budget
+    /// to use a GUM U instead).
+    fn from(c: &crate::shift_angle::Calibration) -> Self {
+        Curve {
+            label: format!("shift-angle {}", c.method.name()),
+            points: c
+                .merged()
+                .iter()
+                .map(|m| CurvePoint {
+                    angle_deg: m.angle_deg,
+                    value_arcsec: m.value_arcsec,
+                    u_arcsec: m.u_arcsec,
+                    expanded_arcsec: None,
+                })
+                .collect(),
+            undetectable_orders: c.undetectable_harmonics.clone(),
+        }
+    }
+}
+
 /// One common angle.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ComparePoint {

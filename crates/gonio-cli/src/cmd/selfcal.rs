@@ -47,6 +47,10 @@ pub struct Args {
     /// Largest harmonic order in the harmonic table and the undetectable list.
     #[arg(long, default_value_t = 360)]
     pub max_order: u32,
+    /// Instrument terms (TOML, e.g. examples/instrument-selfcal.toml: encoder resolution …)
+    /// combined with the estimator's random part into u, ν_eff, k and U of every position.
+    #[arg(long)]
+    pub instrument: Option<PathBuf>,
     /// Write the result as JSON here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -318,13 +322,40 @@ pub fn run(args: Args) -> Result<()> {
         reference_heads,
         max_order: args.max_order,
     };
-    let r = calibrate(&heads, &rt.turns, &opts).map_err(|e| locate(e, &table, &rt.lines))?;
+    let mut r = calibrate(&heads, &rt.turns, &opts).map_err(|e| locate(e, &table, &rt.lines))?;
+    if let Some(p) = &args.instrument {
+        add_instrument(&mut r, p)?;
+    }
     if let Some(p) = &args.json {
         io::write_json(p, &r)?;
     }
     if args.json.as_deref() != Some(Path::new("-")) {
         print_summary(&r);
     }
+    Ok(())
+}
+
+/// Combines the instrument terms of `path` with the random part of every position's u.
+fn add_instrument(r: &mut SelfcalResult, path: &Path) -> Result<()> {
+    let text = io::read_text(path)?;
+    let inst = gonio_uncertainty::instrument::InstrumentFile::parse(&text)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    let e0 = r.errors[0];
+    let c = inst
+        .combine(e0.u_arcsec, e0.nu_eff)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    for e in &mut r.errors {
+        e.u_arcsec = c.u_c;
+        e.expanded_arcsec = c.expanded;
+        e.k = c.k;
+        e.nu_eff = c.nu_eff;
+    }
+    r.uncertainty.coverage = c.coverage;
+    r.uncertainty.source = format!(
+        "{} + instrument terms ({})",
+        r.uncertainty.source,
+        path.display()
+    );
     Ok(())
 }
 
