@@ -3,6 +3,7 @@
 pub mod budget;
 pub mod compare;
 pub mod demo;
+pub mod detect;
 pub mod eccentricity;
 pub mod mount;
 pub mod selfcal;

@@ -1,0 +1,544 @@
+//! `gonio detect`: run the streaming ring detector on image files or raw frames from standard
+//! input, one JSON line per frame.
+
+use crate::io;
+use anyhow::{Context, Result, anyhow, bail};
+use gonio_vision::reference::{Image, label};
+use gonio_vision::{Detector, FrameResult, Optics};
+use serde::Serialize;
+use std::io::{BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `gonio detect`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Frames are 8-bit grey, of the optics' window size (default 1440×540) or its sensor size (then the
+centred window is cut out). Each output line: frame, file, theta_deg, time_s, c_px (the ring's
+column, px; null when invalid), c_um, valid, reason (no_ring, one_edge, ring_outside_window,
+saturated, out_of_focus, inconsistent_edges), focus (mean gradient energy, grey²/px²),
+mean_gradient, edges [{column_px, slope, pixels, strong, …}].
+
+Examples:
+  gonio simulate frames --count 200 --eccentricity-um 120 --seed 1 --out frames
+  gonio detect frames --angles frames/angles.csv --json-lines c.jsonl
+  ffmpeg -i run.avi -f rawvideo -pix_fmt gray - | gonio detect --raw 1440x540 --speed-deg-s 180 --fps 100
+  gonio detect frames --dump-stages vectors --frame 17")]
+pub struct Args {
+    /// Image files (PNG, TIFF) or directories of them (read in name order).
+    #[arg(
+        value_name = "FRAMES",
+        required_unless_present = "raw",
+        conflicts_with = "raw"
+    )]
+    pub frames: Vec<PathBuf>,
+    /// Read raw 8-bit frames of WIDTHxHEIGHT from standard input.
+    #[arg(long, value_name = "WxH")]
+    pub raw: Option<String>,
+    /// Angle log: CSV `frame,theta_deg[,time_s]`.
+    #[arg(long, value_name = "ANGLES.csv", conflicts_with_all = ["speed_deg_s", "fps"])]
+    pub angles: Option<PathBuf>,
+    /// Constant table speed, degrees per second (with --fps): θ = start + frame·speed/fps.
+    #[arg(long, requires = "fps")]
+    pub speed_deg_s: Option<f64>,
+    /// Frame rate, frames per second (with --speed-deg-s).
+    #[arg(long, requires = "speed_deg_s")]
+    pub fps: Option<f64>,
+    /// θ of frame 0 with --speed-deg-s, degrees.
+    #[arg(long, default_value_t = 0.0)]
+    pub start_deg: f64,
+    /// Optics TOML (sensor, window, pixel pitch, magnification, ring width and radius, polarity,
+    /// thresholds…); default: the seed's station.
+    #[arg(long, value_name = "OPTICS.toml")]
+    pub optics: Option<PathBuf>,
+    /// Write the JSON lines here (default: standard output).
+    #[arg(long, value_name = "OUT")]
+    pub json_lines: Option<PathBuf>,
+    /// Write every stage's output for one frame as PNGs (test vectors) into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub dump_stages: Option<PathBuf>,
+    /// The frame to dump (0-based).
+    #[arg(long, default_value_t = 0, requires = "dump_stages")]
+    pub frame: usize,
+}
+
+/// One output line.
+#[derive(Debug, Serialize)]
+struct Line<'a> {
+    frame: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    file: Option<String>,
+    theta_deg: Option<f64>,
+    time_s: Option<f64>,
+    c_um: Option<f64>,
+    #[serde(flatten)]
+    result: &'a FrameResult,
+}
+
+/// Loads an optics TOML file (or the default).
+pub fn load_optics(path: Option<&Path>) -> Result<Optics> {
+    let Some(p) = path else {
+        return Ok(Optics::default());
+    };
+    let text = io::read_text(p)?;
+    let o: Optics = toml::from_str(&text).map_err(|e| {
+        let (line, col) = e
+            .span()
+            .map(|s| {
+                let before = &text[..s.start.min(text.len())];
+                let line = before.matches('\n').count() + 1;
+                let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                (line, col)
+            })
+            .unwrap_or((1, 1));
+        anyhow!("{}:{line}:{col}: {}", p.display(), e.message())
+    })?;
+    o.params().with_context(|| p.display().to_string())?;
+    Ok(o)
+}
+
+enum Angles {
+    None,
+    Table(String, Vec<Option<(f64, Option<f64>)>>),
+    Speed { start: f64, speed: f64, fps: f64 },
+}
+
+impl Angles {
+    fn at(&self, k: usize) -> Result<(Option<f64>, Option<f64>)> {
+        match self {
+            Angles::None => Ok((None, None)),
+            Angles::Speed { start, speed, fps } => {
+                let t = k as f64 / fps;
+                Ok((Some(start + speed * t), Some(t)))
+            }
+            Angles::Table(name, v) => match v.get(k).copied().flatten() {
+                Some((th, t)) => Ok((Some(th), t)),
+                None => bail!(
+                    "{name}: no angle for frame {k}: the angle file covers {} frames",
+                    v.iter().filter(|x| x.is_some()).count()
+                ),
+            },
+        }
+    }
+}
+
+fn load_angles(a: &Args) -> Result<Angles> {
+    if let Some(p) = &a.angles {
+        let t = io::CsvTable::read(p)?;
+        let expected = "frame,theta_deg[,time_s]";
+        let fc = t.require("frame", expected)?;
+        let tc = t.require("theta_deg", expected)?;
+        let sc = t.column("time_s");
+        let mut v: Vec<Option<(f64, Option<f64>)>> = Vec::new();
+        for (line, f) in &t.rows {
+            let k = t.int_at(*line, f, fc)?;
+            if !(0..=100_000_000).contains(&k) {
+                return Err(t.error_at(
+                    *line,
+                    fc,
+                    format!("expected a frame index ≥ 0, found {k}"),
+                ));
+            }
+            let th = t.f64_at(*line, f, tc)?;
+            let ts = sc.map(|c| t.f64_at(*line, f, c)).transpose()?;
+            let k = k as usize;
+            if v.len() <= k {
+                v.resize(k + 1, None);
+            }
+            if v[k].is_some() {
+                return Err(t.error_at(*line, fc, format!("frame {k} appears twice")));
+            }
+            v[k] = Some((th, ts));
+        }
+        return Ok(Angles::Table(p.display().to_string(), v));
+    }
+    if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
+        if !speed.is_finite() || !(fps.is_finite() && fps > 0.0) {
+            bail!("--speed-deg-s {speed} --fps {fps}: expected a finite speed and fps > 0");
+        }
+        return Ok(Angles::Speed {
+            start: a.start_deg,
+            speed,
+            fps,
+        });
+    }
+    Ok(Angles::None)
+}
+
+/// Lists the frame files: files as given, directories expanded to their PNG/TIFF files in name
+/// order.
+pub fn list_frames(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in inputs {
+        if p.is_dir() {
+            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("cannot read directory {}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                        matches!(e.to_ascii_lowercase().as_str(), "png" | "tif" | "tiff")
+                    })
+                })
+                .collect();
+            v.sort();
+            if v.is_empty() {
+                bail!("{}: no PNG or TIFF files in this directory", p.display());
+            }
+            out.extend(v);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+/// Reads one 8-bit grey image; 16-bit and float images are refused.
+pub fn read_grey8(path: &Path) -> Result<(usize, usize, Vec<u8>)> {
+    use image::DynamicImage as D;
+    let img = image::ImageReader::open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .decode()
+        .map_err(|e| anyhow!("{}: not a readable PNG/TIFF image: {e}", path.display()))?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let data = match img {
+        D::ImageLuma8(g) => g.into_raw(),
+        D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => img.to_luma8().into_raw(),
+        other => bail!(
+            "{}: {:?} image: expected 8-bit grey (16-bit and float frames are not accepted; convert \
+             with e.g. `convert in.png -depth 8 out.png`)",
+            path.display(),
+            other.color()
+        ),
+    };
+    Ok((w, h, data))
+}
+
+/// Cuts the processing window out of a frame of window or sensor size.
+fn to_window(o: &Optics, name: &str, w: usize, h: usize, data: Vec<u8>) -> Result<Vec<u8>> {
+    let (ww, wh) = (o.window_width_px as usize, o.window_height_px as usize);
+    let (sw, sh) = (o.sensor_width_px as usize, o.sensor_height_px as usize);
+    if (w, h) == (ww, wh) {
+        return Ok(data);
+    }
+    if (w, h) == (sw, sh) {
+        let (x0, y0) = ((sw - ww) / 2, (sh - wh) / 2);
+        let mut out = Vec::with_capacity(ww * wh);
+        for y in y0..y0 + wh {
+            out.extend_from_slice(&data[y * sw + x0..y * sw + x0 + ww]);
+        }
+        return Ok(out);
+    }
+    bail!(
+        "{name}: frame is {w}×{h}: expected the window {ww}×{wh} or the sensor {sw}×{sh} (see --optics)"
+    )
+}
+
+fn parse_size(s: &str) -> Result<(usize, usize)> {
+    let err = || anyhow!("--raw {s:?}: expected WIDTHxHEIGHT, e.g. 1440x540");
+    let (a, b) = s.split_once(['x', 'X', '×']).ok_or_else(err)?;
+    let w: usize = a.trim().parse().map_err(|_| err())?;
+    let h: usize = b.trim().parse().map_err(|_| err())?;
+    if w == 0 || h == 0 {
+        return Err(err());
+    }
+    Ok((w, h))
+}
+
+struct Sink {
+    out: Box<dyn Write>,
+    to_file: Option<(PathBuf, tempfile::NamedTempFile)>,
+}
+
+impl Sink {
+    fn new(path: Option<&Path>) -> Result<Sink> {
+        match path {
+            None => Ok(Sink {
+                out: Box::new(BufWriter::new(std::io::stdout())),
+                to_file: None,
+            }),
+            Some(p) if p.as_os_str() == "-" => Ok(Sink {
+                out: Box::new(BufWriter::new(std::io::stdout())),
+                to_file: None,
+            }),
+            Some(p) => {
+                let dir = match p.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                    _ => PathBuf::from("."),
+                };
+                let tmp = tempfile::Builder::new()
+                    .prefix(".gonio-")
+                    .suffix(".tmp")
+                    .tempfile_in(&dir)
+                    .with_context(|| {
+                        format!("cannot create a temporary file in {}", dir.display())
+                    })?;
+                let f = tmp
+                    .reopen()
+                    .with_context(|| format!("cannot write {}", p.display()))?;
+                Ok(Sink {
+                    out: Box::new(BufWriter::new(f)),
+                    to_file: Some((p.to_path_buf(), tmp)),
+                })
+            }
+        }
+    }
+    fn line(&mut self, l: &Line) -> Result<()> {
+        serde_json::to_writer(&mut self.out, l)?;
+        self.out
+            .write_all(b"\n")
+            .context("cannot write the JSON lines")?;
+        Ok(())
+    }
+    /// Finishes the output (the file appears atomically, whole).
+    fn close(mut self) -> Result<()> {
+        self.out.flush().context("cannot write the JSON lines")?;
+        drop(self.out);
+        if let Some((p, tmp)) = self.to_file {
+            tmp.persist(&p)
+                .map_err(|e| anyhow!("cannot write {}: {}", p.display(), e.error))?;
+        }
+        Ok(())
+    }
+}
+
+/// Runs `gonio detect`.
+pub fn run(a: Args) -> Result<()> {
+    let optics = load_optics(a.optics.as_deref())?;
+    let mut det = Detector::new(&optics)?;
+    let angles = load_angles(&a)?;
+    let um_per_px = det.params().um_per_px;
+    let mut sink = Sink::new(a.json_lines.as_deref())?;
+    let started = std::time::Instant::now();
+    let mut n = 0usize;
+    let mut valid = 0usize;
+    let mut dumped = false;
+    let mut emit = |k: usize,
+                    file: Option<String>,
+                    frame: &[u8],
+                    det: &mut Detector,
+                    sink: &mut Sink|
+     -> Result<()> {
+        let (theta, time) = angles.at(k)?;
+        let want_dump = a.dump_stages.is_some() && k == a.frame;
+        det.set_dump(want_dump);
+        let res = det.detect(frame)?;
+        if want_dump {
+            write_dump(
+                a.dump_stages.as_deref().unwrap_or(Path::new(".")),
+                det,
+                &res,
+            )?;
+            dumped = true;
+        }
+        valid += res.valid as usize;
+        sink.line(&Line {
+            frame: k,
+            file,
+            theta_deg: theta,
+            time_s: time,
+            c_um: res.c_px.map(|c| c * um_per_px),
+            result: &res,
+        })
+    };
+    if let Some(size) = &a.raw {
+        let (w, h) = parse_size(size)?;
+        let (ww, wh) = (
+            optics.window_width_px as usize,
+            optics.window_height_px as usize,
+        );
+        let (sw, sh) = (
+            optics.sensor_width_px as usize,
+            optics.sensor_height_px as usize,
+        );
+        if (w, h) != (ww, wh) && (w, h) != (sw, sh) {
+            bail!(
+                "--raw {w}x{h}: expected the window {ww}x{wh} or the sensor {sw}x{sh} (see --optics)"
+            );
+        }
+        let mut input = std::io::stdin().lock();
+        let mut buf = vec![0u8; w * h];
+        loop {
+            let mut got = 0;
+            while got < buf.len() {
+                match input.read(&mut buf[got..]) {
+                    Ok(0) => break,
+                    Ok(m) => got += m,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(e) => return Err(e).context("cannot read standard input"),
+                }
+            }
+            if got == 0 {
+                break;
+            }
+            if got < buf.len() {
+                sink.close()?;
+                bail!(
+                    "standard input: truncated frame: {n} whole {w}x{h} frames read, then {got} of {} bytes",
+                    buf.len()
+                );
+            }
+            let frame = if (w, h) == (ww, wh) {
+                std::borrow::Cow::Borrowed(&buf[..])
+            } else {
+                std::borrow::Cow::Owned(to_window(&optics, "standard input", w, h, buf.clone())?)
+            };
+            emit(n, None, &frame, &mut det, &mut sink)?;
+            n += 1;
+        }
+    } else {
+        let files = list_frames(&a.frames)?;
+        if let Angles::Table(name, v) = &angles {
+            let covered = v.iter().filter(|x| x.is_some()).count();
+            if let Some(k) = (0..files.len()).find(|&k| v.get(k).copied().flatten().is_none()) {
+                bail!(
+                    "{name}: no angle for frame {k}: {} frames given, the angle file covers {covered}",
+                    files.len()
+                );
+            }
+        }
+        for (k, f) in files.iter().enumerate() {
+            let (w, h, data) = read_grey8(f)?;
+            let frame = to_window(&optics, &f.display().to_string(), w, h, data)?;
+            emit(
+                k,
+                Some(f.display().to_string()),
+                &frame,
+                &mut det,
+                &mut sink,
+            )?;
+            n += 1;
+        }
+    }
+    sink.close()?;
+    if a.dump_stages.is_some() && !dumped {
+        bail!("--frame {}: only {n} frames were read", a.frame);
+    }
+    let dt = started.elapsed().as_secs_f64();
+    eprintln!(
+        "{n} frames, {valid} valid, {:.0} frames/s",
+        if dt > 0.0 { n as f64 / dt } else { 0.0 }
+    );
+    Ok(())
+}
+
+fn save_png(dir: &Path, name: &str, w: usize, h: usize, data: Vec<u8>) -> Result<()> {
+    let img = image::GrayImage::from_raw(w as u32, h as u32, data)
+        .ok_or_else(|| anyhow!("{name}: image size"))?;
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )?;
+    io::write_atomic(&dir.join(name), &bytes)
+}
+
+fn save_png16(dir: &Path, name: &str, w: usize, h: usize, data: Vec<u16>) -> Result<()> {
+    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w as u32, h as u32, data)
+        .ok_or_else(|| anyhow!("{name}: image size"))?;
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )?;
+    io::write_atomic(&dir.join(name), &bytes)
+}
+
+/// Writes the stage images of the detector's last frame.
+fn write_dump(dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
+    let d = det
+        .dump()
+        .ok_or_else(|| anyhow!("no stage images recorded"))?;
+    io::ensure_dir(dir)?;
+    let (w, h) = (d.width, d.height);
+    let off = |v: &[i16]| {
+        v.iter()
+            .map(|&x| (x as i32 + 32768) as u16)
+            .collect::<Vec<u16>>()
+    };
+    save_png(dir, "00_input.png", w, h, d.input.clone())?;
+    save_png(dir, "01_tophat.png", w, h, d.tophat.clone())?;
+    save_png(dir, "02_opened.png", w, h, d.opened.clone())?;
+    save_png(dir, "03_blurred.png", w, h, d.blurred.clone())?;
+    save_png16(dir, "04_gx_plus32768.png", w, h, off(&d.gx))?;
+    save_png16(dir, "05_gy_plus32768.png", w, h, off(&d.gy))?;
+    save_png16(dir, "06_magnitude.png", w, h, d.mag.clone())?;
+    save_png(dir, "07_edges_class.png", w, h, d.edges.class.clone())?;
+    save_png(dir, "08_edges_dir256.png", w, h, d.edges.dir.clone())?;
+    save_png(
+        dir,
+        "09_edges_sub32_plus128.png",
+        w,
+        h,
+        d.edges
+            .sub
+            .iter()
+            .map(|&s| (s as i16 + 128) as u8)
+            .collect(),
+    )?;
+    save_png(dir, "10_filled_class.png", w, h, d.filled.class.clone())?;
+    save_png(dir, "11_filled_dir256.png", w, h, d.filled.dir.clone())?;
+    let edges = (
+        Image::from_vec(w, h, d.filled.class.clone()),
+        Image::from_vec(w, h, d.filled.dir.clone()),
+        Image::from_vec(w, h, d.filled.sub.clone()),
+    );
+    let (_, labels) = label(&edges);
+    save_png16(
+        dir,
+        "12_labels.png",
+        w,
+        h,
+        labels.data.iter().map(|&l| l.min(65535) as u16).collect(),
+    )?;
+    #[derive(Serialize)]
+    struct Comp {
+        pixels: u64,
+        strong: u64,
+        weak: u64,
+        first_index: u64,
+        rows: (u32, u32),
+        cols: (u32, u32),
+        sum_row: i64,
+        sum_col32: i64,
+        sum_dev: i64,
+    }
+    let comps: Vec<Comp> = d
+        .components
+        .iter()
+        .map(|c| Comp {
+            pixels: c.pixels,
+            strong: c.strong,
+            weak: c.weak,
+            first_index: c.first_index,
+            rows: (c.min_row, c.max_row),
+            cols: (c.min_col, c.max_col),
+            sum_row: c.sum_row,
+            sum_col32: c.sum_col32,
+            sum_dev: c.sum_dev,
+        })
+        .collect();
+    io::write_json(
+        &dir.join("13_components_and_result.json"),
+        &serde_json::json!({
+            "params": det.params(),
+            "components": comps,
+            "result": res,
+            "files": {
+                "00_input.png": "input (inverted for a bright ring), u8",
+                "01_tophat.png": "black top-hat, u8",
+                "02_opened.png": "opening, u8",
+                "03_blurred.png": "5x5 binomial blur, u8",
+                "04_gx_plus32768.png": "Sobel Gx + 32768, u16",
+                "05_gy_plus32768.png": "Sobel Gy + 32768, u16",
+                "06_magnitude.png": "|Gx| + |Gy|, u16",
+                "07_edges_class.png": "0 none, 1 weak, 2 strong (after NMS, thresholds, baseline filter)",
+                "08_edges_dir256.png": "gradient direction, 256 per turn",
+                "09_edges_sub32_plus128.png": "sub-pixel x offset in 1/32 px + 128 (0 = filled)",
+                "10_filled_class.png": "classes after edge filling",
+                "11_filled_dir256.png": "directions after edge filling",
+                "12_labels.png": "component id (raster order of first pixel), u16"
+            }
+        }),
+    )
+}
