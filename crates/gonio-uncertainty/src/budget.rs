@@ -960,6 +960,78 @@ impl BudgetSet {
     }
 }
 
+/// The GUM (law of propagation of uncertainty, first order) for a measurement function supplied
+/// by the caller: sensitivity coefficients c_i = ∂f/∂x_i by central differences at the estimates x
+/// (step h_i = 10⁻⁴·u_i, or 10⁻⁸·max(|x_i|, 1) when u_i = 0), then [`combine`]. Returns
+/// y = f(x), the coefficients, and the combination; pair it with [`crate::monte_carlo`] and
+/// [`crate::validate`] for the JCGM 101 §8 comparison.
+///
+/// # Errors
+/// [`UncertaintyError::BadParameter`] when the slices differ in length or f is not finite near x;
+/// the errors of [`combine`].
+///
+/// ```
+/// use gonio_uncertainty::budget::gum_for_model;
+/// // y = x₁·x₂ at (2, 3) with u = (0.1, 0.2): c = (3, 2), u_c = √(0.09 + 0.16) = 0.5.
+/// let (y, c, r) = gum_for_model(|x: &[f64]| x[0] * x[1], &[2.0, 3.0], &[0.1, 0.2],
+///     &[f64::INFINITY; 2], 0.95).unwrap();
+/// assert_eq!(y, 6.0);
+/// assert!((c[0] - 3.0).abs() < 1e-9 && (c[1] - 2.0).abs() < 1e-9);
+/// assert!((r.u_c - 0.5).abs() < 1e-9);
+/// ```
+pub fn gum_for_model<F: Fn(&[f64]) -> f64>(
+    f: F,
+    x: &[f64],
+    u: &[f64],
+    nu: &[f64],
+    coverage: f64,
+) -> Result<(f64, Vec<f64>, Combined), UncertaintyError> {
+    if x.len() != u.len() || x.len() != nu.len() {
+        return Err(UncertaintyError::BadParameter {
+            name: "model".into(),
+            what: format!(
+                "x, u and nu must have the same length, found {}, {} and {}",
+                x.len(),
+                u.len(),
+                nu.len()
+            ),
+        });
+    }
+    let y = f(x);
+    let mut xs = x.to_vec();
+    let mut c = Vec::with_capacity(x.len());
+    let mut terms = Vec::with_capacity(x.len());
+    for i in 0..x.len() {
+        let h = if u[i] > 0.0 {
+            1e-4 * u[i]
+        } else {
+            1e-8 * x[i].abs().max(1.0)
+        };
+        xs[i] = x[i] + h;
+        let up = f(&xs);
+        xs[i] = x[i] - h;
+        let down = f(&xs);
+        xs[i] = x[i];
+        let ci = (up - down) / (2.0 * h);
+        if !(ci.is_finite() && y.is_finite()) {
+            return Err(UncertaintyError::BadParameter {
+                name: format!("input {i}"),
+                what: "the measurement function is not finite near the estimate".into(),
+            });
+        }
+        let input = Contribution::direct(&format!("input {i}"), u[i]).with_dof(nu[i]);
+        input.validate()?;
+        c.push(ci);
+        terms.push(Term {
+            u: u[i],
+            c: ci,
+            nu: nu[i],
+        });
+    }
+    let r = combine(&terms, &[], coverage)?;
+    Ok((y, c, r))
+}
+
 /// The normalised error En = |x₁ − x₂| / √(U₁² + U₂²) for comparing two results with expanded
 /// uncertainties U₁, U₂ (|En| ≤ 1 passes). Returns ∞ when both U are 0 and x₁ ≠ x₂, 0 when equal.
 ///

@@ -797,7 +797,17 @@ mod tests {
         // The shortest interval of a right-skewed output lies left of the symmetric one.
         assert!(r.shortest.low < r.symmetric.low && r.shortest.high < r.symmetric.high);
         assert!(r.shortest.high - r.shortest.low < r.symmetric.high - r.symmetric.low);
-        let v = validate(1.0, s, z * s, &r, 2);
+        let (y, c, gum) = crate::budget::gum_for_model(
+            |x: &[f64]| x[0].exp(),
+            &[0.0],
+            &[s],
+            &[f64::INFINITY],
+            0.95,
+        )
+        .unwrap();
+        assert!((y - 1.0).abs() < 1e-15 && (c[0] - 1.0).abs() < 1e-8);
+        assert!((gum.expanded - z * s).abs() < 1e-8);
+        let v = validate(y, gum.u_c, gum.expanded, &r, 2);
         // The end points differ by |1 − zs − e^(−zs)| = 0.355 and |1 + zs − e^(zs)| = 0.684, far
         // beyond δ = 0.005.
         assert!(!v.passed, "{v:?}");
