@@ -4,7 +4,7 @@
 //!   triangular, arcsine and normal-with-k bounds; given directly; nested budgets), sensitivity
 //!   coefficients, correlations, combined standard uncertainty, Welch–Satterthwaite ν_eff (raw and
 //!   truncated), coverage factor, expanded uncertainty, shares, and the normalised error [`en`].
-//! - [`file`]: the TOML budget-file format, with errors that name the line.
+//! - [`mod@file`]: the TOML budget-file format, with errors that name the line.
 //! - [`student`]: the Student-t distribution and the coverage factor k_p(ν).
 //! - [`montecarlo`]: adaptive, seeded Monte Carlo for any measurement function, coverage intervals
 //!   (probabilistically symmetric and shortest), and the GUM-vs-Monte-Carlo validation.
@@ -32,9 +32,10 @@ pub mod student;
 
 pub use budget::{
     Budget, BudgetResult, BudgetSet, Combined, Contribution, Correlation, LinearModel, Row, Source,
-    Term, combine, en,
+    Term, combine, en, gum_for_model,
 };
 pub use file::{BudgetFileError, parse_budget_file};
+pub use instrument::{InstrumentFile, combine_with_instrument};
 pub use montecarlo::{
     InputDistribution, Interval, McConfig, McResult, McTrials, Validation, monte_carlo, validate,
 };
