@@ -44,6 +44,7 @@ use crate::SimError;
 use gonio_vision::{Optics, Params};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// One roundness harmonic of the ring: `amplitude_um·cos(order·φ + phase_rad)`.
@@ -380,7 +381,6 @@ impl GratingRenderer {
             .ring_x(g, theta, stage_y(h / 2))
             .map_or(f64::NAN, col_of);
 
-        let mut rng = ChaCha8Rng::seed_from_u64(rng_seed);
         let gain = sc.exposure;
         let (bg, ring_depth, bar_depth) = (
             sc.background_grey,
@@ -388,8 +388,13 @@ impl GratingRenderer {
             (sc.background_grey - sc.bar_grey) as f32,
         );
         let reach = 4.5 * sigma;
-        let mut refl = vec![0f32; w];
-        for v in 0..h {
+        let tau = std::f64::consts::TAU;
+        // Rows in parallel; each row has its own noise stream, so the bytes do not depend on
+        // the number of threads.
+        out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
+            let mut rng = ChaCha8Rng::seed_from_u64(
+                rng_seed ^ (v as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+            );
             let y = stage_y(v);
             let qy = y - g.1;
             // Ring radius for this row (roundness varies slowly along the ring).
@@ -402,7 +407,8 @@ impl GratingRenderer {
             let nrm = (qxc * qxc + qy * qy).sqrt();
             let (cx, cy) = (qxc / nrm, qy / nrm);
             let phi_c = qy.atan2(qxc) - theta;
-            for (u, r) in refl.iter_mut().enumerate() {
+            let illum_row = 1.0 + 0.5 * sc.illumination_gradient * (v as f64 / h as f64 - 0.5);
+            for (u, o) in row.iter_mut().enumerate() {
                 let qx = stage_x(u) - g.0;
                 let rho = (qx * qx + qy * qy).sqrt();
                 let mut dark = 0f32;
@@ -414,32 +420,27 @@ impl GratingRenderer {
                     let dt = rho - r0;
                     for (lo, hi, period, mark) in [WIDE_BARS, THIN_LINES] {
                         if dt > lo - reach && dt < hi + reach {
-                            let radial = self.band(dt, lo, hi, inv_sigma);
                             // Angle from the centre direction (small: series of atan).
                             let t = (qy * cx - qx * cy) / (qx * cx + qy * cy);
                             let t2 = t * t;
                             let dphi = t * (1.0 - t2 * (1.0 / 3.0 - t2 * (0.2 - t2 / 7.0)));
                             let phi_g = phi_c + dphi;
-                            let n = std::f64::consts::TAU * r0 / period;
-                            let k = (phi_g * n / std::f64::consts::TAU).round();
-                            let arc = (phi_g - k * std::f64::consts::TAU / n) * rho;
+                            let n = tau * r0 / period;
+                            let k = (phi_g * n / tau).round();
+                            let arc = (phi_g - k * tau / n) * rho;
+                            let local = tau * rho / n;
+                            let near = arc.abs().min(local - arc.abs());
+                            if near > mark / 2.0 + reach {
+                                continue;
+                            }
+                            let radial = self.band(dt, lo, hi, inv_sigma);
                             let ang = self.band(arc, -mark / 2.0, mark / 2.0, inv_sigma)
-                                + self.band(
-                                    arc.abs() - std::f64::consts::TAU * rho / n,
-                                    -mark / 2.0,
-                                    mark / 2.0,
-                                    inv_sigma,
-                                );
+                                + self.band(arc.abs() - local, -mark / 2.0, mark / 2.0, inv_sigma);
                             dark += bar_depth * radial * ang;
                         }
                     }
                 }
-                *r = bg as f32 - dark;
-            }
-            // Illumination and noise.
-            let illum_row = 1.0 + 0.5 * sc.illumination_gradient * (v as f64 / h as f64 - 0.5);
-            let row = &mut out[v * w..(v + 1) * w];
-            for (u, (o, &r)) in row.iter_mut().zip(&refl).enumerate() {
+                let r = bg as f32 - dark;
                 let illum = illum_row - sc.illumination_gradient * (u as f64 / w as f64 - 0.5);
                 let val = r as f64 * illum * gain;
                 let var = sc.read_noise_grey * sc.read_noise_grey
@@ -456,7 +457,9 @@ impl GratingRenderer {
                 let z = (sum4 as f64 / 65535.0 - 2.0) * 3f64.sqrt();
                 *o = (val + var.sqrt() * z).round().clamp(0.0, 255.0) as u8;
             }
-        }
+        });
+        let mut rng = ChaCha8Rng::seed_from_u64(rng_seed);
+        let bg = sc.background_grey;
         // Dust specks: small dark blurred blobs.
         for _ in 0..sc.dust_per_frame {
             let cu = rng.random_range(0.0..w as f64);

@@ -103,6 +103,11 @@ impl EdgeFill {
         }
     }
     fn emit(&mut self, out: &mut EdgeRow) {
+        crate::simd::dispatch(|| self.emit_impl(out))
+    }
+
+    #[inline(always)]
+    fn emit_impl(&mut self, out: &mut EdgeRow) {
         let w = self.width;
         let y = self.n_out;
         let cur = &self.ring[y % 3];
@@ -136,6 +141,16 @@ impl EdgeFill {
             if self.any[lo..hi].iter().fold(0u8, |a, &b| a | b) != 0 {
                 for x in x0..x1 {
                     if cur.class[x] != NONE {
+                        continue;
+                    }
+                    // Quick test: some opposite pair of neighbours must both be edges.
+                    let (l, r) = (x.wrapping_sub(1), x + 1);
+                    let on = |row: &[u8], i: usize| i < w && row[i] != NONE;
+                    let pair = (on(&cur.class, l) && on(&cur.class, r))
+                        || (up.class[x] != NONE && down.class[x] != NONE)
+                        || (on(&up.class, l) && on(&down.class, r))
+                        || (on(&up.class, r) && on(&down.class, l));
+                    if !pair {
                         continue;
                     }
                     let get = |r: &EdgeRow, dx: isize| {

@@ -47,6 +47,11 @@ impl Gaussian5 {
     }
     /// Pushes one row; true when `out` holds the next output row.
     pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+        crate::simd::dispatch(|| self.push_row_impl(row, out))
+    }
+
+    #[inline(always)]
+    fn push_row_impl(&mut self, row: &[u8], out: &mut [u8]) -> bool {
         let w = self.width;
         self.padded[2..w + 2].copy_from_slice(row);
         self.padded[0] = row[0];
@@ -55,12 +60,22 @@ impl Gaussian5 {
         self.padded[w + 3] = row[w - 1];
         let s = (self.n_in % 5) * w;
         let p = &self.padded;
-        for (i, h) in self.ring[s..s + w].iter_mut().enumerate() {
-            *h = p[i] as u16
-                + 4 * p[i + 1] as u16
-                + 6 * p[i + 2] as u16
-                + 4 * p[i + 3] as u16
-                + p[i + 4] as u16;
+        let (p0, p1, p2, p3, p4) = (
+            &p[..w],
+            &p[1..w + 1],
+            &p[2..w + 2],
+            &p[3..w + 3],
+            &p[4..w + 4],
+        );
+        for (((((h, &a), &b), &c), &d), &e) in self.ring[s..s + w]
+            .iter_mut()
+            .zip(p0)
+            .zip(p1)
+            .zip(p2)
+            .zip(p3)
+            .zip(p4)
+        {
+            *h = a as u16 + 4 * b as u16 + 6 * c as u16 + 4 * d as u16 + e as u16;
         }
         self.n_in += 1;
         if self.n_in > 2 {
@@ -73,12 +88,13 @@ impl Gaussian5 {
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
         if self.n_out < self.n_in {
-            self.emit(out);
+            crate::simd::dispatch(|| self.emit(out));
             true
         } else {
             false
         }
     }
+    #[inline(always)]
     fn emit(&mut self, out: &mut [u8]) {
         let w = self.width;
         let y = self.n_out as isize;

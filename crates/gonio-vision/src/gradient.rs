@@ -75,15 +75,27 @@ impl Sobel {
     }
     /// Pushes one row; true when `out` holds the next output row.
     pub fn push_row(&mut self, row: &[u8], out: &mut GradRow) -> bool {
+        crate::simd::dispatch(|| self.push_row_impl(row, out))
+    }
+
+    #[inline(always)]
+    fn push_row_impl(&mut self, row: &[u8], out: &mut GradRow) -> bool {
         let w = self.width;
         let s = (self.n_in % 3) * w;
         let sm = &mut self.smooth[s..s + w];
         let df = &mut self.diff[s..s + w];
         sm[0] = 3 * row[0] as i16 + row[1] as i16;
         df[0] = row[1] as i16 - row[0] as i16;
-        for x in 1..w - 1 {
-            sm[x] = row[x - 1] as i16 + 2 * row[x] as i16 + row[x + 1] as i16;
-            df[x] = row[x + 1] as i16 - row[x - 1] as i16;
+        let (l, c, r) = (&row[..w - 2], &row[1..w - 1], &row[2..w]);
+        for ((((s, d), &l), &c), &r) in sm[1..w - 1]
+            .iter_mut()
+            .zip(df[1..w - 1].iter_mut())
+            .zip(l)
+            .zip(c)
+            .zip(r)
+        {
+            *s = l as i16 + 2 * c as i16 + r as i16;
+            *d = r as i16 - l as i16;
         }
         sm[w - 1] = row[w - 2] as i16 + 3 * row[w - 1] as i16;
         df[w - 1] = row[w - 1] as i16 - row[w - 2] as i16;
@@ -98,12 +110,13 @@ impl Sobel {
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut GradRow) -> bool {
         if self.n_out < self.n_in {
-            self.emit(out);
+            crate::simd::dispatch(|| self.emit(out));
             true
         } else {
             false
         }
     }
+    #[inline(always)]
     fn emit(&mut self, out: &mut GradRow) {
         let w = self.width;
         let y = self.n_out as isize;
@@ -116,12 +129,21 @@ impl Sobel {
             &self.diff[b..b + w],
             &self.diff[c..c + w],
         );
-        for x in 0..w {
-            let gx = da[x] + 2 * db[x] + dc[x];
-            let gy = sc[x] - sa[x];
-            out.gx[x] = gx;
-            out.gy[x] = gy;
-            out.mag[x] = gx.unsigned_abs() + gy.unsigned_abs();
+        let (ogx, ogy, omag) = (&mut out.gx[..w], &mut out.gy[..w], &mut out.mag[..w]);
+        for ((((((ox, oy), om), &da), &db), &dc), (&sa, &sc)) in ogx
+            .iter_mut()
+            .zip(ogy.iter_mut())
+            .zip(omag.iter_mut())
+            .zip(da)
+            .zip(db)
+            .zip(dc)
+            .zip(sa.iter().zip(sc))
+        {
+            let gx = da + 2 * db + dc;
+            let gy = sc - sa;
+            *ox = gx;
+            *oy = gy;
+            *om = gx.unsigned_abs() + gy.unsigned_abs();
         }
         self.n_out += 1;
     }

@@ -36,6 +36,7 @@ pub mod optics;
 pub mod pipeline;
 pub mod reference;
 pub mod segment;
+pub mod simd;
 
 pub use error::VisionError;
 pub use features::{EdgeLine, FrameResult, InvalidReason};

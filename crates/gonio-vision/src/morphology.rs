@@ -145,6 +145,7 @@ impl<const MAX: bool> Morph<MAX> {
         self.n_out = 0;
     }
 
+    #[inline(always)]
     fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
         let nc = self.class_half.len();
         let s = ((row % (2 * self.radius + 1)) * nc + class) * self.width;
@@ -154,6 +155,11 @@ impl<const MAX: bool> Morph<MAX> {
     /// Pushes one input row (`width` pixels); writes output row `pushed − 1 − r` into `out` and
     /// returns true once enough rows have arrived.
     pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+        crate::simd::dispatch(|| self.push_row_impl(row, out))
+    }
+
+    #[inline(always)]
+    fn push_row_impl(&mut self, row: &[u8], out: &mut [u8]) -> bool {
         debug_assert_eq!(row.len(), self.width);
         let (w, p) = (self.width, self.pad);
         {
@@ -198,13 +204,14 @@ impl<const MAX: bool> Morph<MAX> {
     /// After the frame's last row: writes the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
         if self.n_out < self.n_in {
-            self.emit(out);
+            crate::simd::dispatch(|| self.emit(out));
             true
         } else {
             false
         }
     }
 
+    #[inline(always)]
     fn emit(&mut self, out: &mut [u8]) {
         let y = self.n_out as isize;
         let r = self.radius as isize;

@@ -223,24 +223,7 @@ impl Detector {
         if self.rows == 0 {
             self.begin_frame();
         }
-        self.saturated += row.iter().map(|&v| (v == 255) as u64).sum::<u64>();
-        // Focus at row y − 1 needs rows y − 2 and y.
-        if self.rows >= 2 {
-            let (a, b) = (
-                &self.raw_prev[self.rows % 2],
-                &self.raw_prev[(self.rows + 1) % 2],
-            );
-            // a = row y − 2, b = row y − 1.
-            let (mut s1, mut s2) = (0u32, 0u32);
-            for x in 1..w - 1 {
-                let dx = b[x + 1].abs_diff(b[x - 1]) as u32;
-                let dy = row[x].abs_diff(a[x]) as u32;
-                s1 += dx + dy;
-                s2 += dx * dx + dy * dy;
-            }
-            self.grad_sum += s1 as u64;
-            self.focus_sum += s2 as u64;
-        }
+        crate::simd::dispatch(|| self.raw_stats(row));
         self.raw_prev[self.rows % 2].copy_from_slice(row);
         if self.p.invert {
             for (o, &v) in self.b_in.iter_mut().zip(row) {
@@ -257,6 +240,31 @@ impl Detector {
         self.feed_tophat(Some(&inp));
         self.b_in = inp;
         Ok(())
+    }
+
+    /// Saturation count and focus sums for the row just arrived.
+    #[inline(always)]
+    fn raw_stats(&mut self, row: &[u8]) {
+        let w = self.p.width;
+        self.saturated += row.iter().map(|&v| (v == 255) as u32).sum::<u32>() as u64;
+        // Focus at row y − 1 needs rows y − 2 and y.
+        if self.rows >= 2 {
+            let (a, b) = (
+                &self.raw_prev[self.rows % 2],
+                &self.raw_prev[(self.rows + 1) % 2],
+            );
+            // a = row y − 2, b = row y − 1.
+            let (mut s1, mut s2) = (0u32, 0u32);
+            let (bl, br, rc, ac) = (&b[..w - 2], &b[2..w], &row[1..w - 1], &a[1..w - 1]);
+            for (((&l, &r), &c), &u) in bl.iter().zip(br).zip(rc).zip(ac) {
+                let dx = l.abs_diff(r) as u32;
+                let dy = c.abs_diff(u) as u32;
+                s1 += dx + dy;
+                s2 += dx * dx + dy * dy;
+            }
+            self.grad_sum += s1 as u64;
+            self.focus_sum += s2 as u64;
+        }
     }
 
     /// Ends the frame: flushes the stages and computes the result.

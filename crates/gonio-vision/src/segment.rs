@@ -209,6 +209,11 @@ impl Segmenter {
         }
     }
     fn emit(&mut self, out: &mut EdgeRow) {
+        crate::simd::dispatch(|| self.emit_impl(out))
+    }
+
+    #[inline(always)]
+    fn emit_impl(&mut self, out: &mut EdgeRow) {
         let w = self.width;
         let y = self.n_out;
         let cur = &self.ring[y % 3];
@@ -231,7 +236,16 @@ impl Segmenter {
             let mx = cur.mag[x0..x1].iter().fold(0u16, |a, &b| a.max(b));
             if mx >= low {
                 for x in x0..x1 {
-                    if cur.mag[x] < low {
+                    let c = cur.mag[x];
+                    if c < low {
+                        continue;
+                    }
+                    let (gx, gy) = (cur.gx[x], cur.gy[x]);
+                    // The baseline filter rejects most candidates before the neighbourhood is
+                    // read (segment_pixel applies the same test first).
+                    if gy.unsigned_abs() as u32 * 1024
+                        > self.params.tan_q10 * gx.unsigned_abs() as u32
+                    {
                         continue;
                     }
                     let at = |r: &[u16], dx: isize| {
@@ -244,10 +258,10 @@ impl Segmenter {
                     };
                     let m = [
                         [at(up, -1), at(up, 0), at(up, 1)],
-                        [at(&cur.mag, -1), cur.mag[x], at(&cur.mag, 1)],
+                        [at(&cur.mag, -1), c, at(&cur.mag, 1)],
                         [at(down, -1), at(down, 0), at(down, 1)],
                     ];
-                    let (c, d, s) = segment_pixel(cur.gx[x], cur.gy[x], m, self.params);
+                    let (c, d, s) = segment_pixel(gx, gy, m, self.params);
                     out.class[x] = c;
                     out.dir[x] = d;
                     out.sub[x] = s;

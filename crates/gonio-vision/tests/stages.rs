@@ -208,3 +208,22 @@ fn labelling_handles_spirals_and_u_shapes() {
     assert_eq!(got.len(), want.len());
     assert!(got.len() >= 4);
 }
+
+#[test]
+fn scalar_and_avx2_paths_give_the_same_bits() {
+    let (w, h) = (203usize, 101usize);
+    let o = small_optics(w as u32, h as u32);
+    let f = synthetic(w, h, 77);
+    let run = |simd: bool| {
+        gonio_vision::simd::set_enabled(simd);
+        let mut det = Detector::new(&o).unwrap();
+        det.set_dump(true);
+        let r = det.detect(&f).unwrap();
+        (r, det.dump().unwrap().clone())
+    };
+    let scalar = run(false);
+    let fast = run(true);
+    gonio_vision::simd::set_enabled(true);
+    assert!(scalar.0.valid);
+    assert_eq!(scalar, fast);
+}
