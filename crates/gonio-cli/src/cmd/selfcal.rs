@@ -425,3 +425,90 @@ fn emit(text: &str) {
     use std::io::Write;
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run_csv(text: &str, heads: &str, raw: bool) -> Result<SelfcalResult> {
+        let (heads, _) = load_heads(heads)?;
+        let table = CsvTable::parse("r.csv", text)?;
+        let rt = read_readings(&table, &heads, raw)?;
+        calibrate(&heads, &rt.turns, &SelfcalOptions::default())
+            .map_err(|e| locate(e, &table, &rt.lines))
+    }
+
+    fn csv(rows: usize, step: f64, f: impl Fn(usize) -> String) -> String {
+        let mut s = String::from("position_deg,head_2,head_3\n");
+        for i in 0..rows {
+            s.push_str(&format!("{},{}\n", i as f64 * step, f(i)));
+        }
+        s
+    }
+
+    #[test]
+    fn good_file_and_one_line_errors_with_file_and_line() {
+        let ok = csv(36, 10.0, |i| format!("{},0.2", (i as f64).sin()));
+        let r = run_csv(&ok, "eda:3", false).unwrap();
+        assert_eq!(r.errors.len(), 36);
+        // Position 7 (file line 9) off the 10° grid.
+        let bad = csv(36, 10.0, |_| "0.1,0.2".into()).replace("\n70,", "\n71,");
+        let e = io::one_line(&run_csv(&bad, "eda:3", false).unwrap_err());
+        assert!(
+            e.starts_with("r.csv:9: column 'position_deg': found 71°"),
+            "{e}"
+        );
+        // Half a turn.
+        let e =
+            io::one_line(&run_csv(&csv(36, 5.0, |_| "0,0".into()), "eda:3", false).unwrap_err());
+        assert!(e.starts_with("r.csv:3: column 'position_deg'"), "{e}");
+        // NaN and ragged rows.
+        let e = io::one_line(
+            &run_csv(
+                &csv(
+                    36,
+                    10.0,
+                    |i| if i == 3 { "NaN,0".into() } else { "0,0".into() },
+                ),
+                "eda:3",
+                false,
+            )
+            .unwrap_err(),
+        );
+        assert!(e.starts_with("r.csv:5:2: column 'head_2'"), "{e}");
+        let e = io::one_line(
+            &run_csv(
+                &csv(36, 10.0, |i| if i == 2 { "0".into() } else { "0,0".into() }),
+                "eda:3",
+                false,
+            )
+            .unwrap_err(),
+        );
+        assert!(e.starts_with("r.csv:4: expected 3 fields"), "{e}");
+        // Head count not matching the heads.
+        let e = io::one_line(&run_csv(&ok, "eda:4", false).unwrap_err());
+        assert!(e.starts_with("r.csv:1: 2 head columns for 4 heads"), "{e}");
+        let e = io::one_line(&run_csv(&ok, "eda:3", true).unwrap_err());
+        assert!(e.contains("expected head_1,head_2,head_3"), "{e}");
+        // Too few rows.
+        let e =
+            io::one_line(&run_csv(&csv(4, 90.0, |_| "0,0".into()), "eda:3", false).unwrap_err());
+        assert!(e.starts_with("r.csv:5: turn 1: expected at least 8"), "{e}");
+    }
+
+    #[test]
+    fn turns_column_groups_rows() {
+        let mut s = String::from("position_deg,head_2,turn\n");
+        for t in [2, 1] {
+            for i in 0..12 {
+                s.push_str(&format!("{},{},{t}\n", i * 30, 0.01 * t as f64));
+            }
+        }
+        let r = run_csv(&s, "eda:2", false).unwrap();
+        assert_eq!(r.turns, 2);
+        assert_eq!(r.uncertainty.source, "repeated turns");
+        let s = s.replace(",1\n", ",0\n");
+        let e = io::one_line(&run_csv(&s, "eda:2", false).unwrap_err());
+        assert!(e.contains("turn number ≥ 1"), "{e}");
+    }
+}
