@@ -137,3 +137,78 @@ pub fn run(a: Args) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run_on(text: &str, method: Method) -> Result<()> {
+        let d = tempfile::tempdir()?;
+        let p = d.path().join("s.csv");
+        std::fs::write(&p, text)?;
+        run(Args {
+            samples: p,
+            method,
+            um_per_px: 0.75,
+            json: Some(d.path().join("o.json")),
+        })
+    }
+
+    fn err(text: &str) -> String {
+        crate::io::one_line(&run_on(text, Method::LeastSquares).unwrap_err())
+    }
+
+    #[test]
+    fn bad_input_names_file_and_line() {
+        assert!(err("theta_deg,c_px\n0,1\n1,2\n").contains("s.csv:3: too few samples"));
+        let e = err("theta_deg,c_px\n0,1\n1,NaN\n2,3\n");
+        assert!(e.contains("s.csv:3:2: column 'c_px'"), "{e}");
+        let e = err("theta_deg,c_px\n0,1\n2,2\n1,3\n3,4\n");
+        assert!(
+            e.contains("s.csv:4:1: column 'theta_deg'") && e.contains("increase"),
+            "{e}"
+        );
+        let e = err("theta,c\n0,1\n");
+        assert!(e.contains("missing column 'theta_deg'"), "{e}");
+    }
+
+    #[test]
+    fn writes_the_contract_fields() {
+        let mut s = String::from("theta_deg,c_px\n");
+        for i in 0..200 {
+            let t = 1.8 * i as f64;
+            s.push_str(&format!(
+                "{t},{}\n",
+                700.0 + 10.0 * (t - 40.0f64).to_radians().cos()
+            ));
+        }
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("s.csv");
+        std::fs::write(&p, &s).unwrap();
+        let o = d.path().join("o.json");
+        for m in [Method::LeastSquares, Method::Paper] {
+            run(Args {
+                samples: p.clone(),
+                method: m,
+                um_per_px: 0.75,
+                json: Some(o.clone()),
+            })
+            .unwrap();
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&o).unwrap()).unwrap();
+            for k in [
+                "e_px",
+                "e_um",
+                "theta_max_deg",
+                "c0_px",
+                "residual_rms_px",
+                "frames_used",
+                "outliers",
+                "method",
+            ] {
+                assert!(v.get(k).is_some(), "{k}");
+            }
+            assert!((v["e_um"].as_f64().unwrap() - 7.5).abs() < 1e-5);
+        }
+    }
+}
