@@ -80,6 +80,8 @@ pub struct Morph<const MAX: bool> {
     levels: Vec<Vec<u8>>,
     /// (2r + 1) slots × classes × width.
     ring: Vec<u8>,
+    /// Ring offsets of the rows combined for the current output row.
+    offs: Vec<usize>,
     n_in: usize,
     n_out: usize,
 }
@@ -129,6 +131,7 @@ impl<const MAX: bool> Morph<MAX> {
             ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * width],
             class_half,
             class_of_dy,
+            offs: Vec::with_capacity(2 * r + 1),
             n_in: 0,
             n_out: 0,
         }
@@ -217,14 +220,35 @@ impl<const MAX: bool> Morph<MAX> {
         let r = self.radius as isize;
         let lo = (y - r).max(0);
         let hi = (y + r).min(self.n_in as isize - 1);
-        let first = self.slot(lo as usize, self.class_of_dy[(lo - y).unsigned_abs()]);
-        out.copy_from_slice(&self.ring[first]);
-        for yy in lo + 1..=hi {
+        self.offs.clear();
+        for yy in lo..=hi {
             let c = self.class_of_dy[(yy - y).unsigned_abs()];
-            let src = &self.ring[self.slot(yy as usize, c)];
-            for (o, &s) in out.iter_mut().zip(src) {
-                *o = ext::<MAX>(*o, s);
+            let start = self.slot(yy as usize, c).start;
+            self.offs.push(start);
+        }
+        // Blocks of 64 columns: the running extreme stays in registers while the rows stream by
+        // (one load per row and pixel instead of two loads and a store).
+        const B: usize = 64;
+        let w = self.width;
+        let ring = &self.ring;
+        let mut x0 = 0;
+        while x0 + B <= w {
+            let mut acc = [Self::NEUTRAL; B];
+            for &o in &self.offs {
+                let src: &[u8; B] = ring[o + x0..o + x0 + B].try_into().expect("block");
+                for i in 0..B {
+                    acc[i] = ext::<MAX>(acc[i], src[i]);
+                }
             }
+            out[x0..x0 + B].copy_from_slice(&acc);
+            x0 += B;
+        }
+        for (x, o) in out.iter_mut().enumerate().take(w).skip(x0) {
+            let mut a = Self::NEUTRAL;
+            for &off in &self.offs {
+                a = ext::<MAX>(a, ring[off + x]);
+            }
+            *o = a;
         }
         self.n_out += 1;
     }

@@ -411,20 +411,20 @@ impl Detector {
         }
     }
     fn pass_sobel(&mut self) {
-        let b = std::mem::take(&mut self.b_grad);
+        let mut b = std::mem::take(&mut self.b_grad);
         if let Some(d) = self.dump.as_deref_mut() {
             d.gx.extend_from_slice(&b.gx);
             d.gy.extend_from_slice(&b.gy);
             d.mag.extend_from_slice(&b.mag);
         }
-        self.feed_seg(Some(&b));
+        self.feed_seg(Some(&mut b));
         self.b_grad = b;
     }
 
-    fn feed_seg(&mut self, input: Option<&GradRow>) {
+    fn feed_seg(&mut self, input: Option<&mut GradRow>) {
         match input {
             Some(r) => {
-                if self.seg.push_row(r, &mut self.b_edge) {
+                if self.seg.push_row_swap(r, &mut self.b_edge) {
                     self.pass_seg();
                 }
             }
@@ -437,18 +437,18 @@ impl Detector {
         }
     }
     fn pass_seg(&mut self) {
-        let b = std::mem::take(&mut self.b_edge);
+        let mut b = std::mem::take(&mut self.b_edge);
         if let Some(d) = self.dump.as_deref_mut() {
             d.edges.push(&b);
         }
-        self.feed_fill(Some(&b));
+        self.feed_fill(Some(&mut b));
         self.b_edge = b;
     }
 
-    fn feed_fill(&mut self, input: Option<&EdgeRow>) {
+    fn feed_fill(&mut self, input: Option<&mut EdgeRow>) {
         match input {
             Some(r) => {
-                if self.fill.push_row(r, &mut self.b_fill) {
+                if self.fill.push_row_swap(r, &mut self.b_fill) {
                     self.pass_fill();
                 }
             }

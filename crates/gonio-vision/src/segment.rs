@@ -199,6 +199,18 @@ impl Segmenter {
             false
         }
     }
+    /// Like [`Segmenter::push_row`] but takes the row by swapping buffers instead of copying it:
+    /// `row` is left holding stale data for the caller to overwrite.
+    pub fn push_row_swap(&mut self, row: &mut GradRow, out: &mut EdgeRow) -> bool {
+        std::mem::swap(&mut self.ring[self.n_in % 3], row);
+        self.n_in += 1;
+        if self.n_in > 1 {
+            self.emit(out);
+            true
+        } else {
+            false
+        }
+    }
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut EdgeRow) -> bool {
         if self.n_out < self.n_in {
