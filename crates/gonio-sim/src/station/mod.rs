@@ -20,7 +20,9 @@ pub mod frames;
 pub mod plant;
 pub mod twin;
 
-pub use batch::{BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch};
+pub use batch::{
+    BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch, run_batch_with,
+};
 pub use frames::RenderedDetector;
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
 pub use twin::{DeviceId, Faults, FrameDetector, SimDeviceError, Twin};
