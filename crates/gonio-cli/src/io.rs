@@ -93,20 +93,29 @@ impl CsvTable {
 
     /// Parses CSV text; `name` is used in error messages.
     pub fn parse(name: &str, text: &str) -> Result<CsvTable> {
+        // Line numbers are counted here, not by the csv reader (which reports a record at the
+        // end of whatever it skipped before it): keep the data lines with their numbers and
+        // parse those. Fields spanning lines are not part of gonio's formats.
+        let kept: Vec<(u64, &str)> = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| {
+                let t = l.trim();
+                !t.is_empty() && !t.starts_with('#')
+            })
+            .map(|(i, l)| (i as u64 + 1, l))
+            .collect();
+        let joined = kept.iter().map(|(_, l)| *l).collect::<Vec<_>>().join("\n");
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
-            .comment(Some(b'#'))
             .flexible(true)
             .trim(csv::Trim::All)
-            .from_reader(text.as_bytes());
+            .from_reader(joined.as_bytes());
         let mut headers: Option<(u64, Vec<String>)> = None;
         let mut rows = Vec::new();
-        for rec in rdr.records() {
-            let rec = rec.map_err(|e| {
-                let line = e.position().map_or(0, |p| p.line());
-                anyhow!("{name}:{line}: not valid CSV: {e}")
-            })?;
-            let line = rec.position().map_or(0, |p| p.line());
+        for (k, rec) in rdr.records().enumerate() {
+            let line = kept.get(k).map_or(0, |x| x.0);
+            let rec = rec.map_err(|e| anyhow!("{name}:{line}: not valid CSV: {e}"))?;
             if rec.iter().all(|f| f.is_empty()) {
                 continue;
             }
@@ -203,6 +212,8 @@ mod tests {
     fn csv_errors_name_line_and_column() {
         let t = CsvTable::parse("r.csv", "# c\na,b\n1,2\n\n3,x\n").unwrap();
         assert_eq!(t.rows.len(), 2);
+        assert_eq!(t.header_line, 2);
+        assert_eq!(t.rows[0].0, 3, "{:?}", t.rows);
         let (line, f) = &t.rows[1];
         let e = t.f64_at(*line, f, 1).unwrap_err().to_string();
         assert_eq!(e, "r.csv:5:2: column 'b': expected a number, found \"x\"");
