@@ -161,7 +161,11 @@ fn seed_protocol_with_six_repeats_agrees_within_a_tenth() {
             c.rms_difference_arcsec,
             c.max_en
         );
-        assert!(c.max_abs_difference_arcsec <= 0.1, "seed {seed}: {}", c.max_abs_difference_arcsec);
+        assert!(
+            c.max_abs_difference_arcsec <= 0.1,
+            "seed {seed}: {}",
+            c.max_abs_difference_arcsec
+        );
         // The simulation has no instrument errors, so the shift-angle U (random part plus the
         // instrument terms, k = 2) covers a difference of ≈ 3.7 σ_d: P(En > 1) ≈ 2e-4 per angle,
         // ≈ 8 % for one of 360 angles. Every En ≤ 1 is therefore expected most of the time, not
@@ -171,6 +175,10 @@ fn seed_protocol_with_six_repeats_agrees_within_a_tenth() {
             .iter()
             .filter(|p| p.en.is_some_and(|e| e > 1.0))
             .count();
-        assert!(over <= 1, "seed {seed}: {over} of 360 En > 1 (largest {})", c.max_en);
+        assert!(
+            over <= 1,
+            "seed {seed}: {over} of 360 En > 1 (largest {})",
+            c.max_en
+        );
     }
 }
