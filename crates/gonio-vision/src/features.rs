@@ -116,7 +116,7 @@ fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
     };
     let d = det(a);
     let scale = a[0][0] * a[1][1] * a[2][2];
-    if !(d.abs() > 1e-9 * scale.abs()) {
+    if d.is_nan() || d.abs() <= 1e-9 * scale.abs() {
         return None;
     }
     let mut x = [0.0; 3];

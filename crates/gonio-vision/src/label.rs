@@ -247,6 +247,7 @@ impl Labeller {
     }
 
     /// Pushes the next row of (filled) edges.
+    #[allow(clippy::needless_range_loop)]
     pub fn push_row(&mut self, edges: &EdgeRow) {
         let w = self.width;
         let y = self.row;

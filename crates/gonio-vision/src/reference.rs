@@ -14,6 +14,9 @@
 //! assert_eq!(d.get(0, 0), 0);
 //! ```
 
+// Index loops over kernels and neighbourhoods are the readable form here.
+#![allow(clippy::needless_range_loop)]
+
 use crate::features::{FrameResult, RawStats, baseline_features};
 use crate::fill::fill_pixel;
 use crate::label::Component;

@@ -152,7 +152,7 @@ fn load_angles(a: &Args) -> Result<Angles> {
         return Ok(Angles::Table(p.display().to_string(), v));
     }
     if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
-        if !speed.is_finite() || !(fps.is_finite() && fps > 0.0) {
+        if !speed.is_finite() || !fps.is_finite() || fps <= 0.0 {
             bail!("--speed-deg-s {speed} --fps {fps}: expected a finite speed and fps > 0");
         }
         return Ok(Angles::Speed {

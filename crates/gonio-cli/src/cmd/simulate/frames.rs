@@ -84,7 +84,7 @@ pub fn run(a: Args) -> Result<()> {
     if a.count == 0 {
         bail!("--count 0: expected at least one frame");
     }
-    if !(a.fps.is_finite() && a.fps > 0.0) || !a.speed_deg_s.is_finite() {
+    if !a.fps.is_finite() || a.fps <= 0.0 || !a.speed_deg_s.is_finite() {
         bail!(
             "--speed-deg-s {} --fps {}: expected a finite speed and fps > 0",
             a.speed_deg_s,
