@@ -78,8 +78,10 @@ pub struct Morph<const MAX: bool> {
     class_of_dy: Vec<usize>,
     /// Doubling pyramid; level 0 is the padded row.
     levels: Vec<Vec<u8>>,
-    /// (2r + 1) slots × classes × width.
+    /// (2r + 1) slots × classes × stride.
     ring: Vec<u8>,
+    /// Row stride in the ring: width rounded up to 64.
+    stride: usize,
     /// Ring offsets of the rows combined for the current output row.
     offs: Vec<usize>,
     n_in: usize,
@@ -118,6 +120,8 @@ impl<const MAX: bool> Morph<MAX> {
         }
         let pad = r;
         let n = width + 2 * pad;
+        // Ring rows padded to whole 64-byte blocks (the padding stays neutral).
+        let stride = width.div_ceil(64) * 64;
         let max_span = 2 * r + 1;
         let mut nlev = 1;
         while (1usize << nlev) <= max_span {
@@ -128,7 +132,8 @@ impl<const MAX: bool> Morph<MAX> {
             radius: r,
             pad,
             levels: vec![vec![Self::NEUTRAL; n]; nlev],
-            ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * width],
+            ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * stride],
+            stride,
             class_half,
             class_of_dy,
             offs: Vec::with_capacity(2 * r + 1),
@@ -151,7 +156,7 @@ impl<const MAX: bool> Morph<MAX> {
     #[inline(always)]
     fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
         let nc = self.class_half.len();
-        let s = ((row % (2 * self.radius + 1)) * nc + class) * self.width;
+        let s = ((row % (2 * self.radius + 1)) * nc + class) * self.stride;
         s..s + self.width
     }
 
@@ -262,7 +267,7 @@ impl<const MAX: bool> Morph<MAX> {
         let w = self.width;
         let ring = &self.ring;
         let mut x0 = 0;
-        while x0 + B <= w {
+        while x0 < w {
             let mut acc = [Self::NEUTRAL; B];
             for &o in &self.offs {
                 let src: &[u8; B] = ring[o + x0..o + x0 + B].try_into().expect("block");
@@ -270,15 +275,9 @@ impl<const MAX: bool> Morph<MAX> {
                     acc[i] = ext::<MAX>(acc[i], src[i]);
                 }
             }
-            out[x0..x0 + B].copy_from_slice(&acc);
+            let n = B.min(w - x0);
+            out[x0..x0 + n].copy_from_slice(&acc[..n]);
             x0 += B;
-        }
-        for (x, o) in out.iter_mut().enumerate().take(w).skip(x0) {
-            let mut a = Self::NEUTRAL;
-            for &off in &self.offs {
-                a = ext::<MAX>(a, ring[off + x]);
-            }
-            *o = a;
         }
         self.n_out += 1;
     }
