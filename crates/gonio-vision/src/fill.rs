@@ -119,6 +119,7 @@ impl EdgeFill {
     }
 
     #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
     fn emit_impl(&mut self, out: &mut EdgeRow) {
         let w = self.width;
         let y = self.n_out;
@@ -134,35 +135,37 @@ impl EdgeFill {
             &self.empty
         };
         out.copy_from(cur);
-        // Pixels with no edge in their column band of 3 rows can never be filled: skip fast.
-        for (((a, &u), &c), &d) in self
-            .any
-            .iter_mut()
-            .zip(&up.class)
-            .zip(&cur.class)
-            .zip(&down.class)
-        {
-            *a = u | c | d;
+        // Necessary condition, vectorised over the row: an empty pixel with some opposite pair
+        // of edge neighbours. fill_pixel then decides exactly. The two border pixels are always
+        // checked in full.
+        let (uc, cc, dc) = (&up.class, &cur.class, &down.class);
+        let need = &mut self.any;
+        if w >= 3 {
+            let n = w - 2;
+            let (cl, cm, cr) = (&cc[..n], &cc[1..n + 1], &cc[2..n + 2]);
+            let (ul, um, ur) = (&uc[..n], &uc[1..n + 1], &uc[2..n + 2]);
+            let (dl, dm, dr) = (&dc[..n], &dc[1..n + 1], &dc[2..n + 2]);
+            let nd = &mut need[1..n + 1];
+            for i in 0..n {
+                let e = |v: u8| v != NONE;
+                let pair = (e(cl[i]) & e(cr[i]))
+                    | (e(um[i]) & e(dm[i]))
+                    | (e(ul[i]) & e(dr[i]))
+                    | (e(ur[i]) & e(dl[i]));
+                nd[i] = (!e(cm[i]) & pair) as u8;
+            }
+            need[0] = 1;
+            need[w - 1] = 1;
+        } else {
+            need.fill(1);
         }
         const CH: usize = 32;
         let mut x0 = 0;
         while x0 < w {
             let x1 = (x0 + CH).min(w);
-            let lo = x0.saturating_sub(1);
-            let hi = (x1 + 1).min(w);
-            if self.any[lo..hi].iter().fold(0u8, |a, &b| a | b) != 0 {
+            if self.any[x0..x1].iter().fold(0u8, |a, &b| a | b) != 0 {
                 for x in x0..x1 {
-                    if cur.class[x] != NONE {
-                        continue;
-                    }
-                    // Quick test: some opposite pair of neighbours must both be edges.
-                    let (l, r) = (x.wrapping_sub(1), x + 1);
-                    let on = |row: &[u8], i: usize| i < w && row[i] != NONE;
-                    let pair = (on(&cur.class, l) && on(&cur.class, r))
-                        || (up.class[x] != NONE && down.class[x] != NONE)
-                        || (on(&up.class, l) && on(&down.class, r))
-                        || (on(&up.class, r) && on(&down.class, l));
-                    if !pair {
+                    if self.any[x] == 0 || cur.class[x] != NONE {
                         continue;
                     }
                     let get = |r: &EdgeRow, dx: isize| {

@@ -159,6 +159,7 @@ pub struct Segmenter {
     params: SegmentParams,
     ring: [GradRow; 3],
     zero: Vec<u16>,
+    cand: Vec<u8>,
     n_in: usize,
     n_out: usize,
 }
@@ -175,6 +176,7 @@ impl Segmenter {
                 GradRow::new(width),
             ],
             zero: vec![0; width],
+            cand: vec![0; width],
             n_in: 0,
             n_out: 0,
         }
@@ -241,23 +243,20 @@ impl Segmenter {
         };
         out.clear();
         let low = self.params.low;
+        let tq = self.params.tan_q10;
+        // Candidates (magnitude and baseline filter) for the whole row, vectorised; the
+        // neighbourhood is read only where one is found. segment_pixel repeats both tests.
+        for (((c, &m), &gx), &gy) in self.cand.iter_mut().zip(&cur.mag).zip(&cur.gx).zip(&cur.gy) {
+            let dir_ok = gy.unsigned_abs() as u32 * 1024 <= tq * gx.unsigned_abs() as u32;
+            *c = ((m >= low) & dir_ok) as u8;
+        }
         const CH: usize = 32;
         let mut x0 = 0;
         while x0 < w {
             let x1 = (x0 + CH).min(w);
-            let mx = cur.mag[x0..x1].iter().fold(0u16, |a, &b| a.max(b));
-            if mx >= low {
+            if self.cand[x0..x1].iter().fold(0u8, |a, &b| a | b) != 0 {
                 for x in x0..x1 {
-                    let c = cur.mag[x];
-                    if c < low {
-                        continue;
-                    }
-                    let (gx, gy) = (cur.gx[x], cur.gy[x]);
-                    // The baseline filter rejects most candidates before the neighbourhood is
-                    // read (segment_pixel applies the same test first).
-                    if gy.unsigned_abs() as u32 * 1024
-                        > self.params.tan_q10 * gx.unsigned_abs() as u32
-                    {
+                    if self.cand[x] == 0 {
                         continue;
                     }
                     let at = |r: &[u16], dx: isize| {
@@ -270,10 +269,10 @@ impl Segmenter {
                     };
                     let m = [
                         [at(up, -1), at(up, 0), at(up, 1)],
-                        [at(&cur.mag, -1), c, at(&cur.mag, 1)],
+                        [at(&cur.mag, -1), cur.mag[x], at(&cur.mag, 1)],
                         [at(down, -1), at(down, 0), at(down, 1)],
                     ];
-                    let (c, d, s) = segment_pixel(gx, gy, m, self.params);
+                    let (c, d, s) = segment_pixel(cur.gx[x], cur.gy[x], m, self.params);
                     out.class[x] = c;
                     out.dir[x] = d;
                     out.sub[x] = s;
