@@ -225,20 +225,23 @@ impl Detector {
         }
         crate::simd::dispatch(|| self.raw_stats(row));
         self.raw_prev[self.rows % 2].copy_from_slice(row);
+        self.rows += 1;
         if self.p.invert {
             for (o, &v) in self.b_in.iter_mut().zip(row) {
                 *o = 255 - v;
             }
+            let inp = std::mem::take(&mut self.b_in);
+            if let Some(d) = self.dump.as_deref_mut() {
+                d.input.extend_from_slice(&inp);
+            }
+            self.feed_tophat(Some(&inp));
+            self.b_in = inp;
         } else {
-            self.b_in.copy_from_slice(row);
+            if let Some(d) = self.dump.as_deref_mut() {
+                d.input.extend_from_slice(row);
+            }
+            self.feed_tophat(Some(row));
         }
-        self.rows += 1;
-        let inp = std::mem::take(&mut self.b_in);
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.input.extend_from_slice(&inp);
-        }
-        self.feed_tophat(Some(&inp));
-        self.b_in = inp;
         Ok(())
     }
 
