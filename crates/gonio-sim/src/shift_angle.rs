@@ -23,7 +23,7 @@
 use crate::{EncoderModel, SimError};
 use gonio_calib::shift_angle::Reading;
 use gonio_core::closure::{cyclic_sum, remove_mean};
-use gonio_core::{Arcsec, Degrees};
+use gonio_core::Degrees;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, Uniform};
@@ -232,7 +232,7 @@ pub fn simulate(encoder: &EncoderModel, cfg: &ShiftAngleConfig) -> Result<ShiftA
             .collect();
         let model: Vec<f64> = angles
             .iter()
-            .map(|&a| Arcsec::from(encoder.error_at(Degrees(a))).0)
+            .map(|&a| encoder.error_at(Degrees(a)).0)
             .collect();
         let mut closed = model.clone();
         let mean = remove_mean(&mut closed);
