@@ -28,7 +28,9 @@ impl Instrument {
         };
         if let Some(c) = coverage {
             if !(c > 0.0 && c < 1.0) {
-                return Err(anyhow!("--coverage {c}: expected a probability in (0, 1), e.g. 0.95"));
+                return Err(anyhow!(
+                    "--coverage {c}: expected a probability in (0, 1), e.g. 0.95"
+                ));
             }
             file.coverage = c;
         }
@@ -73,7 +75,12 @@ impl Instrument {
         println!("  uncertainty budget, {title}");
         println!(
             "    {:<30} {:>10} {:>8} {:>10} {:>8} {:>7}",
-            "contribution", format!("u/{unit}"), "c", "|c·u|", "ν", "share"
+            "contribution",
+            format!("u/{unit}"),
+            "c",
+            "|c·u|",
+            "ν",
+            "share"
         );
         let total = combined.u_c * combined.u_c;
         let row = |name: &str, u: f64, c: f64, nu: f64| {

@@ -29,7 +29,14 @@ fn simulate_then_calibrate_matches_truth_within_reported_u() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("lab");
     let o = gonio(&[
-        "simulate", "shift-angle", "--shifts", "0:1:14", "--seed", "4", "--out", out.to_str().unwrap(),
+        "simulate",
+        "shift-angle",
+        "--shifts",
+        "0:1:14",
+        "--seed",
+        "4",
+        "--out",
+        out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let json = d.path().join("cal.json");
@@ -43,7 +50,8 @@ fn simulate_then_calibrate_matches_truth_within_reported_u() {
         comp.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let cal: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let cal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let truth: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).unwrap()).unwrap();
     assert_eq!(cal["method"], "least-squares");
@@ -51,7 +59,11 @@ fn simulate_then_calibrate_matches_truth_within_reported_u() {
     let alpha = cal["encoder_errors"].as_array().unwrap();
     assert_eq!(alpha.len(), 360);
     // Sorted by angle over all shifts.
-    assert!(alpha.windows(2).all(|w| w[0]["angle_deg"].as_f64() < w[1]["angle_deg"].as_f64()));
+    assert!(
+        alpha
+            .windows(2)
+            .all(|w| w[0]["angle_deg"].as_f64() < w[1]["angle_deg"].as_f64())
+    );
     for t in truth["encoder_errors"].as_array().unwrap() {
         let a = alpha
             .iter()
@@ -60,7 +72,11 @@ fn simulate_then_calibrate_matches_truth_within_reported_u() {
         let err = a["value_arcsec"].as_f64().unwrap() - t["value_arcsec"].as_f64().unwrap();
         let u = a["u_arcsec"].as_f64().unwrap();
         // 360 draws: |z| > 5 has probability 2e-4 for the lot.
-        assert!(err.abs() < 5.0 * u, "angle {}: error {err}, u {u}", t["angle_deg"]);
+        assert!(
+            err.abs() < 5.0 * u,
+            "angle {}: error {err}, u {u}",
+            t["angle_deg"]
+        );
     }
     for key in ["rms_arcsec", "max_abs_arcsec", "dof"] {
         assert!(cal["residuals"][key].is_number());
@@ -78,7 +94,16 @@ fn same_seed_same_bytes() {
     let d = tempfile::tempdir().unwrap();
     let run = |name: &str| {
         let out = d.path().join(name);
-        let o = gonio(&["simulate", "shift-angle", "--seed", "9", "--rows", "full", "--out", out.to_str().unwrap()]);
+        let o = gonio(&[
+            "simulate",
+            "shift-angle",
+            "--seed",
+            "9",
+            "--rows",
+            "full",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert!(o.status.success());
         (
             std::fs::read(out.join("readings.csv")).unwrap(),
@@ -93,16 +118,52 @@ fn bad_input_is_one_line_with_file_line_and_exit_2() {
     let d = tempfile::tempdir().unwrap();
     let cases: &[(&str, &[&str], &str)] = &[
         ("0,1,1,0.5\n", &[], "r.csv:1: missing column 'shift_deg'"),
-        ("shift,face,step,value\n0,1,1,0.5\n", &[], "r.csv:1: missing column 'shift_deg'"),
-        ("# c\nshift_deg,start_face,step,reading_arcsec\n0,1,1,abc\n", &[], "r.csv:3:4: column 'reading_arcsec': expected a number, found \"abc\""),
-        ("shift_deg,start_face,step,reading_arcsec\n0,1,x,0.1\n", &[], "r.csv:2:3: column 'step': expected a whole number"),
-        ("shift_deg,start_face,step,reading_arcsec\n0,7,1,0.1\n", &["--faces", "6"], "r.csv:2:2: column 'start_face': 7 is out of range: expected 1..=6"),
-        ("shift_deg,start_face,step,reading_arcsec\n0,1,0,0.1\n", &[], "r.csv:2:3: column 'step': 0 is out of range"),
-        ("shift_deg,start_face,step,reading_arcsec\n0,1,1,0.1\n0,2,2,0.2\n0,3,3,0.3\n0,1,1,0.4\n", &[], "r.csv:5: conflicting duplicate"),
-        ("shift_deg,start_face,step,reading_arcsec\n0,1,1,0.1,9\n", &[], "r.csv:2: expected 4 fields"),
-        ("shift_deg,start_face,step,reading_arcsec\n", &[], "no readings"),
+        (
+            "shift,face,step,value\n0,1,1,0.5\n",
+            &[],
+            "r.csv:1: missing column 'shift_deg'",
+        ),
+        (
+            "# c\nshift_deg,start_face,step,reading_arcsec\n0,1,1,abc\n",
+            &[],
+            "r.csv:3:4: column 'reading_arcsec': expected a number, found \"abc\"",
+        ),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n0,1,x,0.1\n",
+            &[],
+            "r.csv:2:3: column 'step': expected a whole number",
+        ),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n0,7,1,0.1\n",
+            &["--faces", "6"],
+            "r.csv:2:2: column 'start_face': 7 is out of range: expected 1..=6",
+        ),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n0,1,0,0.1\n",
+            &[],
+            "r.csv:2:3: column 'step': 0 is out of range",
+        ),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n0,1,1,0.1\n0,2,2,0.2\n0,3,3,0.3\n0,1,1,0.4\n",
+            &[],
+            "r.csv:5: conflicting duplicate",
+        ),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n0,1,1,0.1,9\n",
+            &[],
+            "r.csv:2: expected 4 fields",
+        ),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n",
+            &[],
+            "no readings",
+        ),
         ("", &[], "r.csv:1: empty file"),
-        ("shift_deg,start_face,step,reading_arcsec\n0,1,1,NaN\n", &[], "r.csv:2:4: column 'reading_arcsec': expected a finite number"),
+        (
+            "shift_deg,start_face,step,reading_arcsec\n0,1,1,NaN\n",
+            &[],
+            "r.csv:2:4: column 'reading_arcsec': expected a finite number",
+        ),
     ];
     for (text, extra, expected) in cases {
         let mut args = extra.to_vec();
@@ -110,7 +171,10 @@ fn bad_input_is_one_line_with_file_line_and_exit_2() {
         args.extend_from_slice(&["--json", json.to_str().unwrap()]);
         let (code, err) = on_csv(d.path(), text, &args);
         assert_eq!(code, 2, "{text:?}: {err}");
-        assert!(err.contains(expected), "{text:?}: expected {expected:?} in {err:?}");
+        assert!(
+            err.contains(expected),
+            "{text:?}: expected {expected:?} in {err:?}"
+        );
         assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
         assert!(!err.contains("panicked"));
         assert!(!json.exists(), "no output on error");
@@ -127,7 +191,10 @@ fn too_sparse_names_the_undetermined_unknowns() {
     }
     let (code, err) = on_csv(d.path(), &text, &[]);
     assert_eq!(code, 2);
-    assert!(err.contains("r.csv: the readings do not determine"), "{err}");
+    assert!(
+        err.contains("r.csv: the readings do not determine"),
+        "{err}"
+    );
     assert!(err.contains("β_2"), "{err}");
     // The paper's method says what it needs instead.
     let (code, err) = on_csv(d.path(), &text, &["--method", "paper"]);
@@ -137,10 +204,18 @@ fn too_sparse_names_the_undetermined_unknowns() {
 
 #[test]
 fn help_has_an_example() {
-    for cmd in [&["shift-angle", "--help"][..], &["simulate", "shift-angle", "--help"], &["simulate", "encoder", "--help"], &["demo", "--help"]] {
+    for cmd in [
+        &["shift-angle", "--help"][..],
+        &["simulate", "shift-angle", "--help"],
+        &["simulate", "encoder", "--help"],
+        &["demo", "--help"],
+    ] {
         let o = gonio(cmd);
         assert!(o.status.success());
-        assert!(String::from_utf8_lossy(&o.stdout).contains("Example"), "{cmd:?}");
+        assert!(
+            String::from_utf8_lossy(&o.stdout).contains("Example"),
+            "{cmd:?}"
+        );
     }
 }
 
@@ -148,7 +223,14 @@ fn help_has_an_example() {
 fn instrument_terms_widen_every_u_and_give_k_and_nu_eff() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("lab");
-    let o = gonio(&["simulate", "shift-angle", "--seed", "2", "--out", out.to_str().unwrap()]);
+    let o = gonio(&[
+        "simulate",
+        "shift-angle",
+        "--seed",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success());
     let inst = d.path().join("inst.toml");
     // u = 0.03/√3 and 0.01/2: two terms with ν = ∞.
@@ -170,7 +252,8 @@ fn instrument_terms_widen_every_u_and_give_k_and_nu_eff() {
         json.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let cal: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let cal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let extra = (0.03f64 / 3f64.sqrt()).powi(2) + 0.005f64.powi(2);
     for a in cal["encoder_errors"].as_array().unwrap() {
         let ur = a["u_random_arcsec"].as_f64().unwrap();
@@ -183,7 +266,12 @@ fn instrument_terms_widen_every_u_and_give_k_and_nu_eff() {
     }
     // A malformed instrument file names its line.
     std::fs::write(&inst, "[encoder_resolution]\ndistribution = \"triangle\"\n").unwrap();
-    let o = gonio(&["shift-angle", out.join("readings.csv").to_str().unwrap(), "--instrument", inst.to_str().unwrap()]);
+    let o = gonio(&[
+        "shift-angle",
+        out.join("readings.csv").to_str().unwrap(),
+        "--instrument",
+        inst.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("inst.toml:2"), "{}", stderr(&o));
 }

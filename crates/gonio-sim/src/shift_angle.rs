@@ -22,8 +22,8 @@
 
 use crate::{EncoderModel, SimError};
 use gonio_calib::shift_angle::Reading;
-use gonio_core::closure::{cyclic_sum, remove_mean};
 use gonio_core::Degrees;
+use gonio_core::closure::{cyclic_sum, remove_mean};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, Uniform};

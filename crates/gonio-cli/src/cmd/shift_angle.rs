@@ -1,12 +1,12 @@
 //! `gonio shift-angle`: calibrate an encoder from polygon + autocollimator readings.
 
 use crate::io::{self, CsvTable};
+use crate::uncertainty::{DofJson, Instrument, UncertaintySummary, dof_value};
 use anyhow::{Context, Result, anyhow};
 use gonio_calib::shift_angle::{
     Calibration, HarmonicCheck, Method, Options, Reading, ReadingSet, ShiftAngleError, calibrate,
     harmonic_check,
 };
-use crate::uncertainty::{DofJson, Instrument, UncertaintySummary, dof_value};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -414,7 +414,13 @@ pub fn run(args: Args) -> Result<()> {
     };
     let cal = calibrate(&set, &opts).map_err(|e| anyhow!("{}: {e}", args.readings.display()))?;
     let check = harmonic_check(&cal, args.check_order).ok();
-    let report = ShiftAngleReport::new(&cal, &set, check.as_ref(), args.sigma.is_some(), &instrument)?;
+    let report = ShiftAngleReport::new(
+        &cal,
+        &set,
+        check.as_ref(),
+        args.sigma.is_some(),
+        &instrument,
+    )?;
     print_summary(&report);
     // The budget of the angle with the largest U.
     if let Some(worst) = cal
