@@ -21,8 +21,15 @@
 //! - shot noise (variance = grey / electrons-per-grey) and read noise; an exposure factor
 //!   (above ≈ 1.3 the background saturates at 255).
 //!
-//! Noise is a fast approximation of a normal (Irwin–Hall sum of four uniforms): the same seed
-//! gives the same bytes.
+//! Noise is normal, drawn from a table of 4096 normal quantiles indexed by 12 random bits
+//! (SplitMix64, one stream per row): the same seed gives the same bytes, whatever the number of
+//! threads.
+//!
+//! # Speed
+//! Per row, the column ranges where the ring and the code tracks can darken a pixel are found
+//! from the geometry (ρ grows along a row when the window is on the +X side of the grating
+//! centre, as always here); only those columns evaluate ρ and the edge profiles. Every pixel
+//! then gets illumination and noise in one cheap pass.
 //!
 //! # Ground truth
 //! [`FrameTruth::c_true_px`] is the ring centre line's mean column over the window's rows (the
@@ -42,7 +49,7 @@
 
 use crate::SimError;
 use gonio_vision::{Optics, Params};
-use rand::{Rng, RngExt, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -161,6 +168,45 @@ pub struct GratingRenderer {
     p: Params,
     scene: GratingScene,
     cdf: Vec<f32>,
+    /// Standard normal quantiles at (i + ½)/4096: 12 random bits → one normal deviate.
+    normal: Vec<f32>,
+}
+
+/// Bits per normal deviate drawn from the table (five per 64-bit random word).
+const NORMAL_BITS: u32 = 12;
+
+/// SplitMix64: a cheap, well-mixed 64-bit generator (one per row, seeded from the frame's seed).
+#[inline(always)]
+fn splitmix64(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Round half away from zero without a libm call (the baseline x86-64 target has no `roundsd`).
+#[inline(always)]
+fn round_fast(x: f64) -> f64 {
+    if x >= 0.0 {
+        (x + 0.5) as i64 as f64
+    } else {
+        (x - 0.5) as i64 as f64
+    }
+}
+
+/// Inverse of [`norm_cdf`] by bisection (table construction only).
+fn norm_quantile(p: f64) -> f64 {
+    let (mut lo, mut hi) = (-8.0f64, 8.0f64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if norm_cdf(mid) < p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 /// Normal CDF via erf (Abramowitz–Stegun 7.1.26, |ε| < 1.5e-7), for the table.
@@ -223,11 +269,16 @@ impl GratingRenderer {
         let cdf = (0..n)
             .map(|i| norm_cdf(i as f64 / CDF_STEPS - CDF_RANGE) as f32)
             .collect();
+        let nn = 1usize << NORMAL_BITS;
+        let normal = (0..nn)
+            .map(|i| norm_quantile((i as f64 + 0.5) / nn as f64) as f32)
+            .collect();
         Ok(GratingRenderer {
             optics: optics.clone(),
             p,
             scene,
             cdf,
+            normal,
         })
     }
 
@@ -356,13 +407,16 @@ impl GratingRenderer {
         let stage_x = |u: usize| x0 + (u as f64 - (w as f64 - 1.0) / 2.0) * s;
         let stage_y = |v: usize| (v as f64 - (h as f64 - 1.0) / 2.0) * s;
 
+        // Ring centre line per row (shared by the truth and the drawing).
+        let ring_xs: Vec<Option<f64>> = (0..h).map(|v| self.ring_x(g, theta, stage_y(v))).collect();
+
         // Truth.
         let mut sum = 0.0;
         let mut all_rows = true;
         let mut inside = sc.ring_present;
         let d_half_px = half_w / s;
-        for v in 0..h {
-            match self.ring_x(g, theta, stage_y(v)) {
+        for rx in &ring_xs {
+            match *rx {
                 Some(x) => {
                     let c = col_of(x);
                     sum += c;
@@ -377,9 +431,7 @@ impl GratingRenderer {
             }
         }
         let c_true_px = if all_rows { sum / h as f64 } else { f64::NAN };
-        let c_mid_row_px = self
-            .ring_x(g, theta, stage_y(h / 2))
-            .map_or(f64::NAN, col_of);
+        let c_mid_row_px = ring_xs[h / 2].map_or(f64::NAN, col_of);
 
         let gain = sc.exposure;
         let (bg, ring_depth, bar_depth) = (
@@ -389,75 +441,139 @@ impl GratingRenderer {
         );
         let reach = 4.5 * sigma;
         let tau = std::f64::consts::TAU;
+        // Illumination's column term, and the noise model's constants.
+        let illum_col: Vec<f64> = (0..w)
+            .map(|u| -sc.illumination_gradient * (u as f64 / w as f64 - 0.5))
+            .collect();
+        let rn2 = (sc.read_noise_grey * sc.read_noise_grey) as f32;
+        let inv_e = if sc.electrons_per_grey > 0.0 {
+            (1.0 / sc.electrons_per_grey) as f32
+        } else {
+            0.0
+        };
+        let qx_first = stage_x(0) - g.0;
+        // Columns [lo, hi) whose ρ can lie in [r_lo, r_hi] on a row with offset qy (ρ increases
+        // with u when the whole row is at qx > 0; otherwise every column).
+        let cols = |qy: f64, r_lo: f64, r_hi: f64| -> (usize, usize) {
+            if qx_first <= 0.0 {
+                return (0, w);
+            }
+            let u_of = |r: f64| {
+                let q = r * r - qy * qy;
+                if q <= 0.0 {
+                    f64::NEG_INFINITY
+                } else {
+                    (q.sqrt() - qx_first) / s
+                }
+            };
+            let lo = (u_of(r_lo).floor() - 1.0).clamp(0.0, w as f64) as usize;
+            let hi = (u_of(r_hi).ceil() + 2.0).clamp(0.0, w as f64) as usize;
+            (lo, hi.max(lo))
+        };
+        // A band seen from deep inside (both profiles at the table's ends).
+        let deep_band = self.cdf[self.cdf.len() - 2] - self.cdf[0];
+        let normal = &self.normal[..];
+        let mask = (1u64 << NORMAL_BITS) - 1;
         // Rows in parallel; each row has its own noise stream, so the bytes do not depend on
         // the number of threads.
-        out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
-            let mut rng = ChaCha8Rng::seed_from_u64(
-                rng_seed ^ (v as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15),
-            );
-            let y = stage_y(v);
-            let qy = y - g.1;
-            // Ring radius for this row (roundness varies slowly along the ring).
-            let rr = match self.ring_x(g, theta, y) {
-                Some(x) => ((x - g.0).powi(2) + qy * qy).sqrt(),
-                None => r0,
-            };
-            // Unit vector toward the window centre's grating point, for the track angles.
-            let qxc = x0 - g.0;
-            let nrm = (qxc * qxc + qy * qy).sqrt();
-            let (cx, cy) = (qxc / nrm, qy / nrm);
-            let phi_c = qy.atan2(qxc) - theta;
-            let illum_row = 1.0 + 0.5 * sc.illumination_gradient * (v as f64 / h as f64 - 0.5);
-            for (u, o) in row.iter_mut().enumerate() {
-                let qx = stage_x(u) - g.0;
-                let rho = (qx * qx + qy * qy).sqrt();
-                let mut dark = 0f32;
-                let dr = rho - rr;
-                if sc.ring_present && dr.abs() < half_w + reach {
-                    dark += ring_depth * self.band(dr, -half_w, half_w, inv_sigma);
-                }
-                if sc.code_tracks {
-                    let dt = rho - r0;
-                    for (lo, hi, period, mark) in [WIDE_BARS, THIN_LINES] {
-                        if dt > lo - reach && dt < hi + reach {
-                            // Angle from the centre direction (small: series of atan).
-                            let t = (qy * cx - qx * cy) / (qx * cx + qy * cy);
-                            let t2 = t * t;
-                            let dphi = t * (1.0 - t2 * (1.0 / 3.0 - t2 * (0.2 - t2 / 7.0)));
-                            let phi_g = phi_c + dphi;
-                            let n = tau * r0 / period;
-                            let k = (phi_g * n / tau).round();
-                            let arc = (phi_g - k * tau / n) * rho;
-                            let local = tau * rho / n;
-                            let near = arc.abs().min(local - arc.abs());
-                            if near > mark / 2.0 + reach {
-                                continue;
-                            }
-                            let radial = self.band(dt, lo, hi, inv_sigma);
-                            let ang = self.band(arc, -mark / 2.0, mark / 2.0, inv_sigma)
-                                + self.band(arc.abs() - local, -mark / 2.0, mark / 2.0, inv_sigma);
-                            dark += bar_depth * radial * ang;
+        out.par_chunks_mut(w).enumerate().for_each_init(
+            || vec![0f32; w],
+            |dark, (v, row)| {
+                dark.fill(0.0);
+                let y = stage_y(v);
+                let qy = y - g.1;
+                // Ring radius for this row (roundness varies slowly along the ring).
+                let rr = match ring_xs[v] {
+                    Some(x) => ((x - g.0).powi(2) + qy * qy).sqrt(),
+                    None => r0,
+                };
+                let rho_at = |u: usize| {
+                    let qx = stage_x(u) - g.0;
+                    (qx, (qx * qx + qy * qy).sqrt())
+                };
+                if sc.ring_present {
+                    let (lo, hi) = cols(qy, rr - half_w - reach, rr + half_w + reach);
+                    for (u, d) in dark.iter_mut().enumerate().take(hi).skip(lo) {
+                        let (_, rho) = rho_at(u);
+                        let dr = rho - rr;
+                        if dr.abs() < half_w + reach {
+                            *d += ring_depth * self.band(dr, -half_w, half_w, inv_sigma);
                         }
                     }
                 }
-                let r = bg as f32 - dark;
-                let illum = illum_row - sc.illumination_gradient * (u as f64 / w as f64 - 0.5);
-                let val = r as f64 * illum * gain;
-                let var = sc.read_noise_grey * sc.read_noise_grey
-                    + if sc.electrons_per_grey > 0.0 {
-                        val.max(0.0) / sc.electrons_per_grey
-                    } else {
-                        0.0
-                    };
-                let bits = rng.next_u64();
-                let sum4 = (bits & 0xffff)
-                    + ((bits >> 16) & 0xffff)
-                    + ((bits >> 32) & 0xffff)
-                    + (bits >> 48);
-                let z = (sum4 as f64 / 65535.0 - 2.0) * 3f64.sqrt();
-                *o = (val + var.sqrt() * z).round().clamp(0.0, 255.0) as u8;
-            }
-        });
+                if sc.code_tracks {
+                    // Unit vector toward the window centre's grating point, for the track angles.
+                    let qxc = x0 - g.0;
+                    let nrm = (qxc * qxc + qy * qy).sqrt();
+                    let (cx, cy) = (qxc / nrm, qy / nrm);
+                    let phi_c = qy.atan2(qxc) - theta;
+                    for (lo, hi, period, mark) in [WIDE_BARS, THIN_LINES] {
+                        let (ulo, uhi) = cols(qy, r0 + lo - reach, r0 + hi + reach);
+                        let n = tau * r0 / period;
+                        let n_tau = n / tau;
+                        let tau_n = tau / n;
+                        // Where both edge profiles are beyond the table's range the bands are
+                        // table constants: radial = 1 (deep inside the track), and the
+                        // neighbouring mark's band is 0 when half a period is wider than the
+                        // mark plus the table's reach (|arc| ≤ local/2 always).
+                        let table_reach = CDF_RANGE * sigma;
+                        let local_min = tau_n * (r0 + lo - reach).max(0.0);
+                        let neighbour = mark / 2.0 - local_min / 2.0 > -table_reach;
+                        for (u, d) in dark.iter_mut().enumerate().take(uhi).skip(ulo) {
+                            let (qx, rho) = rho_at(u);
+                            let dt = rho - r0;
+                            if dt > lo - reach && dt < hi + reach {
+                                // Angle from the centre direction (small: series of atan).
+                                let t = (qy * cx - qx * cy) / (qx * cx + qy * cy);
+                                let t2 = t * t;
+                                let dphi = t * (1.0 - t2 * (1.0 / 3.0 - t2 * (0.2 - t2 / 7.0)));
+                                let phi_g = phi_c + dphi;
+                                let k = round_fast(phi_g * n_tau);
+                                let arc = (phi_g - k * tau_n) * rho;
+                                let local = tau_n * rho;
+                                let near = arc.abs().min(local - arc.abs());
+                                if near > mark / 2.0 + reach {
+                                    continue;
+                                }
+                                let radial = if dt - lo >= table_reach && hi - dt >= table_reach {
+                                    deep_band
+                                } else {
+                                    self.band(dt, lo, hi, inv_sigma)
+                                };
+                                let mut ang = self.band(arc, -mark / 2.0, mark / 2.0, inv_sigma);
+                                if neighbour {
+                                    ang += self.band(
+                                        arc.abs() - local,
+                                        -mark / 2.0,
+                                        mark / 2.0,
+                                        inv_sigma,
+                                    );
+                                }
+                                *d += bar_depth * radial * ang;
+                            }
+                        }
+                    }
+                }
+                let illum_row = 1.0 + 0.5 * sc.illumination_gradient * (v as f64 / h as f64 - 0.5);
+                let mut state = rng_seed ^ (v as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03);
+                let mut bits = 0u64;
+                let mut left = 0u32;
+                for ((o, &d), &ic) in row.iter_mut().zip(dark.iter()).zip(&illum_col) {
+                    let r = bg as f32 - d;
+                    let val = r as f64 * (illum_row + ic) * gain;
+                    let var = rn2 + (val as f32).max(0.0) * inv_e;
+                    if left == 0 {
+                        bits = splitmix64(&mut state);
+                        left = 64 / NORMAL_BITS;
+                    }
+                    let z = normal[(bits & mask) as usize];
+                    bits >>= NORMAL_BITS;
+                    left -= 1;
+                    let x = val + (var.sqrt() * z) as f64;
+                    *o = (x.clamp(0.0, 255.0) + 0.5) as u8;
+                }
+            },
+        );
         let mut rng = ChaCha8Rng::seed_from_u64(rng_seed);
         let bg = sc.background_grey;
         // Dust specks: small dark blurred blobs.
@@ -482,7 +598,7 @@ impl GratingRenderer {
                     let (fu, fv) = (uu as f64 - cu, vv as f64 - cv);
                     let k = amp * (-(fu * fu + fv * fv) / (2.0 * sd * sd)).exp();
                     let o = &mut out[vv as usize * w + uu as usize];
-                    *o = (*o as f64 - k).round().clamp(0.0, 255.0) as u8;
+                    *o = ((*o as f64 - k).clamp(0.0, 255.0) + 0.5) as u8;
                 }
             }
         }
