@@ -28,15 +28,6 @@ fn bench(c: &mut Criterion) {
     c.bench_function("detector 1440x540", |b| {
         b.iter(|| det.detect(black_box(&f)).unwrap())
     });
-    // The same, limited to AVX2 (for CPUs without AVX-512).
-    if gonio_vision::simd::set_level(gonio_vision::simd::Level::Avx2)
-        == gonio_vision::simd::Level::Avx2
-    {
-        c.bench_function("detector 1440x540 (avx2)", |b| {
-            b.iter(|| det.detect(black_box(&f)).unwrap())
-        });
-    }
-    gonio_vision::simd::set_enabled(true);
 
     // Stage inputs from a dump.
     det.set_dump(true);

@@ -163,7 +163,28 @@ impl<const MAX: bool> Morph<MAX> {
     /// Pushes one input row (`width` pixels); writes output row `pushed − 1 − r` into `out` and
     /// returns true once enough rows have arrived.
     pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        crate::simd::dispatch(|| self.push_row_impl(row, out))
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::avx2() {
+            // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
+            #[allow(unsafe_code)]
+            return unsafe { self.push_row_avx2(row, out) };
+        }
+        self.push_row_impl(row, out)
+    }
+
+    /// The same code compiled with AVX2 (bit-exact: integer max/min only).
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn push_row_avx2(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+        self.push_row_impl(row, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn emit_avx2(&mut self, out: &mut [u8]) {
+        self.emit(out)
     }
 
     #[inline(always)]
@@ -212,7 +233,16 @@ impl<const MAX: bool> Morph<MAX> {
     /// After the frame's last row: writes the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
         if self.n_out < self.n_in {
-            crate::simd::dispatch(|| self.emit(out));
+            #[cfg(target_arch = "x86_64")]
+            if crate::simd::avx2() {
+                // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
+                #[allow(unsafe_code)]
+                unsafe {
+                    self.emit_avx2(out)
+                };
+                return true;
+            }
+            self.emit(out);
             true
         } else {
             false

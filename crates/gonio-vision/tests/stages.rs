@@ -211,24 +211,19 @@ fn labelling_handles_spirals_and_u_shapes() {
 
 #[test]
 fn scalar_and_avx2_paths_give_the_same_bits() {
-    use gonio_vision::simd::{Level, set_level};
     let (w, h) = (203usize, 101usize);
     let o = small_optics(w as u32, h as u32);
     let f = synthetic(w, h, 77);
-    let run = |l: Level| {
-        let used = set_level(l);
+    let run = |simd: bool| {
+        gonio_vision::simd::set_enabled(simd);
         let mut det = Detector::new(&o).unwrap();
         det.set_dump(true);
         let r = det.detect(&f).unwrap();
-        (used, r, det.dump().unwrap().clone())
+        (r, det.dump().unwrap().clone())
     };
-    let scalar = run(Level::Scalar);
-    let avx2 = run(Level::Avx2);
-    let avx512 = run(Level::Avx512);
+    let scalar = run(false);
+    let fast = run(true);
     gonio_vision::simd::set_enabled(true);
-    assert_eq!(scalar.0, Level::Scalar);
-    assert!(scalar.1.valid);
-    // Every level the CPU has (a missing one falls back to the next lower level).
-    assert_eq!((&scalar.1, &scalar.2), (&avx2.1, &avx2.2));
-    assert_eq!((&scalar.1, &scalar.2), (&avx512.1, &avx512.2));
+    assert!(scalar.0.valid);
+    assert_eq!(scalar, fast);
 }
