@@ -67,6 +67,9 @@ impl Disk {
     }
 }
 
+/// Columns per block of the vertical combination (four AVX2 registers of running extremes).
+const BLOCK: usize = 256;
+
 /// Streaming dilation (`MAX = true`) or erosion (`MAX = false`) by a disk; lag r rows.
 #[derive(Debug, Clone)]
 pub struct Morph<const MAX: bool> {
@@ -80,7 +83,7 @@ pub struct Morph<const MAX: bool> {
     levels: Vec<Vec<u8>>,
     /// (2r + 1) slots × classes × stride.
     ring: Vec<u8>,
-    /// Row stride in the ring: width rounded up to 64.
+    /// Row stride in the ring: width rounded up to whole blocks.
     stride: usize,
     /// Ring offsets of the rows combined for the current output row.
     offs: Vec<usize>,
@@ -120,8 +123,8 @@ impl<const MAX: bool> Morph<MAX> {
         }
         let pad = r;
         let n = width + 2 * pad;
-        // Ring rows padded to whole 64-byte blocks (the padding stays neutral).
-        let stride = width.div_ceil(64) * 64;
+        // Ring rows padded to whole blocks (the padding stays neutral).
+        let stride = width.div_ceil(BLOCK) * BLOCK;
         let max_span = 2 * r + 1;
         let mut nlev = 1;
         while (1usize << nlev) <= max_span {
@@ -191,12 +194,28 @@ impl<const MAX: bool> Morph<MAX> {
     fn push_row_impl(&mut self, row: &[u8], out: &mut [u8]) -> bool {
         debug_assert_eq!(row.len(), self.width);
         let (w, p) = (self.width, self.pad);
-        {
-            let l0 = &mut self.levels[0];
-            l0[p..p + w].copy_from_slice(row);
-        }
+        // Level 1 (max of 2) straight from the row: no copy into the padded level 0 (a
+        // 1.4 kB memcpy per row cost more than the max pass). Level 0 is only read for a chord
+        // of width 1 (radius 0).
+        let first = if p >= 1 && self.levels.len() > 1 && !self.class_half.contains(&0) {
+            let l1 = &mut self.levels[1];
+            for ((d, &a), &b) in l1[p..p + w - 1]
+                .iter_mut()
+                .zip(&row[..w - 1])
+                .zip(&row[1..])
+            {
+                *d = ext::<MAX>(a, b);
+            }
+            // Beside the row the neutral padding leaves the edge pixel itself.
+            l1[p - 1] = row[0];
+            l1[p + w - 1] = row[w - 1];
+            2
+        } else {
+            self.levels[0][p..p + w].copy_from_slice(row);
+            1
+        };
         let n = w + 2 * p;
-        for k in 1..self.levels.len() {
+        for k in first..self.levels.len() {
             let s = 1usize << (k - 1);
             let len = n + 1 - (1usize << k);
             let (lo, hi) = self.levels.split_at_mut(k);
@@ -261,9 +280,9 @@ impl<const MAX: bool> Morph<MAX> {
             let start = self.slot(yy as usize, c).start;
             self.offs.push(start);
         }
-        // Blocks of 64 columns: the running extreme stays in registers while the rows stream by
-        // (one load per row and pixel instead of two loads and a store).
-        const B: usize = 64;
+        // Blocks of BLOCK columns: the running extreme stays in registers while the rows stream
+        // by (one load per row and pixel instead of two loads and a store).
+        const B: usize = BLOCK;
         let w = self.width;
         let ring = &self.ring;
         let mut x0 = 0;
@@ -275,8 +294,13 @@ impl<const MAX: bool> Morph<MAX> {
                     acc[i] = ext::<MAX>(acc[i], src[i]);
                 }
             }
-            let n = B.min(w - x0);
-            out[x0..x0 + n].copy_from_slice(&acc[..n]);
+            if x0 + B <= w {
+                // Fixed size: vector stores, not a memcpy call per block.
+                let o: &mut [u8; B] = (&mut out[x0..x0 + B]).try_into().expect("block");
+                *o = acc;
+            } else {
+                out[x0..w].copy_from_slice(&acc[..w - x0]);
+            }
             x0 += B;
         }
         self.n_out += 1;
