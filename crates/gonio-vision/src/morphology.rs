@@ -67,6 +67,16 @@ impl Disk {
     }
 }
 
+/// How a chord class's row of running extremes is computed.
+#[derive(Debug, Clone, Copy)]
+enum Source {
+    /// From pyramid level k: two overlapping windows of 2^k.
+    Pyramid(usize),
+    /// From a narrower class's row (its index) shifted by ±k (k ≤ its half width, so the two
+    /// windows overlap or touch).
+    Chain(usize, usize),
+}
+
 /// Columns per block of the vertical combination (four AVX2 registers of running extremes).
 const BLOCK: usize = 256;
 
@@ -79,6 +89,8 @@ pub struct Morph<const MAX: bool> {
     /// Distinct half-widths, and for each |dy| the index of its class.
     class_half: Vec<usize>,
     class_of_dy: Vec<usize>,
+    /// How each class row is made, narrowest first.
+    plan: Vec<(usize, Source)>,
     /// Doubling pyramid; level 0 is the padded row.
     levels: Vec<Vec<u8>>,
     /// (2r + 1) slots × classes × stride.
@@ -123,17 +135,40 @@ impl<const MAX: bool> Morph<MAX> {
         }
         let pad = r;
         let n = width + 2 * pad;
-        // Ring rows padded to whole blocks (the padding stays neutral).
-        let stride = width.div_ceil(BLOCK) * BLOCK;
-        let max_span = 2 * r + 1;
-        let mut nlev = 1;
-        while (1usize << nlev) <= max_span {
-            nlev += 1;
+        // Classes narrowest first; each from the previous one when the step is small enough
+        // (one max pass instead of pyramid levels), else from the pyramid.
+        let mut order: Vec<usize> = (0..class_half.len()).collect();
+        order.sort_by_key(|&c| class_half[c]);
+        let mut plan = Vec::with_capacity(order.len());
+        let mut top_level = 0;
+        for (i, &c) in order.iter().enumerate() {
+            let hw = class_half[c];
+            let chained = i > 0 && {
+                let prev = order[i - 1];
+                let k = hw - class_half[prev];
+                k <= class_half[prev]
+            };
+            if chained {
+                let prev = order[i - 1];
+                plan.push((c, Source::Chain(prev, hw - class_half[prev])));
+            } else {
+                let span = 2 * hw + 1;
+                let k = (usize::BITS - 1 - span.leading_zeros()) as usize;
+                top_level = top_level.max(k);
+                plan.push((c, Source::Pyramid(k)));
+            }
         }
+        let nlev = top_level + 1;
+        // A ring row holds a class row over −(r − h) … w + (r − h) (the wider classes chained
+        // from it need the margin), at `pad` from its start; the vertical combination reads
+        // whole blocks from `pad` on (columns past w are ignored).
+        let stride = (pad + width.div_ceil(BLOCK) * BLOCK).max(2 * pad + width);
+        let stride = stride.div_ceil(64) * 64;
         Morph {
             width,
             radius: r,
             pad,
+            plan,
             levels: vec![vec![Self::NEUTRAL; n]; nlev],
             ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * stride],
             stride,
@@ -159,7 +194,7 @@ impl<const MAX: bool> Morph<MAX> {
     #[inline(always)]
     fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
         let nc = self.class_half.len();
-        let s = ((row % (2 * self.radius + 1)) * nc + class) * self.stride;
+        let s = ((row % (2 * self.radius + 1)) * nc + class) * self.stride + self.pad;
         s..s + self.width
     }
 
@@ -225,19 +260,41 @@ impl<const MAX: bool> Morph<MAX> {
                 *d = ext::<MAX>(a, b);
             }
         }
-        let row_idx = self.n_in;
-        for c in 0..self.class_half.len() {
+        let row0 = (self.n_in % (2 * self.radius + 1)) * self.class_half.len();
+        let (r, stride) = (self.radius, self.stride);
+        for &(c, src) in &self.plan {
             let hw = self.class_half[c];
-            let span = 2 * hw + 1;
-            let k = (usize::BITS - 1 - span.leading_zeros()) as usize;
-            let pk = 1usize << k;
-            let lev = &self.levels[k];
-            let a = &lev[p - hw..p - hw + w];
-            let b = &lev[p + hw + 1 - pk..p + hw + 1 - pk + w];
-            let range = self.slot(row_idx, c);
-            let dst = &mut self.ring[range];
-            for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
-                *d = ext::<MAX>(x, y);
+            let margin = r - hw;
+            let len = w + 2 * margin;
+            // Ring index of column −margin of this class row.
+            let base = (row0 + c) * stride + p - margin;
+            match src {
+                Source::Pyramid(k) => {
+                    let pk = 1usize << k;
+                    let lev = &self.levels[k];
+                    // Padded column of −margin is p − margin; its window starts at
+                    // p − margin − hw = 0.
+                    let a = &lev[p - margin - hw..p - margin - hw + len];
+                    let b = &lev[p - margin + hw + 1 - pk..p - margin + hw + 1 - pk + len];
+                    let dst = &mut self.ring[base..base + len];
+                    for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
+                        *d = ext::<MAX>(x, y);
+                    }
+                }
+                Source::Chain(prev, k) => {
+                    // The narrower row starts at column −(margin + k).
+                    let pbase = (row0 + prev) * stride + p - margin - k;
+                    let (src, dst) = if pbase < base {
+                        let (lo, hi) = self.ring.split_at_mut(base);
+                        (&lo[pbase..pbase + len + 2 * k], &mut hi[..len])
+                    } else {
+                        let (lo, hi) = self.ring.split_at_mut(pbase);
+                        (&hi[..len + 2 * k], &mut lo[base..base + len])
+                    };
+                    for ((d, &x), &y) in dst.iter_mut().zip(&src[..len]).zip(&src[2 * k..]) {
+                        *d = ext::<MAX>(x, y);
+                    }
+                }
             }
         }
         self.n_in += 1;
