@@ -356,6 +356,10 @@ pub fn run(a: Args) -> Result<()> {
                 "--raw {w}x{h}: expected the window {ww}x{wh} or the sensor {sw}x{sh} (see --optics)"
             );
         }
+        // A pipe's default 64 kB buffer costs a dozen reader/writer wake-ups per frame; ask for
+        // room for a whole frame (best effort: not a pipe, or over the system's limit, is fine).
+        #[cfg(target_os = "linux")]
+        let _ = rustix::pipe::fcntl_setpipe_size(std::io::stdin(), (w * h).next_power_of_two());
         let mut input = std::io::stdin().lock();
         let mut buf = vec![0u8; w * h];
         loop {
