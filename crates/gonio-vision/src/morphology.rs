@@ -4,9 +4,12 @@
 //! The algorithm is the product here, so it is hand-written. A disk is a stack of horizontal
 //! chords; the dilation of a row set is the maximum over the disk's rows of the row-wise running
 //! maximum of that row's chord width. Each input row's running maxima are computed once per
-//! distinct chord width from a doubling pyramid (max of 1, 2, 4, 8, 16… pixels; any width is the
-//! max of two overlapping power-of-two windows), so the cost is a few vectorisable `max` passes per
-//! row — never one pass per structuring-element pixel. Pixels outside the frame are ignored
+//! distinct chord width: the narrowest from a doubling pyramid (max of 2, 4, 8… pixels; any width
+//! is the max of two overlapping power-of-two windows), each wider one from the next narrower
+//! (half width h + k = max of the h-row shifted by ±k, for k ≤ h), so the cost is one
+//! vectorisable `max` pass per chord width plus two or three pyramid passes per row — never one
+//! pass per structuring-element pixel. The vertical combination keeps 256 columns of running
+//! extremes in registers while the 2r + 1 class rows stream by. Pixels outside the frame are ignored
 //! (padding with the operation's neutral value), above, below and on the sides.
 //!
 //! ```
