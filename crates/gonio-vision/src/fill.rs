@@ -18,6 +18,7 @@
 //! assert_eq!(fill_pixel(&class, &dir), None);
 //! ```
 
+use crate::rows::RowLag;
 use crate::segment::{EdgeRow, FILLED, NONE, WEAK};
 
 /// Opposite neighbour pairs ((dy, dx) offsets into a 3×3 block), in the order they are tried.
@@ -53,8 +54,7 @@ pub struct EdgeFill {
     ring: [EdgeRow; 3],
     empty: EdgeRow,
     any: Vec<u8>,
-    n_in: usize,
-    n_out: usize,
+    rows: RowLag,
 }
 
 impl EdgeFill {
@@ -69,71 +69,55 @@ impl EdgeFill {
             ],
             empty: EdgeRow::new(width),
             any: vec![0; width],
-            n_in: 0,
-            n_out: 0,
+            rows: RowLag::new(1),
         }
     }
     /// Lag in rows (1).
     pub fn lag(&self) -> usize {
-        1
+        self.rows.lag()
     }
     /// Starts a new frame.
     pub fn reset(&mut self) {
-        self.n_in = 0;
-        self.n_out = 0;
+        self.rows.reset();
     }
     /// Pushes one edge row; true when `out` holds the next output row.
     pub fn push_row(&mut self, row: &EdgeRow, out: &mut EdgeRow) -> bool {
-        self.ring[self.n_in % 3].copy_from(row);
-        self.n_in += 1;
-        if self.n_in > 1 {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+        self.ring[self.rows.input_slot()].copy_from(row);
+        let ready = self.rows.pushed();
+        self.emit_if(ready, out)
     }
     /// Like [`EdgeFill::push_row`] but takes the row by swapping buffers instead of copying it:
     /// `row` is left holding stale data for the caller to overwrite.
     pub fn push_row_swap(&mut self, row: &mut EdgeRow, out: &mut EdgeRow) -> bool {
-        std::mem::swap(&mut self.ring[self.n_in % 3], row);
-        self.n_in += 1;
-        if self.n_in > 1 {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+        std::mem::swap(&mut self.ring[self.rows.input_slot()], row);
+        let ready = self.rows.pushed();
+        self.emit_if(ready, out)
     }
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut EdgeRow) -> bool {
-        if self.n_out < self.n_in {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+        let ready = self.rows.pending();
+        self.emit_if(ready, out)
     }
-    fn emit(&mut self, out: &mut EdgeRow) {
-        crate::simd::dispatch(|| self.emit_impl(out))
+    fn emit_if(&mut self, ready: bool, out: &mut EdgeRow) -> bool {
+        if ready {
+            crate::simd::dispatch(|| self.emit_impl(out));
+        }
+        ready
     }
 
     #[inline(always)]
     #[allow(clippy::needless_range_loop)]
     fn emit_impl(&mut self, out: &mut EdgeRow) {
         let w = self.width;
-        let y = self.n_out;
-        let cur = &self.ring[y % 3];
-        let up = if y > 0 {
-            &self.ring[(y - 1) % 3]
-        } else {
-            &self.empty
-        };
-        let down = if y + 1 < self.n_in {
-            &self.ring[(y + 1) % 3]
-        } else {
-            &self.empty
-        };
+        let cur = &self.ring[self.rows.clamped(0)];
+        let up = self
+            .rows
+            .neighbour(-1)
+            .map_or(&self.empty, |s| &self.ring[s]);
+        let down = self
+            .rows
+            .neighbour(1)
+            .map_or(&self.empty, |s| &self.ring[s]);
         out.copy_from(cur);
         // Necessary condition, vectorised over the row: an empty pixel with some opposite pair
         // of edge neighbours. fill_pixel then decides exactly. The two border pixels are always
@@ -194,6 +178,6 @@ impl EdgeFill {
             }
             x0 = x1;
         }
-        self.n_out += 1;
+        self.rows.advance();
     }
 }

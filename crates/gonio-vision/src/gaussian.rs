@@ -12,6 +12,8 @@
 //! assert_eq!(rows, vec![[50u8; 6]; 4]); // a flat image stays flat
 //! ```
 
+use crate::rows::RowLag;
+
 /// The binomial kernel (sums to 16).
 pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];
 
@@ -21,8 +23,7 @@ pub struct Gaussian5 {
     width: usize,
     padded: Vec<u8>,
     ring: Vec<u16>,
-    n_in: usize,
-    n_out: usize,
+    rows: RowLag,
 }
 
 impl Gaussian5 {
@@ -32,18 +33,16 @@ impl Gaussian5 {
             width,
             padded: vec![0; width + 4],
             ring: vec![0; 5 * width],
-            n_in: 0,
-            n_out: 0,
+            rows: RowLag::new(2),
         }
     }
     /// Lag in rows (2).
     pub fn lag(&self) -> usize {
-        2
+        self.rows.lag()
     }
     /// Starts a new frame.
     pub fn reset(&mut self) {
-        self.n_in = 0;
-        self.n_out = 0;
+        self.rows.reset();
     }
     /// Pushes one row; true when `out` holds the next output row.
     pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
@@ -58,7 +57,7 @@ impl Gaussian5 {
         self.padded[1] = row[0];
         self.padded[w + 2] = row[w - 1];
         self.padded[w + 3] = row[w - 1];
-        let s = (self.n_in % 5) * w;
+        let s = self.rows.input_slot() * w;
         let p = &self.padded;
         let (p0, p1, p2, p3, p4) = (
             &p[..w],
@@ -77,30 +76,25 @@ impl Gaussian5 {
         {
             *h = a as u16 + 4 * b as u16 + 6 * c as u16 + 4 * d as u16 + e as u16;
         }
-        self.n_in += 1;
-        if self.n_in > 2 {
+        let ready = self.rows.pushed();
+        if ready {
             self.emit(out);
-            true
-        } else {
-            false
         }
+        ready
     }
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-        if self.n_out < self.n_in {
+        let ready = self.rows.pending();
+        if ready {
             crate::simd::dispatch(|| self.emit(out));
-            true
-        } else {
-            false
         }
+        ready
     }
     #[inline(always)]
     fn emit(&mut self, out: &mut [u8]) {
         let w = self.width;
-        let y = self.n_out as isize;
-        let last = self.n_in as isize - 1;
         let r = |dy: isize| {
-            let s = ((y + dy).clamp(0, last) as usize % 5) * w;
+            let s = self.rows.clamped(dy) * w;
             &self.ring[s..s + w]
         };
         let (a, b, c, d, e) = (r(-2), r(-1), r(0), r(1), r(2));
@@ -108,6 +102,6 @@ impl Gaussian5 {
             let v = a[x] as u32 + 4 * b[x] as u32 + 6 * c[x] as u32 + 4 * d[x] as u32 + e[x] as u32;
             *o = ((v + 128) >> 8) as u8;
         }
-        self.n_out += 1;
+        self.rows.advance();
     }
 }

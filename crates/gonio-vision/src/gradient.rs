@@ -14,6 +14,8 @@
 //! assert_eq!(g.gy, [0; 4]);
 //! ```
 
+use crate::rows::RowLag;
+
 /// One row of gradients.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct GradRow {
@@ -49,8 +51,7 @@ pub struct Sobel {
     /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each.
     smooth: Vec<i16>,
     diff: Vec<i16>,
-    n_in: usize,
-    n_out: usize,
+    rows: RowLag,
 }
 
 impl Sobel {
@@ -60,18 +61,16 @@ impl Sobel {
             width,
             smooth: vec![0; 3 * width],
             diff: vec![0; 3 * width],
-            n_in: 0,
-            n_out: 0,
+            rows: RowLag::new(1),
         }
     }
     /// Lag in rows (1).
     pub fn lag(&self) -> usize {
-        1
+        self.rows.lag()
     }
     /// Starts a new frame.
     pub fn reset(&mut self) {
-        self.n_in = 0;
-        self.n_out = 0;
+        self.rows.reset();
     }
     /// Pushes one row; true when `out` holds the next output row.
     pub fn push_row(&mut self, row: &[u8], out: &mut GradRow) -> bool {
@@ -81,7 +80,7 @@ impl Sobel {
     #[inline(always)]
     fn push_row_impl(&mut self, row: &[u8], out: &mut GradRow) -> bool {
         let w = self.width;
-        let s = (self.n_in % 3) * w;
+        let s = self.rows.input_slot() * w;
         let sm = &mut self.smooth[s..s + w];
         let df = &mut self.diff[s..s + w];
         sm[0] = 3 * row[0] as i16 + row[1] as i16;
@@ -99,29 +98,24 @@ impl Sobel {
         }
         sm[w - 1] = row[w - 2] as i16 + 3 * row[w - 1] as i16;
         df[w - 1] = row[w - 1] as i16 - row[w - 2] as i16;
-        self.n_in += 1;
-        if self.n_in > 1 {
+        let ready = self.rows.pushed();
+        if ready {
             self.emit(out);
-            true
-        } else {
-            false
         }
+        ready
     }
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut GradRow) -> bool {
-        if self.n_out < self.n_in {
+        let ready = self.rows.pending();
+        if ready {
             crate::simd::dispatch(|| self.emit(out));
-            true
-        } else {
-            false
         }
+        ready
     }
     #[inline(always)]
     fn emit(&mut self, out: &mut GradRow) {
         let w = self.width;
-        let y = self.n_out as isize;
-        let last = self.n_in as isize - 1;
-        let slot = |dy: isize| ((y + dy).clamp(0, last) as usize % 3) * w;
+        let slot = |dy: isize| self.rows.clamped(dy) * w;
         let (a, b, c) = (slot(-1), slot(0), slot(1));
         let (sa, sc) = (&self.smooth[a..a + w], &self.smooth[c..c + w]);
         let (da, db, dc) = (
@@ -145,6 +139,6 @@ impl Sobel {
             *oy = gy;
             *om = gx.unsigned_abs() + gy.unsigned_abs();
         }
-        self.n_out += 1;
+        self.rows.advance();
     }
 }

@@ -35,6 +35,7 @@ pub mod morphology;
 pub mod optics;
 pub mod pipeline;
 pub mod reference;
+pub mod rows;
 pub mod segment;
 pub mod simd;
 

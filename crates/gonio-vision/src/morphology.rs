@@ -26,6 +26,8 @@
 //! assert_eq!(got, vec![[0, 0, 9, 9, 9, 0, 0, 0]; 3]);
 //! ```
 
+use crate::rows::RowLag;
+
 /// A discrete disk of radius r: the pixels (dx, dy) with dx² + dy² ≤ r² + r, i.e. within
 /// r + ½ of the centre. Diameter 2r + 1 (r = 11: 23×23; r = 2: 5×5 without its corners).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -102,8 +104,7 @@ pub struct Morph<const MAX: bool> {
     stride: usize,
     /// Ring offsets of the rows combined for the current output row.
     offs: Vec<usize>,
-    n_in: usize,
-    n_out: usize,
+    rows: RowLag,
 }
 
 /// Streaming dilation (maximum over a disk).
@@ -178,8 +179,7 @@ impl<const MAX: bool> Morph<MAX> {
             class_half,
             class_of_dy,
             offs: Vec::with_capacity(2 * r + 1),
-            n_in: 0,
-            n_out: 0,
+            rows: RowLag::new(r),
         }
     }
 
@@ -190,14 +190,13 @@ impl<const MAX: bool> Morph<MAX> {
 
     /// Starts a new frame.
     pub fn reset(&mut self) {
-        self.n_in = 0;
-        self.n_out = 0;
+        self.rows.reset();
     }
 
     #[inline(always)]
     fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
         let nc = self.class_half.len();
-        let s = ((row % (2 * self.radius + 1)) * nc + class) * self.stride + self.pad;
+        let s = ((row % self.rows.depth()) * nc + class) * self.stride + self.pad;
         s..s + self.width
     }
 
@@ -263,7 +262,7 @@ impl<const MAX: bool> Morph<MAX> {
                 *d = ext::<MAX>(a, b);
             }
         }
-        let row0 = (self.n_in % (2 * self.radius + 1)) * self.class_half.len();
+        let row0 = self.rows.input_slot() * self.class_half.len();
         let (r, stride) = (self.radius, self.stride);
         for &(c, src) in &self.plan {
             let hw = self.class_half[c];
@@ -300,8 +299,7 @@ impl<const MAX: bool> Morph<MAX> {
                 }
             }
         }
-        self.n_in += 1;
-        if self.n_in > self.radius {
+        if self.rows.pushed() {
             self.emit(out);
             true
         } else {
@@ -311,7 +309,7 @@ impl<const MAX: bool> Morph<MAX> {
 
     /// After the frame's last row: writes the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-        if self.n_out < self.n_in {
+        if self.rows.pending() {
             #[cfg(target_arch = "x86_64")]
             if crate::simd::avx2() {
                 // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
@@ -330,10 +328,10 @@ impl<const MAX: bool> Morph<MAX> {
 
     #[inline(always)]
     fn emit(&mut self, out: &mut [u8]) {
-        let y = self.n_out as isize;
+        let y = self.rows.output_row() as isize;
         let r = self.radius as isize;
         let lo = (y - r).max(0);
-        let hi = (y + r).min(self.n_in as isize - 1);
+        let hi = (y + r).min(self.rows.received() as isize - 1);
         self.offs.clear();
         for yy in lo..=hi {
             let c = self.class_of_dy[(yy - y).unsigned_abs()];
@@ -363,7 +361,7 @@ impl<const MAX: bool> Morph<MAX> {
             }
             x0 += B;
         }
-        self.n_out += 1;
+        self.rows.advance();
     }
 }
 

@@ -16,6 +16,7 @@
 //! ```
 
 use crate::gradient::GradRow;
+use crate::rows::RowLag;
 
 /// Class of a non-edge pixel.
 pub const NONE: u8 = 0;
@@ -160,8 +161,7 @@ pub struct Segmenter {
     ring: [GradRow; 3],
     zero: Vec<u16>,
     cand: Vec<u8>,
-    n_in: usize,
-    n_out: usize,
+    rows: RowLag,
 }
 
 impl Segmenter {
@@ -177,70 +177,54 @@ impl Segmenter {
             ],
             zero: vec![0; width],
             cand: vec![0; width],
-            n_in: 0,
-            n_out: 0,
+            rows: RowLag::new(1),
         }
     }
     /// Lag in rows (1).
     pub fn lag(&self) -> usize {
-        1
+        self.rows.lag()
     }
     /// Starts a new frame.
     pub fn reset(&mut self) {
-        self.n_in = 0;
-        self.n_out = 0;
+        self.rows.reset();
     }
     /// Pushes one gradient row; true when `out` holds the next output row.
     pub fn push_row(&mut self, row: &GradRow, out: &mut EdgeRow) -> bool {
-        self.ring[self.n_in % 3].copy_from(row);
-        self.n_in += 1;
-        if self.n_in > 1 {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+        self.ring[self.rows.input_slot()].copy_from(row);
+        let ready = self.rows.pushed();
+        self.emit_if(ready, out)
     }
     /// Like [`Segmenter::push_row`] but takes the row by swapping buffers instead of copying it:
     /// `row` is left holding stale data for the caller to overwrite.
     pub fn push_row_swap(&mut self, row: &mut GradRow, out: &mut EdgeRow) -> bool {
-        std::mem::swap(&mut self.ring[self.n_in % 3], row);
-        self.n_in += 1;
-        if self.n_in > 1 {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+        std::mem::swap(&mut self.ring[self.rows.input_slot()], row);
+        let ready = self.rows.pushed();
+        self.emit_if(ready, out)
     }
     /// After the last row: the next pending output row, false when none is left.
     pub fn flush_row(&mut self, out: &mut EdgeRow) -> bool {
-        if self.n_out < self.n_in {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+        let ready = self.rows.pending();
+        self.emit_if(ready, out)
     }
-    fn emit(&mut self, out: &mut EdgeRow) {
-        crate::simd::dispatch(|| self.emit_impl(out))
+    fn emit_if(&mut self, ready: bool, out: &mut EdgeRow) -> bool {
+        if ready {
+            crate::simd::dispatch(|| self.emit_impl(out));
+        }
+        ready
     }
 
     #[inline(always)]
     fn emit_impl(&mut self, out: &mut EdgeRow) {
         let w = self.width;
-        let y = self.n_out;
-        let cur = &self.ring[y % 3];
-        let up: &[u16] = if y > 0 {
-            &self.ring[(y - 1) % 3].mag
-        } else {
-            &self.zero
-        };
-        let down: &[u16] = if y + 1 < self.n_in {
-            &self.ring[(y + 1) % 3].mag
-        } else {
-            &self.zero
-        };
+        let cur = &self.ring[self.rows.clamped(0)];
+        let up: &[u16] = self
+            .rows
+            .neighbour(-1)
+            .map_or(&self.zero, |s| &self.ring[s].mag);
+        let down: &[u16] = self
+            .rows
+            .neighbour(1)
+            .map_or(&self.zero, |s| &self.ring[s].mag);
         out.clear();
         let low = self.params.low;
         let tq = self.params.tan_q10;
@@ -280,6 +264,6 @@ impl Segmenter {
             }
             x0 = x1;
         }
-        self.n_out += 1;
+        self.rows.advance();
     }
 }
