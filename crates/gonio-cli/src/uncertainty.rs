@@ -2,7 +2,7 @@
 //! instrument file's terms (`--instrument`), shared by `shift-angle` and `selfcal`.
 
 use anyhow::{Result, anyhow};
-use gonio_uncertainty::budget::Combined;
+use gonio_uncertainty::budget::{Combined, serialize_dof};
 use gonio_uncertainty::instrument::InstrumentFile;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -54,7 +54,7 @@ impl Instrument {
         UncertaintySummary {
             coverage: self.file.coverage,
             instrument_file: self.path.as_ref().map(|p| p.display().to_string()),
-            random_dof: dof_value(random_dof),
+            random_dof,
             instrument_terms: self
                 .file
                 .contributions
@@ -63,7 +63,7 @@ impl Instrument {
                     name: c.name.clone(),
                     u: c.u,
                     c: c.sensitivity,
-                    nu: dof_value(c.nu),
+                    nu: c.nu,
                 })
                 .collect(),
         }
@@ -111,36 +111,22 @@ impl Instrument {
     }
 }
 
-/// Degrees of freedom for JSON: a number, or the string "inf".
-#[derive(Debug, Clone, Serialize)]
-#[serde(untagged)]
-pub enum DofJson {
-    /// A whole number.
-    Whole(i64),
-    /// Finite, fractional.
-    Finite(f64),
-    /// Infinite.
-    Text(String),
-}
-
-/// ν as JSON.
-pub fn dof_value(nu: f64) -> DofJson {
-    if nu.is_infinite() {
-        DofJson::Text("inf".into())
-    } else if nu.fract() == 0.0 && nu.abs() < 9.0e15 {
-        DofJson::Whole(nu as i64)
-    } else {
-        DofJson::Finite(nu)
+/// Serialises an optional ν like [`serialize_dof`] (null when absent).
+pub fn serialize_opt_dof<S: serde::Serializer>(nu: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+    match nu {
+        Some(v) => serialize_dof(v, s),
+        None => s.serialize_none(),
     }
 }
 
-fn dof_text(nu: f64) -> String {
+/// ν for a table: a whole number, two decimals, or `inf`.
+pub fn dof_text(nu: f64) -> String {
     if nu.is_infinite() {
-        "∞".into()
+        "inf".into()
     } else if nu.fract() == 0.0 {
         format!("{nu:.0}")
     } else {
-        format!("{nu:.1}")
+        format!("{nu:.2}")
     }
 }
 
@@ -153,8 +139,9 @@ pub struct TermJson {
     pub u: f64,
     /// Sensitivity coefficient.
     pub c: f64,
-    /// Degrees of freedom.
-    pub nu: DofJson,
+    /// Degrees of freedom (a number, or "inf").
+    #[serde(serialize_with = "serialize_dof")]
+    pub nu: f64,
 }
 
 /// How the expanded uncertainties of a result were formed.
@@ -165,7 +152,8 @@ pub struct UncertaintySummary {
     /// The `--instrument` file, if any.
     pub instrument_file: Option<String>,
     /// Degrees of freedom of the random part ("inf" with a stated σ).
-    pub random_dof: DofJson,
+    #[serde(serialize_with = "serialize_dof")]
+    pub random_dof: f64,
     /// Instrument terms combined with the random part.
     pub instrument_terms: Vec<TermJson>,
 }

@@ -21,3 +21,12 @@ pub mod station;
 
 pub use encoder::{EncoderModel, Graduation};
 pub use error::SimError;
+
+/// Independent stream `n` of the ChaCha8 generator seeded with `seed`: each random part of a
+/// simulation draws from its own stream, so changing one part leaves the others' draws unchanged.
+pub(crate) fn rng_stream(seed: u64, n: u64) -> rand_chacha::ChaCha8Rng {
+    use rand::SeedableRng;
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(n);
+    r
+}

@@ -28,8 +28,6 @@
 use crate::{EncoderModel, SimError};
 use gonio_calib::selfcal::{Heads, Turn};
 use gonio_core::Degrees;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
@@ -133,12 +131,6 @@ pub struct SelfcalSim {
     pub truth: SelfcalTruth,
 }
 
-fn stream(seed: u64, n: u64) -> ChaCha8Rng {
-    let mut r = ChaCha8Rng::seed_from_u64(seed);
-    r.set_stream(n);
-    r
-}
-
 /// Simulates the measurement.
 ///
 /// # Errors
@@ -186,7 +178,7 @@ pub fn simulate(encoder: &EncoderModel, cfg: &SelfcalSimConfig) -> Result<Selfca
             o
         }
         None => {
-            let mut r = stream(cfg.seed, 1);
+            let mut r = crate::rng_stream(cfg.seed, 1);
             let n = Normal::new(0.0, cfg.offset_sigma_arcsec).expect("sigma checked");
             let mut o: Vec<f64> = (0..m).map(|_| n.sample(&mut r)).collect();
             o[0] = 0.0;
@@ -194,7 +186,7 @@ pub fn simulate(encoder: &EncoderModel, cfg: &SelfcalSimConfig) -> Result<Selfca
         }
     };
     let noise = Normal::new(0.0, cfg.noise_sigma_arcsec).expect("sigma checked");
-    let mut r_noise = stream(cfg.seed, 2);
+    let mut r_noise = crate::rng_stream(cfg.seed, 2);
     let step = 360.0 / ns as f64;
     let positions_deg: Vec<f64> = (0..ns)
         .map(|i| Degrees(cfg.start_deg + i as f64 * step).normalized().0)

@@ -24,8 +24,6 @@ use crate::{EncoderModel, SimError};
 use gonio_calib::shift_angle::Reading;
 use gonio_core::Degrees;
 use gonio_core::closure::{cyclic_sum, remove_mean};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, Uniform};
 use serde::Serialize;
 
@@ -158,12 +156,6 @@ pub struct ShiftAngleSim {
     pub truth: ShiftAngleTruth,
 }
 
-fn stream(seed: u64, n: u64) -> ChaCha8Rng {
-    let mut r = ChaCha8Rng::seed_from_u64(seed);
-    r.set_stream(n);
-    r
-}
-
 /// Simulates a measurement of `encoder`.
 ///
 /// # Errors
@@ -203,14 +195,14 @@ pub fn simulate(encoder: &EncoderModel, cfg: &ShiftAngleConfig) -> Result<ShiftA
     }
     let normal = |s: f64| Normal::new(0.0, s).expect("σ checked");
     let mut beta: Vec<f64> = {
-        let mut r = stream(cfg.seed, 1);
+        let mut r = crate::rng_stream(cfg.seed, 1);
         let d = normal(cfg.pitch_sigma_arcsec);
         (0..n).map(|_| d.sample(&mut r)).collect()
     };
     remove_mean(&mut beta);
-    let mut r_setup = stream(cfg.seed, 2);
-    let mut r_noise = stream(cfg.seed, 3);
-    let mut r_drop = stream(cfg.seed, 4);
+    let mut r_setup = crate::rng_stream(cfg.seed, 2);
+    let mut r_noise = crate::rng_stream(cfg.seed, 3);
+    let mut r_drop = crate::rng_stream(cfg.seed, 4);
     let d_setup = normal(cfg.setup_sigma_arcsec);
     let d_noise = normal(cfg.noise_sigma_arcsec);
     let unit = Uniform::new(0.0, 1.0).expect("valid range");

@@ -1,6 +1,7 @@
 //! `gonio budget`: evaluate a GUM uncertainty budget file (TOML), optionally with Monte Carlo.
 
 use crate::io;
+use crate::uncertainty::dof_text;
 use anyhow::{Result, anyhow, bail};
 use gonio_uncertainty::montecarlo::{McConfig, McResult, McTrials, Validation, validate};
 use gonio_uncertainty::{BudgetResult, BudgetSet, Source, parse_budget_file};
@@ -199,16 +200,6 @@ fn sig(x: f64, digits: usize) -> String {
     }
 }
 
-fn dof(nu: f64) -> String {
-    if nu.is_infinite() {
-        "inf".into()
-    } else if nu.fract() == 0.0 {
-        format!("{nu:.0}")
-    } else {
-        format!("{nu:.2}")
-    }
-}
-
 fn unit(r: &BudgetResult) -> String {
     r.unit.as_deref().map_or(String::new(), |u| format!(" {u}"))
 }
@@ -217,7 +208,7 @@ fn summary_line(r: &BudgetResult) -> String {
     format!(
         "u_c = {}{u}   nu_eff = {} (raw {:.2})   k = {:.3}   U = {}{u}   (p = {} %)",
         sig(r.u_c, 4),
-        dof(r.nu_eff),
+        dof_text(r.nu_eff),
         r.nu_eff_raw,
         r.k,
         sig(r.expanded, 4),
@@ -248,7 +239,7 @@ fn text_table(out: &mut String, r: &BudgetResult) {
             sig(c.u, 4),
             sig(c.c, 4),
             sig(c.cu, 4),
-            dof(c.nu),
+            dof_text(c.nu),
             c.share * 100.0
         );
     }
@@ -270,7 +261,7 @@ fn markdown_table(out: &mut String, r: &BudgetResult) {
             sig(c.u, 4),
             sig(c.c, 4),
             sig(c.cu, 4),
-            dof(c.nu),
+            dof_text(c.nu),
             c.share * 100.0
         );
     }
@@ -298,7 +289,7 @@ fn csv_table(out: &mut String, r: &BudgetResult) {
             c.u,
             c.c,
             c.cu,
-            dof(c.nu),
+            dof_text(c.nu),
             c.share
         );
     }
@@ -307,7 +298,7 @@ fn csv_table(out: &mut String, r: &BudgetResult) {
         "# {}: u_c={} nu_eff={} nu_eff_raw={} coverage={} k={} U={}",
         r.name,
         r.u_c,
-        dof(r.nu_eff),
+        dof_text(r.nu_eff),
         r.nu_eff_raw,
         r.coverage,
         r.k,

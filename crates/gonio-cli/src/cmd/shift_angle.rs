@@ -1,7 +1,7 @@
 //! `gonio shift-angle`: calibrate an encoder from polygon + autocollimator readings.
 
 use crate::io::{self, CsvTable};
-use crate::uncertainty::{DofJson, Instrument, UncertaintySummary, dof_value};
+use crate::uncertainty::{Instrument, UncertaintySummary, serialize_opt_dof};
 use anyhow::{Context, Result, anyhow};
 use gonio_calib::shift_angle::{
     Calibration, HarmonicCheck, Method, Options, Reading, ReadingSet, ShiftAngleError, calibrate,
@@ -97,7 +97,8 @@ pub struct AlphaJson {
     /// Coverage factor.
     pub k: Option<f64>,
     /// Welch–Satterthwaite effective degrees of freedom (truncated), or "inf".
-    pub nu_eff: Option<DofJson>,
+    #[serde(serialize_with = "serialize_opt_dof")]
+    pub nu_eff: Option<f64>,
     /// Shift the angle was measured at, degrees.
     pub shift_deg: f64,
     /// Step (1-based).
@@ -226,7 +227,7 @@ impl ShiftAngleReport {
                 u_random_arcsec: m.u_arcsec,
                 expanded_arcsec: c.as_ref().map(|c| c.expanded),
                 k: c.as_ref().map(|c| c.k),
-                nu_eff: c.as_ref().map(|c| dof_value(c.nu_eff)),
+                nu_eff: c.as_ref().map(|c| c.nu_eff),
                 shift_deg: m.shift_deg,
                 step: m.step,
             });
