@@ -291,7 +291,8 @@ pub fn compare(a: &Curve, b: &Curve) -> Result<Comparison, CompareError> {
                 difference_arcsec: d,
                 expanded_a_arcsec: xa,
                 expanded_b_arcsec: xb,
-                en: (den > 0.0).then(|| gonio_uncertainty::en(p.value_arcsec, xa, q.value_arcsec, xb)),
+                en: (den > 0.0)
+                    .then(|| gonio_uncertainty::en(p.value_arcsec, xa, q.value_arcsec, xb)),
             });
         }
     }
