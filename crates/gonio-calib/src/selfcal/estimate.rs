@@ -1,0 +1,488 @@
+//! The estimators: per-harmonic linear combinations of the head differences (Fourier least
+//! squares, EDA, SelfA), their noise gains, and the position-domain EDA reference.
+
+use super::data::validate;
+use super::*;
+use gonio_core::Harmonic;
+use realfft::RealFftPlanner;
+use realfft::num_complex::Complex;
+
+type C64 = Complex<f64>;
+
+/// A harmonic whose least-squares noise gain 1/Σ|w|² would exceed this is treated as undetectable.
+pub const MAX_NOISE_GAIN: f64 = 1e6;
+
+/// The least-squares noise gain `1/Σ_h |e^{ikφ_h} − 1|²` of harmonic `order`, or `None` if the
+/// harmonic is undetectable (gain above [`MAX_NOISE_GAIN`]).
+///
+/// ```
+/// use gonio_calib::selfcal::{noise_gain, Heads};
+/// let g = noise_gain(&Heads::selfa12(), 1).unwrap();
+/// assert!((g - 1.0 / 28.0).abs() < 1e-12);
+/// assert!(noise_gain(&Heads::selfa12(), 84).is_none());
+/// ```
+pub fn noise_gain(heads: &Heads, order: u32) -> Option<f64> {
+    let s: f64 = heads.angles_deg()[1..]
+        .iter()
+        .map(|&p| (w_of(order as f64, p)).norm_sqr())
+        .sum();
+    (s * MAX_NOISE_GAIN >= 1.0).then(|| 1.0 / s)
+}
+
+#[inline]
+fn w_of(k: f64, phi_deg: f64) -> C64 {
+    // e^{ikφ} − 1, with k·φ reduced exactly in degrees first (so k·φ ≡ 0 gives exactly 0
+    // for whole-degree heads).
+    let x = (k * phi_deg).rem_euclid(360.0).to_radians();
+    let (s, c) = x.sin_cos();
+    C64::new(c - 1.0, s)
+}
+
+/// The seed's equal-division average (Eq. 9) computed literally in the position domain, for one
+/// set of heads (0-based indices, containing 0): `μ_i = −(1/NH)·Σ_j D_j(θ_i)`, mean removed.
+///
+/// This is the reference implementation [`calibrate`]'s spectral EDA is tested against.
+pub fn eda_direct(set: &[usize], turn: &Turn) -> Vec<f64> {
+    let ns = turn.positions_deg.len();
+    let nh = set.len() as f64;
+    let mut mu = vec![0.0; ns];
+    for &j in set.iter().filter(|&&j| j > 0) {
+        for (m, d) in mu.iter_mut().zip(&turn.differences_arcsec[j - 1]) {
+            *m -= d / nh;
+        }
+    }
+    gonio_core::closure::remove_mean(&mut mu);
+    mu
+}
+
+/// Two-sided 95 % Student-t quantile t_0.975(ν) (normal limit for ν > 1e7).
+fn t975(nu: f64) -> f64 {
+    if nu.is_nan() || nu <= 0.0 {
+        return f64::INFINITY;
+    }
+    if nu > 1e7 {
+        return gonio_core::special::normal_quantile(0.975);
+    }
+    // Upper tail P(T > t) = I_{ν/(ν+t²)}(ν/2, 1/2) / 2 = 0.025.
+    let tail = |t: f64| 0.5 * gonio_core::special::beta_inc(nu / 2.0, 0.5, nu / (nu + t * t));
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while tail(hi) > 0.025 {
+        hi *= 2.0;
+        if hi > 1e12 {
+            return f64::INFINITY;
+        }
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if tail(mid) > 0.025 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Per-harmonic coefficients of a linear estimator: `v` (one per difference channel), the head
+/// weights `w`, detectability.
+struct BinTable {
+    m1: usize,
+    /// `v[k·m1 + c]`.
+    v: Vec<C64>,
+    /// `w[k·m1 + c]`.
+    w: Vec<C64>,
+    detectable: Vec<bool>,
+}
+
+fn bin_table(
+    heads: &Heads,
+    method: Method,
+    nbins: usize,
+    nyquist: Option<usize>,
+) -> Result<(BinTable, &'static str), SelfcalError> {
+    let phi = &heads.angles_deg()[1..];
+    let m1 = phi.len();
+    let mut v = vec![C64::new(0.0, 0.0); nbins * m1];
+    let mut w = vec![C64::new(0.0, 0.0); nbins * m1];
+    let mut detectable = vec![false; nbins];
+    let sets = heads.sets();
+    let name = match method {
+        Method::Fourier => "selfcal-fourier",
+        Method::Eda => match sets.len() {
+            0 => {
+                return Err(SelfcalError::NoEqualDivision {
+                    message: format!(
+                        "the {} heads at {:?}° are not equally spaced and no equal-division sets were given (use --method fourier, or list sets in the heads file)",
+                        heads.len(),
+                        heads.angles_deg()
+                    ),
+                });
+            }
+            1 => "selfcal-eda",
+            _ => "selfcal-selfa",
+        },
+    };
+    // Inverse-variance weight of each set's EDA (independent-difference noise: (NH−1)/NH²).
+    let set_weight: Vec<f64> = sets
+        .iter()
+        .map(|s| {
+            let nh = s.len() as f64;
+            nh * nh / (nh - 1.0)
+        })
+        .collect();
+    // e^{ikφ_h} by recurrence (one complex product per head and order), re-anchored exactly
+    // every 64 orders so the rounding error stays below 1e-14.
+    let step: Vec<C64> = phi.iter().map(|&p| w_of(1.0, p) + 1.0).collect();
+    let mut cur: Vec<C64> = vec![C64::new(1.0, 0.0); m1];
+    for k in 1..nbins {
+        let kf = k as f64;
+        let row_w = &mut w[k * m1..(k + 1) * m1];
+        if k % 64 == 0 {
+            for ((wc, c), &p) in row_w.iter_mut().zip(cur.iter_mut()).zip(phi) {
+                *wc = w_of(kf, p);
+                *c = *wc + 1.0;
+            }
+        } else {
+            for ((wc, c), z) in row_w.iter_mut().zip(cur.iter_mut()).zip(&step) {
+                *c *= z;
+                *wc = *c - 1.0;
+            }
+        }
+        if Some(k) == nyquist && !(method == Method::Eda && sets.len() == 1) {
+            // Not estimated (v = 0): the sign of the order is ambiguous at NS/2. Plain EDA keeps
+            // it, its coefficients being real (the seed's formula in the position domain).
+            continue;
+        }
+        let row_v = &mut v[k * m1..(k + 1) * m1];
+        match method {
+            Method::Fourier => {
+                let s: f64 = row_w.iter().map(|x| x.norm_sqr()).sum();
+                if s * MAX_NOISE_GAIN >= 1.0 {
+                    detectable[k] = true;
+                    for (vc, wc) in row_v.iter_mut().zip(row_w.iter()) {
+                        *vc = wc.conj() / s;
+                    }
+                }
+            }
+            Method::Eda => {
+                // A set passes k when mean_j e^{ikφ_j} = 0 (NH does not divide k).
+                let passes = |s: &Vec<usize>| {
+                    let sum: C64 = s
+                        .iter()
+                        .map(|&j| {
+                            if j == 0 {
+                                C64::new(1.0, 0.0)
+                            } else {
+                                row_w[j - 1] + 1.0
+                            }
+                        })
+                        .sum();
+                    sum.norm() / (s.len() as f64) < 1e-9
+                };
+                if sets.len() == 1 {
+                    // Plain EDA: the seed's formula at every harmonic.
+                    let s = &sets[0];
+                    let nh = s.len() as f64;
+                    for &j in s.iter().filter(|&&j| j > 0) {
+                        row_v[j - 1] = C64::new(-1.0 / nh, 0.0);
+                    }
+                    detectable[k] = passes(s);
+                } else {
+                    let mut wsum = 0.0;
+                    for (s, &ws) in sets.iter().zip(&set_weight) {
+                        if passes(s) {
+                            let nh = s.len() as f64;
+                            for &j in s.iter().filter(|&&j| j > 0) {
+                                row_v[j - 1] -= C64::new(ws / nh, 0.0);
+                            }
+                            wsum += ws;
+                        }
+                    }
+                    if wsum > 0.0 {
+                        detectable[k] = true;
+                        for vc in row_v.iter_mut() {
+                            *vc /= wsum;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok((
+        BinTable {
+            m1,
+            v,
+            w,
+            detectable,
+        },
+        name,
+    ))
+}
+
+/// Self-calibrates: estimates a(θ) at every rotation position from one or more turns of head
+/// differences.
+///
+/// The result's `errors` is the error of the reference reading (head 1 by default) with zero
+/// mean over the circle; undetectable harmonics are absent from it (their amplitude is 0).
+/// With two or more turns the turns are averaged and u comes from their spread.
+///
+/// # Errors
+/// [`SelfcalError`] for an empty input, a channel count or length that does not match the heads,
+/// positions not equally spaced over one turn (or differing between turns), a non-finite value,
+/// `Method::Eda` without equal-division sets, or a bad reference head.
+pub fn calibrate(
+    heads: &Heads,
+    turns: &[Turn],
+    options: &SelfcalOptions,
+) -> Result<SelfcalResult, SelfcalError> {
+    let (ns, theta0) = validate(heads, turns)?;
+    if options.reference_heads.is_empty() {
+        return Err(SelfcalError::Reference {
+            message: "expected at least one reference head".into(),
+        });
+    }
+    if let Some(&r) = options.reference_heads.iter().find(|&&r| r >= heads.len()) {
+        return Err(SelfcalError::Reference {
+            message: format!("head {} does not exist ({} heads)", r + 1, heads.len()),
+        });
+    }
+    let nbins = ns / 2 + 1;
+    let nyquist = (ns % 2 == 0).then_some(ns / 2);
+    let (table, method_name) = bin_table(heads, options.method, nbins, nyquist)?;
+    let m1 = table.m1;
+    let nt = turns.len();
+    let nsf = ns as f64;
+
+    // Reference filter f_k = mean_r e^{ikφ_r}.
+    let refs: Vec<f64> = options
+        .reference_heads
+        .iter()
+        .map(|&r| heads.angles_deg()[r])
+        .collect();
+    let filt: Vec<C64> = (0..nbins)
+        .map(|k| refs.iter().map(|&p| w_of(k as f64, p) + 1.0).sum::<C64>() / refs.len() as f64)
+        .collect();
+    // Weight of bin k in the full (two-sided) spectrum.
+    let bin_weight = |k: usize| -> f64 {
+        if k == 0 || Some(k) == nyquist {
+            1.0
+        } else {
+            2.0
+        }
+    };
+
+    let mut planner = RealFftPlanner::<f64>::new();
+    let r2c = planner.plan_fft_forward(ns);
+    let c2r = planner.plan_fft_inverse(ns);
+    let mut scratch_f = r2c.make_scratch_vec();
+    let mut scratch_i = c2r.make_scratch_vec();
+    let mut input = r2c.make_input_vec();
+    let mut dhat: Vec<Vec<C64>> = (0..m1).map(|_| r2c.make_output_vec()).collect();
+    let mut ahat = vec![C64::new(0.0, 0.0); nbins];
+    let mut spec_tmp = c2r.make_input_vec();
+    let mut time_tmp = c2r.make_output_vec();
+    let mut sum_spec = vec![C64::new(0.0, 0.0); nbins];
+    let mut sum_a = vec![0.0; ns];
+    let mut sumsq_a = vec![0.0; ns];
+    let mut offsets = vec![0.0; m1];
+    let mut rss_parseval = 0.0;
+    let mut max_abs: f64 = 0.0;
+
+    for turn in turns {
+        for (c, col) in turn.differences_arcsec.iter().enumerate() {
+            input.copy_from_slice(col);
+            r2c.process_with_scratch(&mut input, &mut dhat[c], &mut scratch_f)
+                .expect("buffer sizes are the planner's");
+            offsets[c] += dhat[c][0].re / nsf / nt as f64;
+        }
+        ahat[0] = C64::new(0.0, 0.0);
+        for k in 1..nbins {
+            let v = &table.v[k * m1..(k + 1) * m1];
+            ahat[k] = v.iter().zip(&dhat).map(|(vc, d)| vc * d[k]).sum();
+        }
+        // Residuals: R_hk = D̂_hk − w_hk·Â_k (bin 0 absorbed by the offsets).
+        for (c, d) in dhat.iter().enumerate() {
+            spec_tmp[0] = C64::new(0.0, 0.0);
+            for k in 1..nbins {
+                let r = d[k] - table.w[k * m1 + c] * ahat[k];
+                rss_parseval += bin_weight(k) * r.norm_sqr();
+                spec_tmp[k] = r;
+            }
+            if let Some(nq) = nyquist {
+                spec_tmp[nq].im = 0.0;
+            }
+            c2r.process_with_scratch(&mut spec_tmp, &mut time_tmp, &mut scratch_i)
+                .expect("buffer sizes are the planner's");
+            for x in &time_tmp {
+                max_abs = max_abs.max((x / nsf).abs());
+            }
+        }
+        // Output spectrum (reference filter) and its position-domain values.
+        for k in 0..nbins {
+            let o = filt[k] * ahat[k];
+            sum_spec[k] += o;
+            spec_tmp[k] = o;
+        }
+        spec_tmp[0].im = 0.0;
+        if let Some(nq) = nyquist {
+            spec_tmp[nq].im = 0.0;
+        }
+        c2r.process_with_scratch(&mut spec_tmp, &mut time_tmp, &mut scratch_i)
+            .expect("buffer sizes are the planner's");
+        for ((s, q), x) in sum_a.iter_mut().zip(sumsq_a.iter_mut()).zip(&time_tmp) {
+            let a = x / nsf;
+            *s += a;
+            *q += a * a;
+        }
+    }
+
+    // Noise gains and the expected residual trace per bin.
+    let readings = options.noise_model == NoiseModel::Readings;
+    let m1f = m1 as f64;
+    let mut trace_sum = 0.0; // Σ_k weight·E|R_k|²/(NS σ²), per turn
+    let mut gain_sum = 0.0; // Σ_k weight·g_k (output, chosen model)
+    let mut gains = vec![(0.0, 0.0); nbins]; // (differences, readings), unfiltered
+    for k in 1..nbins {
+        let v = &table.v[k * m1..(k + 1) * m1];
+        let w = &table.w[k * m1..(k + 1) * m1];
+        let v2: f64 = v.iter().map(|x| x.norm_sqr()).sum();
+        let vs: C64 = v.iter().sum();
+        let ws: C64 = w.iter().sum();
+        let s: f64 = w.iter().map(|x| x.norm_sqr()).sum();
+        let vw: C64 = v.iter().zip(w).map(|(a, b)| a * b).sum();
+        let g_d = v2;
+        let g_r = v2 + vs.norm_sqr();
+        gains[k] = (g_d, g_r);
+        // tr((I − w vᵀ) C (I − w vᵀ)ᴴ) for C = I, plus |(I − w vᵀ)1|² for C = I + 11ᵀ.
+        let mut tr = m1f - 2.0 * vw.re + s * v2;
+        if readings {
+            tr += m1f - 2.0 * (vs * ws).re + s * vs.norm_sqr();
+        }
+        trace_sum += bin_weight(k) * tr;
+        let f2 = filt[k].norm_sqr();
+        gain_sum += bin_weight(k) * f2 * if readings { g_r } else { g_d };
+    }
+    let dof = trace_sum * nt as f64;
+    let sigma2 = if dof > 0.0 {
+        rss_parseval / (nsf * dof)
+    } else {
+        0.0
+    };
+    let u_res = (sigma2 * gain_sum / nsf / nt as f64).sqrt();
+    let rms = (rss_parseval / nsf / (nsf * m1f * nt as f64)).sqrt();
+
+    let u_turns = (nt >= 2).then(|| {
+        let ntf = nt as f64;
+        let pooled: f64 = sum_a
+            .iter()
+            .zip(&sumsq_a)
+            .map(|(s, q)| ((q - s * s / ntf) / (ntf - 1.0)).max(0.0))
+            .sum::<f64>()
+            / nsf;
+        (pooled / ntf).sqrt()
+    });
+    let (u, nu, source) = match u_turns {
+        Some(ut) => (ut, (nt - 1) as f64, "repeated turns"),
+        None => (u_res, dof, "residuals"),
+    };
+    let k_cov = t975(nu);
+    let step = 360.0 / nsf;
+    let errors = sum_a
+        .iter()
+        .enumerate()
+        .map(|(i, s)| ErrorPoint {
+            position_deg: gonio_core::Degrees(theta0 + i as f64 * step).normalized().0,
+            value_arcsec: s / nt as f64,
+            u_arcsec: u,
+            expanded_arcsec: k_cov * u,
+            k: k_cov,
+            nu_eff: nu,
+        })
+        .collect();
+
+    let max_order = options.max_order.min(((ns - 1) / 2) as u32);
+    let sigma_turn_mean = (sigma2 / nt as f64).sqrt();
+    let mut harmonics = Vec::with_capacity(max_order as usize);
+    let mut undetectable_orders = Vec::new();
+    for order in 1..=max_order {
+        let k = order as usize;
+        let x = sum_spec[k] / nt as f64;
+        let ph = -(order as f64) * theta0.to_radians();
+        let c = x * 2.0 / nsf * C64::new(ph.cos(), ph.sin());
+        let h = Harmonic::from_cos_sin(order, c.re, -c.im);
+        let det = table.detectable[k];
+        if !det {
+            undetectable_orders.push(order);
+        }
+        let f2 = filt[k].norm_sqr();
+        let g = if readings { gains[k].1 } else { gains[k].0 };
+        harmonics.push(HarmonicRow {
+            order,
+            amplitude_arcsec: h.amplitude,
+            phase_rad: h.phase_rad,
+            detectable: det,
+            noise_gain: if det { gains[k].0 } else { 0.0 },
+            noise_gain_readings: if det { gains[k].1 } else { 0.0 },
+            u_coefficient_arcsec: sigma_turn_mean * (2.0 * f2 * g / nsf).sqrt(),
+        });
+    }
+
+    Ok(SelfcalResult {
+        format: SELFCAL_FORMAT.to_string(),
+        method: method_name.to_string(),
+        heads_deg: heads.angles_deg().to_vec(),
+        reference_heads: options.reference_heads.iter().map(|r| r + 1).collect(),
+        positions: ns,
+        turns: nt,
+        noise_model: options.noise_model,
+        errors,
+        harmonics,
+        undetectable_orders,
+        max_order,
+        head_offsets_arcsec: offsets,
+        residuals: Residuals {
+            rms_arcsec: rms,
+            max_abs_arcsec: max_abs,
+            dof,
+            sigma_arcsec: sigma2.sqrt(),
+        },
+        uncertainty: UncertaintyInfo {
+            source: source.to_string(),
+            u_residuals_arcsec: u_res,
+            u_turns_arcsec: u_turns,
+            coverage: 0.95,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t_quantiles() {
+        // JCGM 100 Table G.2 (95 %): ν = 10 → 2.23, ν = 5 → 2.57; seed: ν = 53 → 2.006.
+        assert!((t975(10.0) - 2.228).abs() < 1e-3);
+        assert!((t975(5.0) - 2.571).abs() < 1e-3);
+        assert!((t975(53.0) - 2.006).abs() < 1e-3);
+        assert!((t975(1e9) - 1.960).abs() < 1e-3);
+    }
+
+    #[test]
+    fn raw_readings_give_differences() {
+        let heads = Heads::preset("eda:3").unwrap();
+        let t = Turn::from_raw(
+            &heads,
+            vec![0.0, 1.0],
+            &[
+                vec![0.0, 1.0],
+                vec![120.0 + 1.0 / 3600.0, 121.0],
+                vec![-120.0 - 2.0 / 3600.0, 241.0 + 0.5 / 3600.0],
+            ],
+        )
+        .unwrap();
+        assert!((t.differences_arcsec[0][0] - 1.0).abs() < 1e-9);
+        assert!((t.differences_arcsec[1][0] + 2.0).abs() < 1e-9);
+        assert!((t.differences_arcsec[1][1] - 0.5).abs() < 1e-9);
+    }
+}
