@@ -22,7 +22,7 @@
 //! assert!((c.max_en - 0.1 / 0.02f64.sqrt()).abs() < 1e-12); // U = 2·u = 0.1″ each
 //! ```
 
-use crate::selfcal::SelfcalResult;
+use crate::certificate::Certificate;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use thiserror::Error;
@@ -89,43 +89,22 @@ pub struct Curve {
     pub undetectable_orders: Vec<u32>,
 }
 
-impl From<&SelfcalResult> for Curve {
-    fn from(r: &SelfcalResult) -> Self {
+impl From<&Certificate> for Curve {
+    /// The calibrated angles of a certificate with their expanded uncertainties.
+    fn from(c: &Certificate) -> Self {
         Curve {
-            label: r.method.clone(),
-            points: r
-                .errors
-                .iter()
-                .map(|e| CurvePoint {
-                    angle_deg: e.position_deg,
-                    value_arcsec: e.value_arcsec,
-                    u_arcsec: e.u_arcsec,
-                    expanded_arcsec: Some(e.expanded_arcsec),
-                })
-                .collect(),
-            undetectable_orders: r.undetectable_orders.clone(),
-        }
-    }
-}
-
-impl From<&crate::shift_angle::Calibration> for Curve {
-    /// The merged encoder errors of a shift-angle calibration, with their standard
-    /// uncertainties only (the comparison then uses k = 2·u; set `expanded_arcsec` from a budget
-    /// to use a GUM U instead).
-    fn from(c: &crate::shift_angle::Calibration) -> Self {
-        Curve {
-            label: format!("shift-angle {}", c.method.name()),
+            label: c.method_title(),
             points: c
-                .merged()
+                .points
                 .iter()
-                .map(|m| CurvePoint {
-                    angle_deg: m.angle_deg,
-                    value_arcsec: m.value_arcsec,
-                    u_arcsec: m.u_arcsec,
-                    expanded_arcsec: None,
+                .map(|p| CurvePoint {
+                    angle_deg: p.angle_deg,
+                    value_arcsec: p.value_arcsec,
+                    u_arcsec: p.u_arcsec,
+                    expanded_arcsec: p.expanded_arcsec,
                 })
                 .collect(),
-            undetectable_orders: c.undetectable_harmonics.clone(),
+            undetectable_orders: c.undetectable_orders.clone(),
         }
     }
 }

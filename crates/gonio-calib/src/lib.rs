@@ -1,10 +1,14 @@
 //! Calibration of rotary encoders: cross-calibration with a polygon and an autocollimator
-//! ([`shift_angle`]), self-calibration with several read heads, and the comparison of results.
+//! ([`shift_angle`], the shift-angle method of Hsieh et al., 2022), self-calibration with several
+//! read heads ([`selfcal`]), the [`certificate`] every method's result becomes, and the
+//! comparison of two certificates ([`compare`]).
 //!
 //! Every estimator returns its estimates with their covariance (the random part of the
-//! uncertainty); `gonio-uncertainty` adds the instrument terms.
+//! uncertainty); [`certificate`] adds the instrument terms (through `gonio-uncertainty`) in one
+//! place for every method.
 #![deny(missing_docs)]
 
+pub mod certificate;
 pub mod compare;
 pub mod selfcal;
 pub mod shift_angle;

@@ -4,8 +4,9 @@
 //! errors to exit codes. The work is done in the library crates.
 
 mod cmd;
+mod formats;
 mod io;
-mod uncertainty;
+mod table;
 
 use clap::{Parser, Subcommand};
 

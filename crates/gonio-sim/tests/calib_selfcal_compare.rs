@@ -9,26 +9,36 @@
 //! The simulation has none of those instrument errors, so En here is, if anything, too kind to
 //! the shift-angle side; the differences are checked against ±0.1″ independently of U.
 
-use gonio_calib::compare::{Curve, CurvePoint, compare};
+use gonio_calib::certificate::{Certificate, Instrument};
+use gonio_calib::compare::{Curve, compare};
 use gonio_calib::selfcal::{Heads, SelfcalOptions, calibrate as selfcal};
 use gonio_calib::shift_angle::{Options, ReadingSet, calibrate as shift_angle};
 use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::{SelfcalSimConfig, simulate as simulate_selfcal};
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, simulate as simulate_shift};
+use gonio_uncertainty::Contribution;
+use gonio_uncertainty::instrument::InstrumentFile;
 
-/// The seed's instrument terms of the shift-angle method (standard uncertainties, arcsec).
-fn u_instrument_shift() -> f64 {
-    let r3 = 3f64.sqrt();
-    let terms = [
-        0.05 / r3,
-        0.001 / (2.0 * r3),
-        0.04 / (2.0 * r3),
-        0.05 / (2.0 * r3),
-    ];
-    terms.iter().map(|x| x * x).sum::<f64>().sqrt()
+/// The seed's instrument terms of the shift-angle method, at p = 95.45 % (k ≈ 2 for the large
+/// ν of the least-squares random part): autocollimator error 0.05″ rectangular, resolution
+/// 0.001″, encoder resolution 0.04″, setup 0.05″ (as a resolution step).
+fn instrument_shift() -> Instrument {
+    Instrument::new(
+        InstrumentFile {
+            coverage: 0.9545,
+            unit: "arcsec".into(),
+            contributions: vec![
+                Contribution::rectangular("autocollimator error", 0.05),
+                Contribution::resolution("autocollimator resolution", 0.001),
+                Contribution::resolution("encoder resolution", 0.04),
+                Contribution::resolution("setup", 0.05),
+            ],
+        },
+        None,
+    )
 }
 
-fn shift_curve(enc: &EncoderModel, seed: u64, rows: Rows, repeats: u32) -> Curve {
+fn shift_cert(enc: &EncoderModel, seed: u64, rows: Rows, repeats: u32) -> Certificate {
     let cfg = ShiftAngleConfig {
         faces: 24,
         shifts_deg: (0..15).map(f64::from).collect(),
@@ -41,21 +51,17 @@ fn shift_curve(enc: &EncoderModel, seed: u64, rows: Rows, repeats: u32) -> Curve
     let sim = simulate_shift(enc, &cfg).unwrap();
     let set = ReadingSet::new(24, sim.readings).unwrap();
     let cal = shift_angle(&set, &Options::default()).unwrap();
-    let ui = u_instrument_shift();
-    Curve {
-        label: "shift-angle".into(),
-        points: cal
-            .merged()
-            .iter()
-            .map(|m| CurvePoint {
-                angle_deg: m.angle_deg,
-                value_arcsec: m.value_arcsec,
-                u_arcsec: m.u_arcsec,
-                expanded_arcsec: Some(2.0 * m.u_arcsec.hypot(ui)),
-            })
-            .collect(),
-        undetectable_orders: cal.undetectable_harmonics.clone(),
-    }
+    Certificate::from_shift_angle(&cal, &set, false, 2, &instrument_shift()).unwrap()
+}
+
+fn shift_curve(enc: &EncoderModel, seed: u64, rows: Rows, repeats: u32) -> Curve {
+    let cert = shift_cert(enc, seed, rows, repeats);
+    // The instrument terms make U: U = k·√(u_random² + u_instrument²), k ≈ 2.
+    let p = &cert.points[0];
+    let u_i = (p.u_arcsec.powi(2) - p.u_random_arcsec.powi(2)).sqrt();
+    assert!((u_i - 0.0345).abs() < 5e-4, "{u_i}");
+    assert!((p.k.unwrap() - 2.0).abs() < 0.01, "{:?}", p.k);
+    Curve::from(&cert)
 }
 
 fn selfcal_curve(enc: &EncoderModel, seed: u64) -> Curve {
@@ -65,7 +71,7 @@ fn selfcal_curve(enc: &EncoderModel, seed: u64) -> Curve {
     };
     let sim = simulate_selfcal(enc, &cfg).unwrap();
     let r = selfcal(&cfg.heads, &sim.turns, &SelfcalOptions::default()).unwrap();
-    Curve::from(&r)
+    Curve::from(&Certificate::from_selfcal(&r, &Instrument::default()).unwrap())
 }
 
 #[test]
@@ -108,17 +114,19 @@ fn shift_angle_and_selfa_agree_like_the_seed() {
 #[test]
 fn seed_protocol_differences_follow_the_row_noise() {
     let enc = EncoderModel::default_with_seed(4);
-    let sa = shift_curve(&enc, 4, Rows::Seed, 1);
+    let cert = shift_cert(&enc, 4, Rows::Seed, 1);
+    let sa = Curve::from(&cert);
     let sc = selfcal_curve(&enc, 104);
     let c = compare(&sa, &sc).unwrap();
     assert_eq!(c.points.len(), 360);
-    // RMS difference within 25 % of the one predicted by the two methods' own u.
-    let pred = (sa
+    // RMS difference within 25 % of the one predicted by the two methods' own random parts (the
+    // simulation has no instrument errors).
+    let pred = (cert
         .points
         .iter()
-        .map(|p| p.u_arcsec * p.u_arcsec)
+        .map(|p| p.u_random_arcsec * p.u_random_arcsec)
         .sum::<f64>()
-        / sa.points.len() as f64
+        / cert.points.len() as f64
         + sc.points[0].u_arcsec.powi(2))
     .sqrt();
     assert!(

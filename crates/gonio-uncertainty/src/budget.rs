@@ -28,7 +28,7 @@
 use crate::montecarlo::{InputDistribution, McConfig, McResult, monte_carlo};
 use crate::student::coverage_factor;
 use crate::{UncertaintyError, check_coverage};
-use serde::{Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::HashMap;
 
 /// How a contribution's standard uncertainty was obtained (also selects its Monte Carlo
@@ -371,16 +371,16 @@ pub struct Term {
 }
 
 /// The result of combining terms: u_c, ν_eff (raw and truncated), k and U at coverage p.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Combined {
     /// Combined standard uncertainty u_c.
     pub u_c: f64,
     /// Welch–Satterthwaite ν_eff, truncated to the next lower integer (kept fractional below 1;
     /// `f64::INFINITY` when every ν is infinite); k is computed from this value.
-    #[serde(serialize_with = "serialize_dof")]
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu_eff: f64,
     /// Welch–Satterthwaite ν_eff before truncation.
-    #[serde(serialize_with = "serialize_dof")]
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu_eff_raw: f64,
     /// Coverage probability p.
     pub coverage: f64,
@@ -400,6 +400,44 @@ pub fn serialize_dof<S: Serializer>(nu: &f64, s: S) -> Result<S::Ok, S::Error> {
     } else {
         s.serialize_f64(*nu)
     }
+}
+
+/// Reads degrees of freedom written by [`serialize_dof`]: a number, or the string `"inf"`.
+///
+/// # Errors
+/// Anything else (another string, a boolean, null…).
+pub fn deserialize_dof<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Dof {
+        Number(f64),
+        Text(String),
+    }
+    match Dof::deserialize(d)? {
+        Dof::Number(v) => Ok(v),
+        Dof::Text(t) if t == "inf" => Ok(f64::INFINITY),
+        Dof::Text(t) => Err(serde::de::Error::custom(format!(
+            "degrees of freedom: expected a number or \"inf\", found {t:?}"
+        ))),
+    }
+}
+
+/// Serialises an optional ν like [`serialize_dof`] (null when absent).
+pub fn serialize_opt_dof<S: Serializer>(nu: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+    match nu {
+        Some(v) => serialize_dof(v, s),
+        None => s.serialize_none(),
+    }
+}
+
+/// Reads an optional ν written by [`serialize_opt_dof`] (null or absent: `None`).
+///
+/// # Errors
+/// As [`deserialize_dof`].
+pub fn deserialize_opt_dof<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    #[derive(Deserialize)]
+    struct Wrap(#[serde(deserialize_with = "deserialize_dof")] f64);
+    Ok(Option::<Wrap>::deserialize(d)?.map(|w| w.0))
 }
 
 /// Truncates ν_eff to the next lower integer (JCGM 100 G.4.1); values below 1 are kept as they are
@@ -482,7 +520,7 @@ pub fn combine(
 }
 
 /// One evaluated row of a budget table.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Row {
     /// Contribution name.
     pub name: String,
@@ -497,29 +535,29 @@ pub struct Row {
     /// |c_i|·u(x_i), the contribution to u_c in the result's unit.
     pub cu: f64,
     /// Degrees of freedom ν_i (integer, number or `"inf"` in JSON).
-    #[serde(serialize_with = "serialize_dof")]
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu: f64,
     /// Share of u_c²: (c_i u_i)² / u_c² (0…1).
     pub share: f64,
 }
 
 /// An evaluated budget: the rows and the combination.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BudgetResult {
     /// Budget name.
     pub name: String,
     /// Unit of u_c and U, if the budget states one.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,
     /// Estimate y = Σ c_i x_i.
     pub value: f64,
     /// Combined standard uncertainty u_c.
     pub u_c: f64,
     /// ν_eff truncated (integer, or `"inf"`).
-    #[serde(serialize_with = "serialize_dof")]
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu_eff: f64,
     /// ν_eff before truncation.
-    #[serde(serialize_with = "serialize_dof")]
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu_eff_raw: f64,
     /// Coverage probability p.
     pub coverage: f64,
@@ -531,7 +569,7 @@ pub struct BudgetResult {
     /// The evaluated rows, in input order.
     pub contributions: Vec<Row>,
     /// Correlations used, as (a, b, r).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub correlations: Vec<(String, String, f64)>,
 }
 

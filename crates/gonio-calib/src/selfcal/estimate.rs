@@ -55,34 +55,6 @@ pub fn eda_direct(set: &[usize], turn: &Turn) -> Vec<f64> {
     mu
 }
 
-/// Two-sided 95 % Student-t quantile t_0.975(ν) (normal limit for ν > 1e7).
-fn t975(nu: f64) -> f64 {
-    if nu.is_nan() || nu <= 0.0 {
-        return f64::INFINITY;
-    }
-    if nu > 1e7 {
-        return gonio_core::special::normal_quantile(0.975);
-    }
-    // Upper tail P(T > t) = I_{ν/(ν+t²)}(ν/2, 1/2) / 2 = 0.025.
-    let tail = |t: f64| 0.5 * gonio_core::special::beta_inc(nu / 2.0, 0.5, nu / (nu + t * t));
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while tail(hi) > 0.025 {
-        hi *= 2.0;
-        if hi > 1e12 {
-            return f64::INFINITY;
-        }
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if tail(mid) > 0.025 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
 /// Per-harmonic coefficients of a linear estimator: `v` (one per difference channel), the head
 /// weights `w`, detectability.
 struct BinTable {
@@ -385,7 +357,6 @@ pub fn calibrate(
         Some(ut) => (ut, (nt - 1) as f64, "repeated turns"),
         None => (u_res, dof, "residuals"),
     };
-    let k_cov = t975(nu);
     let step = 360.0 / nsf;
     let errors = sum_a
         .iter()
@@ -394,8 +365,6 @@ pub fn calibrate(
             position_deg: gonio_core::Degrees(theta0 + i as f64 * step).normalized().0,
             value_arcsec: s / nt as f64,
             u_arcsec: u,
-            expanded_arcsec: k_cov * u,
-            k: k_cov,
             nu_eff: nu,
         })
         .collect();
@@ -428,7 +397,6 @@ pub fn calibrate(
     }
 
     Ok(SelfcalResult {
-        format: SELFCAL_FORMAT.to_string(),
         method: method_name.to_string(),
         heads_deg: heads.angles_deg().to_vec(),
         reference_heads: options.reference_heads.iter().map(|r| r + 1).collect(),
@@ -450,7 +418,6 @@ pub fn calibrate(
             source: source.to_string(),
             u_residuals_arcsec: u_res,
             u_turns_arcsec: u_turns,
-            coverage: 0.95,
         },
     })
 }
@@ -458,15 +425,6 @@ pub fn calibrate(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn t_quantiles() {
-        // JCGM 100 Table G.2 (95 %): ν = 10 → 2.23, ν = 5 → 2.57; seed: ν = 53 → 2.006.
-        assert!((t975(10.0) - 2.228).abs() < 1e-3);
-        assert!((t975(5.0) - 2.571).abs() < 1e-3);
-        assert!((t975(53.0) - 2.006).abs() < 1e-3);
-        assert!((t975(1e9) - 1.960).abs() < 1e-3);
-    }
 
     #[test]
     fn raw_readings_give_differences() {

@@ -52,9 +52,7 @@ pub use data::{MIN_POSITIONS, Turn};
 pub use error::SelfcalError;
 pub use estimate::{MAX_NOISE_GAIN, calibrate, eda_direct, noise_gain};
 pub use heads::{EQUAL_DIVISION_TOL_DEG, Heads};
-pub use result::{
-    ErrorPoint, HarmonicRow, Residuals, SELFCAL_FORMAT, SelfcalResult, UncertaintyInfo,
-};
+pub use result::{ErrorPoint, HarmonicRow, Residuals, SelfcalResult, UncertaintyInfo};
 
 use serde::{Deserialize, Serialize};
 

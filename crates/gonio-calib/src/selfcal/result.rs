@@ -1,11 +1,10 @@
-//! The result of self-calibration: a(θ) per position, the harmonic table, residuals and how u
-//! was obtained.
+//! The result of self-calibration: a(θ) per position with its random standard uncertainty, the
+//! harmonic table, residuals and how u was obtained. The expanded uncertainty (instrument terms,
+//! k, U) is attached by [`crate::certificate`], the one place that does it for every method.
 
 use super::NoiseModel;
+use gonio_uncertainty::budget::{deserialize_dof, serialize_dof};
 use serde::{Deserialize, Serialize};
-
-/// The result file's `format` value.
-pub const SELFCAL_FORMAT: &str = "gonio-selfcal-result";
 
 /// a(θ) at one rotation position.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -14,14 +13,10 @@ pub struct ErrorPoint {
     pub position_deg: f64,
     /// Estimated error (zero mean over the circle), arcsec.
     pub value_arcsec: f64,
-    /// Standard uncertainty, arcsec.
+    /// Standard uncertainty of the estimator's random part, arcsec.
     pub u_arcsec: f64,
-    /// Expanded uncertainty k·u, arcsec.
-    #[serde(rename = "U_arcsec")]
-    pub expanded_arcsec: f64,
-    /// Coverage factor (Student t, 95 %, ν_eff).
-    pub k: f64,
-    /// Degrees of freedom of u.
+    /// Degrees of freedom of u (the residual degrees of freedom, or turns − 1).
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu_eff: f64,
 }
 
@@ -67,15 +62,12 @@ pub struct UncertaintyInfo {
     pub u_residuals_arcsec: f64,
     /// u from the turn-to-turn spread (pooled over positions, / √turns), arcsec; absent for one turn.
     pub u_turns_arcsec: Option<f64>,
-    /// Coverage probability of U.
-    pub coverage: f64,
 }
 
-/// The result of [`calibrate`] (the `gonio selfcal` JSON).
+/// The result of [`super::calibrate`]; [`crate::certificate::Certificate::from_selfcal`] turns it
+/// into a certificate (the `gonio selfcal` JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SelfcalResult {
-    /// Always [`SELFCAL_FORMAT`].
-    pub format: String,
     /// `selfcal-fourier`, `selfcal-eda` or `selfcal-selfa`.
     pub method: String,
     /// Head angles, degrees.

@@ -9,9 +9,10 @@
 
 use super::{Calibration, ShiftAngleError};
 use gonio_core::{HarmonicFitSpec, HarmonicTerm};
+use serde::{Deserialize, Serialize};
 
 /// The check at one shift.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ShiftCheck {
     /// Shift angle, degrees.
     pub shift_deg: f64,
@@ -26,7 +27,7 @@ pub struct ShiftCheck {
 }
 
 /// The harmonic check over all shifts.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HarmonicCheck {
     /// Harmonic order fitted.
     pub order: u32,

@@ -2,6 +2,7 @@
 
 use super::{Method, ReadingSet};
 use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
 
 /// The encoder errors found at one shift angle.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,7 +18,7 @@ pub struct ShiftResult {
 }
 
 /// The setup error of one run (shift, start face).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SetupError {
     /// Shift angle S, degrees.
     pub shift_deg: f64,
@@ -30,7 +31,7 @@ pub struct SetupError {
 }
 
 /// The χ² check of the residuals against a stated σ.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Chi2Check {
     /// The stated standard deviation of one reading, arcsec.
     pub sigma_arcsec: f64,
@@ -135,6 +136,27 @@ impl Calibration {
                 .then(a.shift_deg.total_cmp(&b.shift_deg))
         });
         v
+    }
+
+    /// The residual (reading − model, arcsec) of every reading whose run has an estimated setup
+    /// error, in the order of the readings (identical duplicates kept once).
+    pub fn reading_residuals(&self, set: &ReadingSet) -> Vec<f64> {
+        let sums = PitchSums::new(&self.beta_arcsec);
+        let setup: Vec<Vec<Option<f64>>> = (0..self.shifts.len())
+            .map(|s| {
+                (1..=self.faces)
+                    .map(|j| self.setup_error(s, j).map(|u| u.value_arcsec))
+                    .collect()
+            })
+            .collect();
+        set.obs
+            .iter()
+            .filter_map(|o| {
+                let u = setup.get(o.s)?.get(o.j).copied().flatten()?;
+                let alpha = self.shifts.get(o.s)?.alpha_arcsec.get(o.i)?;
+                Some(o.value - (alpha + sums.c(o.j, o.i + 1) + u))
+            })
+            .collect()
     }
 
     /// The setup error of a run, if it was estimated.

@@ -1,7 +1,7 @@
 //! `gonio budget`: evaluate a GUM uncertainty budget file (TOML), optionally with Monte Carlo.
 
 use crate::io;
-use crate::uncertainty::dof_text;
+use crate::table::{dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
 use gonio_uncertainty::montecarlo::{McConfig, McResult, McTrials, Validation, validate};
 use gonio_uncertainty::{BudgetResult, BudgetSet, Source, parse_budget_file};
@@ -181,72 +181,6 @@ fn dependencies(set: &BudgetSet, name: &str) -> Vec<String> {
         i += 1;
     }
     out
-}
-
-/// A number with `sig` significant digits (plain notation for 1e-5 ≤ |x| < 1e6).
-fn sig(x: f64, digits: usize) -> String {
-    if x == 0.0 {
-        return "0".into();
-    }
-    if !x.is_finite() {
-        return format!("{x}");
-    }
-    let mag = x.abs().log10().floor() as i32;
-    if (-5..6).contains(&mag) {
-        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = digits - 1)
-    }
-}
-
-fn unit(r: &BudgetResult) -> String {
-    r.unit.as_deref().map_or(String::new(), |u| format!(" {u}"))
-}
-
-fn summary_line(r: &BudgetResult) -> String {
-    format!(
-        "u_c = {}{u}   nu_eff = {} (raw {:.2})   k = {:.3}   U = {}{u}   (p = {} %)",
-        sig(r.u_c, 4),
-        dof_text(r.nu_eff),
-        r.nu_eff_raw,
-        r.k,
-        sig(r.expanded, 4),
-        r.coverage * 100.0,
-        u = unit(r),
-    )
-}
-
-fn text_table(out: &mut String, r: &BudgetResult) {
-    let w = r
-        .contributions
-        .iter()
-        .map(|c| c.name.chars().count())
-        .max()
-        .unwrap_or(12)
-        .max(12);
-    let _ = writeln!(out, "Budget \"{}\"{}", r.name, unit(r).replace(' ', " in "));
-    let _ = writeln!(
-        out,
-        "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>7}",
-        "contribution", "u", "c", "|c·u|", "ν", "share"
-    );
-    for c in &r.contributions {
-        let _ = writeln!(
-            out,
-            "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>6.1}%",
-            c.name,
-            sig(c.u, 4),
-            sig(c.c, 4),
-            sig(c.cu, 4),
-            dof_text(c.nu),
-            c.share * 100.0
-        );
-    }
-    for (a, b, rho) in &r.correlations {
-        let _ = writeln!(out, "  correlation r({a}, {b}) = {rho}");
-    }
-    let _ = writeln!(out, "  {}\n", summary_line(r));
 }
 
 fn markdown_table(out: &mut String, r: &BudgetResult) {

@@ -1,5 +1,7 @@
-//! `gonio compare`: two calibrations of one encoder compared at their common angles (En).
+//! `gonio compare`: two calibration certificates of one encoder compared at their common angles
+//! (differences and En).
 
+use crate::formats;
 use crate::io;
 use anyhow::{Result, anyhow};
 use gonio_calib::compare::{Comparison, Curve, CurvePoint, compare};
@@ -10,20 +12,20 @@ use std::path::{Path, PathBuf};
 /// Arguments of `gonio compare`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
-Either file may be a shift-angle result (`encoder_errors` [{angle_deg, value_arcsec, u_arcsec,
-U_arcsec?}], `undetectable_harmonics`) or a self-calibration result (`errors` [{position_deg,
-value_arcsec, u_arcsec, U_arcsec?}], `undetectable_orders`), or a simulator's truth.json.
-Angles are matched to 1e-6° modulo 360°. En = |a − b| / √(U_a² + U_b²) with each point's
-U_arcsec, or k = 2·u_arcsec where a file gives none (the output says which).
+Each file is a certificate (gonio.certificate/1 JSON from `gonio shift-angle --json` or `gonio
+selfcal --json`); the second may also be a simulator's truth.json (`gonio simulate selfcal`), a
+reference without uncertainty. Angles are matched to 1e-6° modulo 360°.
+En = |a − b| / √(U_a² + U_b²) with each angle's U, or k = 2·u where a certificate has no U (the
+output says which). `gonio report cmp.json` plots the comparison.
 
 Examples:
-  gonio compare sa/result.json sc/result.json
-  gonio compare sa/result.json sc/result.json --json cmp.json
-  gonio compare sc/result.json sc/truth.json")]
+  gonio compare sa/cal.json sc/cal.json
+  gonio compare sa/cal.json sc/cal.json --json cmp.json
+  gonio compare sc/cal.json sc/truth.json")]
 pub struct Args {
-    /// First calibration result (JSON).
+    /// First certificate (JSON).
     pub a: PathBuf,
-    /// Second calibration result (JSON).
+    /// Second certificate (JSON), or a simulator's truth.json.
     pub b: PathBuf,
     /// Write the comparison as JSON here (`-` for standard output).
     #[arg(long)]
@@ -33,97 +35,59 @@ pub struct Args {
     pub all: bool,
 }
 
+/// A simulator's truth file (`gonio-selfcal-truth`): the true error at every position.
 #[derive(Debug, Deserialize)]
-struct ShiftPoint {
-    angle_deg: f64,
-    value_arcsec: f64,
-    u_arcsec: f64,
-    #[serde(rename = "U_arcsec", default)]
-    big_u: Option<f64>,
+struct Truth {
+    errors: Vec<TruthPoint>,
 }
 
 #[derive(Debug, Deserialize)]
-struct SelfPoint {
+struct TruthPoint {
     position_deg: f64,
     value_arcsec: f64,
-    u_arcsec: f64,
-    #[serde(rename = "U_arcsec", default)]
-    big_u: Option<f64>,
 }
 
+/// The format tag of a JSON file, if it has one.
 #[derive(Debug, Deserialize)]
-struct AnyResult {
+struct Tagged {
     #[serde(default)]
-    method: Option<serde_json::Value>,
-    #[serde(default)]
-    encoder_errors: Option<Vec<ShiftPoint>>,
-    #[serde(default)]
-    errors: Option<Vec<SelfPoint>>,
-    #[serde(default)]
-    undetectable_harmonics: Option<Vec<u32>>,
-    #[serde(default)]
-    undetectable_orders: Option<Vec<u32>>,
+    format: Option<String>,
 }
 
-/// Reads either result shape into a [`Curve`].
+/// Reads a certificate (or a simulator's truth) into a [`Curve`].
 pub fn load_curve(path: &Path) -> Result<Curve> {
     let text = io::read_text(path)?;
-    let r: AnyResult = serde_json::from_str(&text).map_err(|e| {
-        anyhow!(
-            "{}:{}:{}: {e} (expected a shift-angle or selfcal result JSON)",
-            path.display(),
-            e.line(),
-            e.column()
-        )
-    })?;
-    let method = match &r.method {
-        Some(serde_json::Value::String(s)) => s.clone(),
-        Some(v) => v.to_string(),
-        None => "?".into(),
-    };
-    let label = format!("{} ({method})", path.display());
-    let undetectable_orders = r
-        .undetectable_harmonics
-        .or(r.undetectable_orders)
-        .unwrap_or_default();
-    let points: Vec<CurvePoint> = match (r.encoder_errors, r.errors) {
-        (Some(v), _) => v
-            .into_iter()
-            .map(|p| CurvePoint {
-                angle_deg: p.angle_deg,
-                value_arcsec: p.value_arcsec,
-                u_arcsec: p.u_arcsec,
-                expanded_arcsec: p.big_u,
-            })
-            .collect(),
-        (None, Some(v)) => v
-            .into_iter()
-            .map(|p| CurvePoint {
-                angle_deg: p.position_deg,
-                value_arcsec: p.value_arcsec,
-                u_arcsec: p.u_arcsec,
-                expanded_arcsec: p.big_u,
-            })
-            .collect(),
-        (None, None) => {
-            return Err(anyhow!(
-                "{}:1:1: expected an `encoder_errors` (shift-angle) or `errors` (selfcal) list",
-                path.display()
-            ));
-        }
-    };
-    Ok(Curve {
-        label,
-        points,
-        undetectable_orders,
-    })
+    let tag: Tagged = serde_json::from_str(&text)
+        .map_err(|e| formats::json_error(path, &e, "expected a gonio certificate JSON"))?;
+    if tag.format.as_deref() == Some("gonio-selfcal-truth") {
+        let t: Truth = serde_json::from_str(&text)
+            .map_err(|e| formats::json_error(path, &e, "expected a simulator's truth.json"))?;
+        return Ok(Curve {
+            label: format!("{} (truth)", path.display()),
+            points: t
+                .errors
+                .into_iter()
+                .map(|p| CurvePoint {
+                    angle_deg: p.position_deg,
+                    value_arcsec: p.value_arcsec,
+                    u_arcsec: 0.0,
+                    expanded_arcsec: None,
+                })
+                .collect(),
+            undetectable_orders: Vec::new(),
+        });
+    }
+    let cert = formats::certificate::parse(path, &text)?;
+    let mut curve = Curve::from(&cert);
+    curve.label = format!("{} ({})", path.display(), cert.method);
+    Ok(curve)
 }
 
 /// Runs `gonio compare`.
 pub fn run(args: Args) -> Result<()> {
     let a = load_curve(&args.a)?;
     let b = load_curve(&args.b)?;
-    let c = compare(&a, &b)?;
+    let c = compare(&a, &b).map_err(|e| anyhow!("{e}"))?;
     if let Some(p) = &args.json {
         io::write_json(p, &c)?;
     }
@@ -176,11 +140,5 @@ fn print_summary(c: &Comparison, all: bool) {
         c.uncertainty_source.a, c.uncertainty_source.b
     );
     let _ = writeln!(out, "{}", c.note);
-    emit(&out);
-}
-
-/// Writes the summary to standard output, ignoring a closed pipe (`gonio … | head`).
-fn emit(text: &str) {
-    use std::io::Write;
-    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+    io::emit(&out);
 }

@@ -1,7 +1,7 @@
 //! `gonio demo`: the built-in simulated lab, end to end, with the truth to compare against.
 
-use crate::uncertainty::Instrument;
 use anyhow::Result;
+use gonio_calib::certificate::{Certificate, Instrument};
 use gonio_calib::compare::{Curve, compare};
 use gonio_calib::selfcal::{self, Heads, SelfcalOptions};
 use gonio_calib::shift_angle::{Calibration, Method, Options, ReadingSet, calibrate};
@@ -230,32 +230,23 @@ fn self_calibration(encoder: &EncoderModel, shift_cfg: &ShiftAngleConfig, seed: 
     let sim = simulate(encoder, &six)?;
     let set = ReadingSet::new(six.faces, sim.readings)?;
     let cal = calibrate(&set, &Options::default())?;
-    let shift_instrument = Instrument {
-        path: None,
-        file: InstrumentFile::parse(INSTRUMENT_SHIFT_ANGLE)?,
-    };
-    let mut a = Curve::from(&cal);
-    let dof = cal.residuals.dof as f64;
-    for p in &mut a.points {
-        p.expanded_arcsec = shift_instrument
-            .combine(p.u_arcsec, dof)?
-            .map(|c| c.expanded);
-    }
+    let shift_instrument = Instrument::new(
+        InstrumentFile::parse(INSTRUMENT_SHIFT_ANGLE)?,
+        Some("examples/instrument-shift-angle.toml".into()),
+    );
+    let shift_cert = Certificate::from_shift_angle(&cal, &set, false, 2, &shift_instrument)?;
+    let a = Curve::from(&shift_cert);
 
     let heads = Heads::selfa12();
     let sc_cfg = SelfcalSimConfig::new(heads.clone(), seed + 1000);
     let sc_sim = gonio_sim::selfcal::simulate(encoder, &sc_cfg)?;
     let result = selfcal::calibrate(&heads, &sc_sim.turns, &SelfcalOptions::default())?;
-    let selfcal_instrument = Instrument {
-        path: None,
-        file: InstrumentFile::parse(INSTRUMENT_SELFCAL)?,
-    };
-    let mut b = Curve::from(&result);
-    for (p, e) in b.points.iter_mut().zip(&result.errors) {
-        p.expanded_arcsec = selfcal_instrument
-            .combine(e.u_arcsec, e.nu_eff)?
-            .map(|c| c.expanded);
-    }
+    let selfcal_instrument = Instrument::new(
+        InstrumentFile::parse(INSTRUMENT_SELFCAL)?,
+        Some("examples/instrument-selfcal.toml".into()),
+    );
+    let selfcal_cert = Certificate::from_selfcal(&result, &selfcal_instrument)?;
+    let b = Curve::from(&selfcal_cert);
     let c = compare(&a, &b)?;
     println!(
         "  shift-angle: 24 faces, S = 0°…14°, six repeats ({} readings); SelfA: {} positions, \

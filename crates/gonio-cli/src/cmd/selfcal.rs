@@ -1,9 +1,11 @@
 //! `gonio selfcal`: self-calibration of an encoder from several read heads (EDA, SelfA, Fourier).
 
+use crate::formats;
 use crate::io::{self, CsvTable};
 use anyhow::{Context, Result, anyhow, bail};
+use gonio_calib::certificate::Certificate;
 use gonio_calib::selfcal::{
-    Heads, Method, NoiseModel, SelfcalError, SelfcalOptions, SelfcalResult, Turn, calibrate,
+    Heads, Method, NoiseModel, SelfcalError, SelfcalOptions, Turn, calibrate,
 };
 use serde::Deserialize;
 use std::fmt::Write as _;
@@ -16,12 +18,16 @@ Input (one rotation position a row, NS rows equally spaced over one turn, header
   position_deg,head_2,…,head_M      head h minus head 1, arcsec (default)
   position_deg,head_1,…,head_M      raw head readings, degrees (--raw)
   an optional `turn` column (1, 2, …) holds repeated turns; u then comes from their spread.
-Heads: `selfa12` (seed 000's 12 heads: 3, 4 and 7 equal divisions), `eda:N` (N equally spaced),
-or a TOML/JSON file:  angles_deg = [0, 90, 180, 270]   (optional: sets = [[1, 3], [1, 2, 3, 4]])
+Heads: `selfa12` (the 12 heads of the SelfA encoder in Hsieh et al., 2022: 3, 4 and 7 equal
+divisions), `eda:N` (N equally spaced), or a TOML/JSON file:
+  angles_deg = [0, 90, 180, 270]   (optional: sets = [[1, 3], [1, 2, 3, 4]])
+--json writes a gonio.certificate/1 (see docs/certificate.md).
 
 Examples:
   gonio simulate selfcal --heads selfa12 --positions 36000 --seed 1 --out sc
   gonio selfcal sc/readings.csv --heads selfa12 --json sc/result.json
+  gonio selfcal sc/readings.csv --heads selfa12 --instrument examples/instrument-selfcal.toml \
+        --coverage 0.99 --meta examples/certificate-meta.toml --json sc/result.json
   gonio selfcal sc/readings.csv --heads selfa12 --method eda --reference 1,7
   gonio selfcal raw.csv --raw --heads heads.toml --max-order 100")]
 pub struct Args {
@@ -51,9 +57,16 @@ pub struct Args {
     /// combined with the estimator's random part into u, ν_eff, k and U of every position.
     #[arg(long)]
     pub instrument: Option<PathBuf>,
-    /// Write the result as JSON here (`-` for standard output).
+    /// Coverage probability of U (default: the instrument file's, else 0.95).
+    #[arg(long)]
+    pub coverage: Option<f64>,
+    /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Certificate metadata (TOML, ISO/IEC 17025 §7.8), carried in the certificate. See
+    /// examples/certificate-meta.toml.
+    #[arg(long)]
+    pub meta: Option<PathBuf>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -322,79 +335,63 @@ pub fn run(args: Args) -> Result<()> {
         reference_heads,
         max_order: args.max_order,
     };
-    let mut r = calibrate(&heads, &rt.turns, &opts).map_err(|e| locate(e, &table, &rt.lines))?;
-    if let Some(p) = &args.instrument {
-        add_instrument(&mut r, p)?;
+    let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
+    let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
+    let r = calibrate(&heads, &rt.turns, &opts).map_err(|e| locate(e, &table, &rt.lines))?;
+    let mut cert = Certificate::from_selfcal(&r, &instrument)?;
+    if let Some(m) = meta {
+        cert = cert.with_meta(m);
     }
     if let Some(p) = &args.json {
-        io::write_json(p, &r)?;
+        io::write_json(p, &cert)?;
     }
     if args.json.as_deref() != Some(Path::new("-")) {
-        print_summary(&r);
+        print_summary(&cert);
     }
     Ok(())
 }
 
-/// Combines the instrument terms of `path` with the random part of every position's u.
-fn add_instrument(r: &mut SelfcalResult, path: &Path) -> Result<()> {
-    let text = io::read_text(path)?;
-    let inst = gonio_uncertainty::instrument::InstrumentFile::parse(&text)
-        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    let e0 = r.errors[0];
-    let c = inst
-        .combine(e0.u_arcsec, e0.nu_eff)
-        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    for e in &mut r.errors {
-        e.u_arcsec = c.u_c;
-        e.expanded_arcsec = c.expanded;
-        e.k = c.k;
-        e.nu_eff = c.nu_eff;
-    }
-    r.uncertainty.coverage = c.coverage;
-    r.uncertainty.source = format!(
-        "{} + instrument terms ({})",
-        r.uncertainty.source,
-        path.display()
-    );
-    Ok(())
-}
-
-fn print_summary(r: &SelfcalResult) {
+fn print_summary(c: &Certificate) {
     let mut out = String::new();
-    let e0 = &r.errors[0];
-    let (lo, hi) = r
-        .errors
+    let Some(r) = &c.selfcal else { return };
+    let e0 = &c.points[0];
+    let (lo, hi) = c
+        .points
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), e| {
             (a.min(e.value_arcsec), b.max(e.value_arcsec))
         });
+    let _ = writeln!(out, "{}", c.method_title());
     let _ = writeln!(
         out,
         "{}: {} heads, {} positions × {} turn(s); reference head(s) {:?}",
-        r.method,
+        c.method,
         r.heads_deg.len(),
         r.positions,
         r.turns,
         r.reference_heads
     );
+    let opt = |v: Option<f64>, d: usize| v.map_or("–".to_string(), |x| format!("{x:.d$}"));
     let _ = writeln!(
         out,
-        "a(θ): {lo:+.4}″ … {hi:+.4}″; u = {:.4}″, U = {:.4}″ (k = {:.3}, ν = {:.0}, from {})",
-        e0.u_arcsec, e0.expanded_arcsec, e0.k, e0.nu_eff, r.uncertainty.source
+        "a(θ): {lo:+.4}″ … {hi:+.4}″; u = {:.4}″, U = {}″ (k = {}, ν = {}, p = {}, from {})",
+        e0.u_arcsec,
+        opt(e0.expanded_arcsec, 4),
+        opt(e0.k, 3),
+        e0.nu_eff.map_or("–".into(), crate::table::dof_text),
+        c.uncertainty.coverage,
+        c.uncertainty.source
     );
     let _ = writeln!(
         out,
         "residuals: rms {:.4}″, max {:.4}″, σ̂ {:.4}″ per {} ({:.0} dof)",
-        r.residuals.rms_arcsec,
-        r.residuals.max_abs_arcsec,
-        r.residuals.sigma_arcsec,
-        match r.noise_model {
-            NoiseModel::Readings => "reading",
-            NoiseModel::Differences => "difference",
-        },
-        r.residuals.dof
+        c.residuals.rms_arcsec,
+        c.residuals.max_abs_arcsec,
+        c.residuals.sigma_arcsec.unwrap_or(f64::NAN),
+        c.noise_unit().unwrap_or("reading"),
+        c.residuals.dof
     );
-    let und = &r.undetectable_orders;
+    let und = &c.undetectable_orders;
     let _ = writeln!(
         out,
         "undetectable harmonics up to order {}: {}",
@@ -417,20 +414,14 @@ fn print_summary(r: &SelfcalResult) {
             h.order, h.amplitude_arcsec, h.u_coefficient_arcsec, h.phase_rad
         );
     }
-    emit(&out);
-}
-
-/// Writes the summary to standard output, ignoring a closed pipe (`gonio … | head`).
-fn emit(text: &str) {
-    use std::io::Write;
-    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+    io::emit(&out);
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn run_csv(text: &str, heads: &str, raw: bool) -> Result<SelfcalResult> {
+    fn run_csv(text: &str, heads: &str, raw: bool) -> Result<gonio_calib::selfcal::SelfcalResult> {
         let (heads, _) = load_heads(heads)?;
         let table = CsvTable::parse("r.csv", text)?;
         let rt = read_readings(&table, &heads, raw)?;

@@ -1,0 +1,74 @@
+//! Certificate metadata (`--meta META.toml`): the administrative data of ISO/IEC 17025 §7.8.
+//! See `examples/certificate-meta.toml` for every field.
+
+use super::toml_error;
+use anyhow::Result;
+use gonio_calib::certificate::CertificateMeta;
+use std::path::Path;
+
+/// Reads a metadata file; errors name the file, line and column. Missing fields are not errors
+/// (the certificate is then a draft).
+pub fn load(path: &Path) -> Result<CertificateMeta> {
+    let text = crate::io::read_text(path)?;
+    parse(path, &text)
+}
+
+/// Parses metadata text; `path` names it in errors.
+pub fn parse(path: &Path, text: &str) -> Result<CertificateMeta> {
+    toml::from_str(text).map_err(|e| toml_error(path, text, &e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gonio_calib::certificate::Procedure;
+
+    fn example() -> String {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/certificate-meta.toml");
+        std::fs::read_to_string(p).unwrap()
+    }
+
+    #[test]
+    fn the_example_is_complete_for_both_procedures() {
+        let m = parse(Path::new("m.toml"), &example()).unwrap();
+        assert_eq!(
+            m.missing_fields(Procedure::ShiftAngle),
+            Vec::<String>::new()
+        );
+        assert_eq!(
+            m.missing_fields(Procedure::SelfCalibration),
+            Vec::<String>::new()
+        );
+        assert_eq!(
+            m.dates
+                .as_ref()
+                .unwrap()
+                .calibration
+                .as_ref()
+                .unwrap()
+                .as_str(),
+            "2025-03-10"
+        );
+        assert!(m.standard("polygon").unwrap().certificate.is_some());
+    }
+
+    #[test]
+    fn errors_name_file_line_and_column() {
+        let p = Path::new("m.toml");
+        let e = parse(p, "title = \"x\"\n[custmer]\nname = \"y\"\n").unwrap_err();
+        assert!(e.to_string().starts_with("m.toml:2:"), "{e}");
+        assert!(e.to_string().contains("custmer"), "{e}");
+        let e = parse(p, "[dates]\nreceipt = 2025-02-30\n").unwrap_err();
+        assert!(e.to_string().starts_with("m.toml:2:11:"), "{e}");
+        let e = parse(p, "[dates]\nissue = \"14.03.2025\"\n").unwrap_err();
+        assert!(e.to_string().starts_with("m.toml:2:9:"), "{e}");
+        assert!(e.to_string().contains("YYYY-MM-DD"), "{e}");
+        let e = parse(p, "title = \n").unwrap_err();
+        assert!(e.to_string().starts_with("m.toml:1:"), "{e}");
+        // Missing fields are not errors: the certificate is a draft.
+        let m = parse(p, "title = \"Calibration certificate\"\n").unwrap();
+        let missing = m.missing_fields(Procedure::ShiftAngle);
+        assert!(missing.contains(&"customer.name".to_string()));
+        assert!(!missing.contains(&"title".to_string()));
+    }
+}

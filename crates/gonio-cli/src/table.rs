@@ -1,0 +1,85 @@
+//! Tables for the terminal, written into a `String` the caller prints: numbers with a given
+//! number of significant digits, degrees of freedom, and GUM budget tables.
+
+use gonio_uncertainty::BudgetResult;
+use std::fmt::Write as _;
+
+/// ν for a table: a whole number, two decimals, or `inf`.
+pub fn dof_text(nu: f64) -> String {
+    if nu.is_infinite() {
+        "inf".into()
+    } else if nu.fract() == 0.0 {
+        format!("{nu:.0}")
+    } else {
+        format!("{nu:.2}")
+    }
+}
+
+/// A number with `sig` significant digits (plain notation for 1e-5 ≤ |x| < 1e6).
+pub fn sig(x: f64, digits: usize) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-5..6).contains(&mag) {
+        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = digits - 1)
+    }
+}
+
+/// The budget's unit with a leading space (empty without one).
+pub fn unit(r: &BudgetResult) -> String {
+    r.unit.as_deref().map_or(String::new(), |u| format!(" {u}"))
+}
+
+/// u_c, ν_eff, k, U and p on one line.
+pub fn summary_line(r: &BudgetResult) -> String {
+    format!(
+        "u_c = {}{u}   nu_eff = {} (raw {:.2})   k = {:.3}   U = {}{u}   (p = {} %)",
+        sig(r.u_c, 4),
+        dof_text(r.nu_eff),
+        r.nu_eff_raw,
+        r.k,
+        sig(r.expanded, 4),
+        r.coverage * 100.0,
+        u = unit(r),
+    )
+}
+
+/// The budget as a text table (rows with shares, then the summary line).
+pub fn text_table(out: &mut String, r: &BudgetResult) {
+    let w = r
+        .contributions
+        .iter()
+        .map(|c| c.name.chars().count())
+        .max()
+        .unwrap_or(12)
+        .max(12);
+    let _ = writeln!(out, "Budget \"{}\"{}", r.name, unit(r).replace(' ', " in "));
+    let _ = writeln!(
+        out,
+        "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>7}",
+        "contribution", "u", "c", "|c·u|", "ν", "share"
+    );
+    for c in &r.contributions {
+        let _ = writeln!(
+            out,
+            "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>6.1}%",
+            c.name,
+            sig(c.u, 4),
+            sig(c.c, 4),
+            sig(c.cu, 4),
+            dof_text(c.nu),
+            c.share * 100.0
+        );
+    }
+    for (a, b, rho) in &r.correlations {
+        let _ = writeln!(out, "  correlation r({a}, {b}) = {rho}");
+    }
+    let _ = writeln!(out, "  {}\n", summary_line(r));
+}
