@@ -28,12 +28,16 @@ enum Command {
     /// Simulate instruments and write their readings (digital twin).
     #[command(subcommand)]
     Simulate(cmd::simulate::Simulate),
-    /// Calibrate an encoder from polygon + autocollimator readings (shift-angle method).
+    /// Calibrate an encoder with a polygon and an autocollimator (shift-angle method, Hsieh et al., 2022).
     ShiftAngle(cmd::shift_angle::Args),
     /// Self-calibrate an encoder from several read heads (EDA, SelfA, Fourier least squares).
     Selfcal(cmd::selfcal::Args),
-    /// Compare two calibrations of one encoder at their common angles (differences, En).
+    /// Compare two calibration certificates of one encoder at their common angles (differences, En).
     Compare(cmd::compare::Args),
+    /// One self-contained HTML report with plots from certificates, comparisons and mounting batches.
+    Report(cmd::report::Args),
+    /// Check a certificate's metadata and export it as a Digital Calibration Certificate (DCC XML).
+    Certificate(cmd::certificate::Args),
     /// Evaluate a GUM uncertainty budget (TOML).
     Budget(cmd::budget::Args),
     /// Run the built-in simulated lab end to end and report how close each method came.
@@ -53,6 +57,8 @@ fn main() {
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),
         Command::Selfcal(a) => cmd::selfcal::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Report(a) => cmd::report::run(a),
+        Command::Certificate(a) => cmd::certificate::run(a),
         Command::Budget(a) => cmd::budget::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Eccentricity(a) => cmd::eccentricity::run(a),

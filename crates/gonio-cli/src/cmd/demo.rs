@@ -8,9 +8,14 @@ use gonio_calib::shift_angle::{Calibration, Method, Options, ReadingSet, calibra
 use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::SelfcalSimConfig;
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, ShiftAngleTruth, simulate};
+use gonio_sim::station::BatchReport;
 use gonio_sim::station::{BatchConfig, run_batch};
 use gonio_station::controller::Strategy;
 use gonio_uncertainty::instrument::InstrumentFile;
+use std::path::PathBuf;
+
+/// The example certificate metadata (fictitious laboratory and customer).
+const META: &str = include_str!("../../../../examples/certificate-meta.toml");
 
 /// The instrument terms of the shift-angle calibration (seed Table 3, corrected).
 const INSTRUMENT_SHIFT_ANGLE: &str =
@@ -21,17 +26,19 @@ const INSTRUMENT_SELFCAL: &str = include_str!("../../../../examples/instrument-s
 /// Arguments of `gonio demo`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
-1. Mounting: a batch of 25 gratings on the simulated station (seed 004), with the seed's strategy
-   and with gonio's default, against the seed's 25 real parts.
-2. Calibration: the simulated encoder measured with a 24-face polygon at S = 0°…14° (the full
-   matrix at 0°, one row at every other shift, as in seed 000), calibrated by least squares and
-   by the seed's algorithm, against the simulation's truth.
+1. Mounting (Yu et al., 2024): a batch of 25 gratings on the simulated station, with the paper's
+   strategy and with gonio's default, against the paper's 25 real parts.
+2. Calibration by the shift-angle method (Hsieh et al., 2022): the simulated encoder measured
+   with a 24-face polygon at S = 0°…14° (the full matrix at 0°, one row at every other shift, as
+   in the paper), calibrated by least squares and by the paper's algorithm, against the truth.
 3. Self-calibration: the same encoder on SelfA's 12 heads, compared with the shift-angle result
-   (each the average of six runs, as in the seed) like seed 000's Fig. 11–12, with En from each
-   result's expanded uncertainty.
+   (each the average of six runs, as in the paper's Fig. 11–12), with En from each certificate's
+   expanded uncertainty.
+It then writes the certificates, the comparison, the batch and one HTML report with every plot
+into --out (gonio-demo/report.html by default) and prints the report's path.
 
 Example:
-  gonio demo --seed 3")]
+  gonio demo --seed 3 --out demo3")]
 pub struct Args {
     /// Seed of the simulated lab.
     #[arg(long, default_value_t = 1)]
@@ -39,6 +46,9 @@ pub struct Args {
     /// Autocollimator noise per reading, arcsec.
     #[arg(long, default_value_t = 0.05)]
     pub sigma: f64,
+    /// Directory for the report, the certificates, the comparison and the batch.
+    #[arg(long, default_value = "gonio-demo")]
+    pub out: PathBuf,
 }
 
 struct Score {
@@ -84,7 +94,7 @@ pub fn run(args: Args) -> Result<()> {
         args.seed
     );
     println!();
-    mounting(args.seed)?;
+    let batch = mounting(args.seed)?;
     println!();
     let encoder = EncoderModel::default_with_seed(args.seed);
     let cfg = ShiftAngleConfig {
@@ -97,7 +107,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let sim = simulate(&encoder, &cfg)?;
     let set = ReadingSet::new(cfg.faces, sim.readings.clone())?;
-    println!("Calibration: shift-angle method (seed 000)");
+    println!("Calibration: shift-angle method (Hsieh et al., 2022)");
     println!(
         "  encoder: {} harmonics + {}″ graduation error; polygon: {} faces, β σ {}″",
         encoder.harmonics().len(),
@@ -135,7 +145,7 @@ pub fn run(args: Args) -> Result<()> {
         )?;
         let name = match method {
             Method::LeastSquares => "least squares",
-            Method::Paper => "paper (seed 000)",
+            Method::Paper => "paper's algorithm",
         };
         let z = score(&cal, &sim.truth, |s| s == 0.0);
         line(name, "S = 0°", &z);
@@ -157,7 +167,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     println!();
     println!(
-        "  At S = 0° (full matrix) least squares is {:.1}× closer than the seed's algorithm \
+        "  At S = 0° (full matrix) least squares is {:.1}× closer than the paper's algorithm \
          (theory: √(N−1) = {:.1}×); with one row per shift both are limited by that row's noise.",
         at_zero[1] / at_zero[0],
         ((cfg.faces - 1) as f64).sqrt()
@@ -170,21 +180,73 @@ pub fn run(args: Args) -> Result<()> {
         2 * cfg.faces
     );
     println!();
-    self_calibration(&encoder, &cfg, args.seed)?;
+    let (shift_cert, selfcal_cert, comparison) = self_calibration(&encoder, &cfg, args.seed)?;
+    write_report(&args, &shift_cert, &selfcal_cert, &comparison, &batch)
+}
+
+/// Writes the certificates, the comparison, the batch and the HTML report into `args.out`.
+fn write_report(
+    args: &Args,
+    shift_cert: &Certificate,
+    selfcal_cert: &Certificate,
+    comparison: &gonio_calib::compare::Comparison,
+    batch: &BatchReport,
+) -> Result<()> {
+    let meta =
+        crate::formats::meta::parse(std::path::Path::new("examples/certificate-meta.toml"), META)?;
+    let with_meta = |c: &Certificate| {
+        let mut m = meta.clone();
+        m.remarks = Some(format!(
+            "Simulated measurement (gonio demo, seed {}): the laboratory, customer and standards are fictitious.",
+            args.seed
+        ));
+        c.clone().with_meta(m)
+    };
+    let shift_cert = with_meta(shift_cert);
+    let selfcal_cert = with_meta(selfcal_cert);
+    crate::io::ensure_dir(&args.out)?;
+    let files = [
+        ("shift-angle.json", serde_json::to_value(&shift_cert)?),
+        ("selfcal.json", serde_json::to_value(&selfcal_cert)?),
+        ("compare.json", serde_json::to_value(comparison)?),
+        ("batch.json", serde_json::to_value(batch)?),
+    ];
+    let mut paths = Vec::new();
+    for (name, v) in &files {
+        let p = args.out.join(name);
+        crate::io::write_json(&p, v)?;
+        paths.push(p);
+    }
+    let report = super::report::build(
+        &paths,
+        None,
+        Some("gonio demo: simulated calibration and mounting"),
+    )?;
+    let out = args.out.join("report.html");
+    super::report::write(&report, &out, None)?;
+    println!();
+    println!(
+        "Report: {} ({} plots; certificates, comparison and batch as JSON beside it)",
+        out.display(),
+        report.figures().len()
+    );
     Ok(())
 }
 
-/// Part 1: 25 gratings mounted on the simulated station.
-fn mounting(seed: u64) -> Result<()> {
-    println!("Mounting: 25 gratings on the simulated station (seed 004's plant, fast fidelity)");
+/// Part 1: 25 gratings mounted on the simulated station; returns the default strategy's batch.
+fn mounting(seed: u64) -> Result<BatchReport> {
+    println!(
+        "Mounting: 25 gratings on the simulated station (the plant of Yu et al., 2024, fast fidelity)"
+    );
     println!(
         "  {:<28} {:>12} {:>12} {:>14} {:>10}",
         "strategy", "mean pushes", "max pushes", "mean final e", "mean time"
     );
     println!(
         "  {:<28} {:>12} {:>12} {:>13}µm {:>9}s",
-        "seed 004, 25 real parts", "2.1", "5", "3.8", "25.1"
+        "Yu et al., 2024, 25 parts", "2.1", "5", "3.8", "25.1"
     );
+    let mut default_batch = None;
     for strategy in [Strategy::Paper, Strategy::Learned, Strategy::Live] {
         let cfg = BatchConfig {
             parts: 25,
@@ -194,7 +256,7 @@ fn mounting(seed: u64) -> Result<()> {
         let report = run_batch(&cfg, seed, &mut |_, _, _| {})?;
         let s = &report.summary;
         let name = match strategy {
-            Strategy::Paper => "seed's strategy (simulated)",
+            Strategy::Paper => "paper's strategy (simulated)",
             Strategy::Learned => "gonio default (learned)",
             Strategy::Live => "live-baseline feedback",
             Strategy::LeastSquares => "least squares",
@@ -212,17 +274,25 @@ fn mounting(seed: u64) -> Result<()> {
                 String::new()
             }
         );
+        if strategy == Strategy::Learned {
+            default_batch = Some(report);
+        }
     }
     println!(
         "  (`gonio mount --sim --strategy …` for per-part records; 25 parts take milliseconds)"
     );
-    Ok(())
+    default_batch.ok_or_else(|| anyhow::anyhow!("no batch was run"))
 }
 
-/// Part 3: SelfA self-calibration of the same encoder and the comparison (seed Fig. 11–12).
-fn self_calibration(encoder: &EncoderModel, shift_cfg: &ShiftAngleConfig, seed: u64) -> Result<()> {
+/// Part 3: SelfA self-calibration of the same encoder and the comparison (Hsieh et al., 2022,
+/// Fig. 11–12); returns both certificates and the comparison.
+fn self_calibration(
+    encoder: &EncoderModel,
+    shift_cfg: &ShiftAngleConfig,
+    seed: u64,
+) -> Result<(Certificate, Certificate, gonio_calib::compare::Comparison)> {
     println!("Self-calibration: SelfA (12 heads; sets of 3, 4 and 7) vs the shift-angle method");
-    // The seed averages six measurement results of the shift-angle method.
+    // The paper averages six measurement results of the shift-angle method.
     let six = ShiftAngleConfig {
         repeats: 6,
         ..shift_cfg.clone()
@@ -274,8 +344,8 @@ fn self_calibration(encoder: &EncoderModel, shift_cfg: &ShiftAngleConfig, seed: 
         );
     }
     println!(
-        "  {} common angles: largest |difference| {:.4}″ at {}° (seed 000: within ±0.1″), RMS {:.4}″; \
-         largest En {:.2} at {}° (seed 000: 0.69); {}",
+        "  {} common angles: largest |difference| {:.4}″ at {}° (Hsieh et al., 2022: within ±0.1″), RMS {:.4}″; \
+         largest En {:.2} at {}° (Hsieh et al., 2022: 0.69); {}",
         c.points.len(),
         c.max_abs_difference_arcsec,
         c.max_abs_difference_angle_deg,
@@ -301,5 +371,5 @@ fn self_calibration(encoder: &EncoderModel, shift_cfg: &ShiftAngleConfig, seed: 
         &c.undetectable_harmonics.a[..c.undetectable_harmonics.a.len().min(3)],
         &c.undetectable_harmonics.b[..c.undetectable_harmonics.b.len().min(2)]
     );
-    Ok(())
+    Ok((shift_cert, selfcal_cert, c))
 }

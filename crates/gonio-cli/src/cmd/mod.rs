@@ -1,11 +1,13 @@
 //! One module per subcommand.
 
 pub mod budget;
+pub mod certificate;
 pub mod compare;
 pub mod demo;
 pub mod detect;
 pub mod eccentricity;
 pub mod mount;
+pub mod report;
 pub mod selfcal;
 pub mod shift_angle;
 pub mod simulate;

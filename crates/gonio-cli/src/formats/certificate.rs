@@ -7,7 +7,6 @@ use gonio_calib::certificate::Certificate;
 use std::path::Path;
 
 /// Reads a certificate; errors name the file, line and column.
-#[allow(dead_code)] // used by `gonio certificate` and `gonio report`
 pub fn load(path: &Path) -> Result<Certificate> {
     let text = crate::io::read_text(path)?;
     parse(path, &text)

@@ -3,6 +3,7 @@
 pub mod certificate;
 pub mod instrument;
 pub mod meta;
+pub mod report;
 
 use anyhow::anyhow;
 use std::path::Path;
