@@ -17,7 +17,7 @@ use std::path::PathBuf;
 /// The example certificate metadata (fictitious laboratory and customer).
 const META: &str = include_str!("../../../../examples/certificate-meta.toml");
 
-/// The instrument terms of the shift-angle calibration (seed Table 3, corrected).
+/// The instrument terms of the shift-angle calibration (Table 3 of Hsieh et al., 2022, corrected).
 const INSTRUMENT_SHIFT_ANGLE: &str =
     include_str!("../../../../examples/instrument-shift-angle.toml");
 /// The instrument terms of the SelfA self-calibration.

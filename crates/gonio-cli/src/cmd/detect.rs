@@ -47,7 +47,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0)]
     pub start_deg: f64,
     /// Optics TOML (sensor, window, pixel pitch, magnification, ring width and radius, polarity,
-    /// thresholds…); default: the seed's station.
+    /// thresholds…); default: the station of Yu et al., 2024.
     #[arg(long, value_name = "OPTICS.toml")]
     pub optics: Option<PathBuf>,
     /// Write the JSON lines here (default: standard output).

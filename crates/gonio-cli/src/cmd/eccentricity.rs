@@ -12,7 +12,7 @@ use std::path::PathBuf;
 pub enum Method {
     /// Robust least-squares sinusoid with ridge-regularised roundness harmonics 2–4 (default).
     LeastSquares,
-    /// The seed's extreme points through cubic splines.
+    /// The extreme points through cubic splines of Yu et al., 2024.
     Paper,
 }
 

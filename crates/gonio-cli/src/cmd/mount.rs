@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StrategyArg {
-    /// The seed's station: extreme-point fit, push by e.
+    /// The station of Yu et al., 2024: extreme-point fit, push by e.
     Paper,
     /// Least-squares fit, push by e.
     LeastSquares,
@@ -44,7 +44,7 @@ pub enum FidelityArg {
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Runs the sequence autofocus → measure → align → approach → push → verify for every part and
-prints a table like seed 004's Table 3. Only the simulated station (--sim) is available.
+prints a table like Table 3 of Yu et al., 2024. Only the simulated station (--sim) is available.
 
 Examples:
   gonio mount --sim --seed 1
@@ -63,7 +63,7 @@ pub struct Args {
     /// Frame fidelity of the simulation.
     #[arg(long, value_enum, default_value = "fast")]
     pub fidelity: FidelityArg,
-    /// Recipe (TOML) for the grating type; the defaults are the seed's station.
+    /// Recipe (TOML) for the grating type; the defaults are the station of Yu et al., 2024.
     #[arg(long)]
     pub recipe: Option<PathBuf>,
     /// Seed of the simulation (same seed, same bytes).
@@ -152,7 +152,7 @@ pub fn run(a: Args) -> Result<()> {
             s.rejected
         );
         println!(
-            "seed 004, 25 real parts: mean 25.1 s, 2.1 pushes (max 5), final e 3.8 µm; manual: 13.7 µm in 30–40 s; Wang et al.: 6.0 µm in 32.4 s"
+            "Yu et al., 2024, 25 real parts: mean 25.1 s, 2.1 pushes (max 5), final e 3.8 µm; manual: 13.7 µm in 30–40 s; Wang et al.: 6.0 µm in 32.4 s"
         );
         println!(
             "simulated station: push gain {:.3}, push-direction offset {:+.2}° (learned {:.3}, {:+.2}°)",

@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// A harmonic ORDER:AMPLITUDE_ARCSEC:PHASE_RAD; repeat for several. Replaces the default
-    /// harmonics (orders 1, 2, 3, 4, 6, 12, 24, 84 with seed-000-like amplitudes).
+    /// harmonics (orders 1, 2, 3, 4, 6, 12, 24, 84 with amplitudes like those in Hsieh et al., 2022).
     #[arg(long = "harmonic", value_name = "K:A:PHI")]
     pub harmonics: Vec<String>,
     /// No harmonics at all (graduation error only).

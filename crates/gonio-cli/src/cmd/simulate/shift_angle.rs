@@ -28,7 +28,7 @@ pub struct Args {
     #[arg(long, default_value = "0,5,10")]
     pub shifts: String,
     /// Runs per shift: `full` (every start face), `one` (start face 1 only), `seed` (full matrix
-    /// at the first shift, start face 1 at the others, as in seed 000).
+    /// at the first shift, start face 1 at the others, as in Hsieh et al., 2022).
     #[arg(long, default_value = "seed")]
     pub rows: String,
     /// Autocollimator noise per reading (standard deviation), arcsec.
