@@ -347,7 +347,8 @@ figcaption { color: var(--muted); font-size: 13.5px; margin-top: 4px; }
 .signature { margin-top: 28px; display: flex; gap: 48px; }
 .signature div { min-width: 260px; border-top: 1px solid var(--ink); padding-top: 4px; }
 details summary { cursor: pointer; color: var(--accent); margin: 8px 0; }
-code { font-size: 13px; }
+code { font-family: 'GonioSans', sans-serif; font-size: 13px; background: #f6f6f6; padding: 0 3px; }
+.missing { color: #b03000; }
 footer { color: var(--muted); font-size: 12px; border-top: 1px solid var(--rule); padding-top: 8px; }
 @media print { body { max-width: none; padding: 0; } details { display: block; } }
 "#;
@@ -738,5 +739,60 @@ trait MetaExt {
 impl MetaExt for CertificateMeta {
     fn accreditation_note(&self) -> Option<&str> {
         self.laboratory.as_ref()?.accreditation.as_deref()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gonio_calib::certificate::{CertificateMeta, Instrument};
+    use gonio_calib::shift_angle::{Options, Reading, ReadingSet, calibrate};
+
+    fn cert() -> Certificate {
+        // A 6-face polygon, full matrix, two repeats: α = 0.3·sin 2θ, readings ±0.01″.
+        let n = 6usize;
+        let mut r = Vec::new();
+        for j in 1..=n {
+            for i in 1..=n {
+                let t = ((i - 1) as f64 * 60.0).to_radians();
+                for (k, e) in [(1u32, 0.01), (2, -0.01)] {
+                    r.push(Reading {
+                        repeat: k,
+                        ..Reading::new(0.0, j, i, 0.3 * (2.0 * t).sin() + e * (i as f64))
+                    });
+                }
+            }
+        }
+        let set = ReadingSet::new(n, r).unwrap();
+        let cal = calibrate(&set, &Options::default()).unwrap();
+        Certificate::from_shift_angle(&cal, &set, false, 1, &Instrument::default()).unwrap()
+    }
+
+    #[test]
+    fn escapes_text_and_marks_drafts() {
+        assert_eq!(
+            esc("<a href=\"x\">&'"),
+            "&lt;a href=&quot;x&quot;&gt;&amp;&#39;"
+        );
+        let mut r = Report::new("t");
+        r.add_certificate(&cert(), "c.json").unwrap();
+        assert!(r.is_draft());
+        let html = r.render();
+        assert!(html.contains("<strong>DRAFT</strong>") && html.contains("customer.name"));
+        assert!(html.starts_with("<!DOCTYPE html>") && html.contains("<title>DRAFT — t</title>"));
+        // Metadata with script-like text is shown, not run.
+        let meta = CertificateMeta {
+            title: Some("<script>alert(1)</script>".into()),
+            ..CertificateMeta::default()
+        };
+        let mut r = Report::new("t");
+        r.add_certificate(&cert().with_meta(meta), "c.json")
+            .unwrap();
+        let html = r.render();
+        assert!(!html.contains("<script>") && html.contains("&lt;script&gt;"));
+        // One figure per plot, ids unique.
+        let ids: std::collections::HashSet<_> = r.figures().iter().map(|f| &f.id).collect();
+        assert_eq!(ids.len(), r.figures().len());
+        assert!(r.figures().len() >= 6);
     }
 }
