@@ -2,7 +2,8 @@
 //! lost, focus failure, max pushes → reject, timeout, device error.
 
 use gonio_sim::station::{BatchConfig, DeviceId, Faults, run_batch};
-use gonio_station::{PartResult, Recipe, StationError, Strategy};
+use gonio_station::record::TurnKind;
+use gonio_station::{DeviceErrorPolicy, PartResult, Recipe, StationError, Strategy};
 
 fn cfg(faults: Faults) -> BatchConfig {
     BatchConfig {
@@ -27,6 +28,15 @@ fn ring_lost_before_the_first_turn_rejects() {
         assert_eq!(p.record.result, PartResult::RejectedRingLost);
         assert_eq!(p.record.pushes, 0);
         assert!(p.record.initial_e_um.is_nan());
+        // The lost turn is measured again once after a refocus (the recipe's default).
+        assert_eq!(p.record.remeasured_turns, 1);
+        assert_eq!(p.record.turns.len(), 2);
+        assert_eq!(p.record.turns[1].kind, TurnKind::Remeasure);
+        let why = p.record.reject_reason.as_deref().unwrap();
+        assert!(
+            why.starts_with("turn 2 lost the ring: 0 of 200 frames valid"),
+            "{why}"
+        );
     }
 }
 
@@ -47,7 +57,9 @@ fn ring_lost_after_a_push_rejects() {
         if p.record.initial_e_um >= 5.0 {
             assert_eq!(p.record.result, PartResult::RejectedRingLost);
             assert_eq!(p.record.pushes, 1);
-            assert_eq!(p.record.turns.len(), 2);
+            // Initial, verify (lost), and its re-measurement (lost).
+            assert_eq!(p.record.turns.len(), 3);
+            assert_eq!(p.record.push_log.len(), 1);
         }
     }
 }
@@ -90,7 +102,12 @@ fn autofocus_finds_the_best_focus() {
 
 #[test]
 fn max_pushes_rejects() {
-    let recipe = Recipe::from_toml("threshold_um = 0.05\n[push]\nmax_pushes = 2\n").unwrap();
+    // A threshold no part reaches; the u(e) gate (5 % of the threshold, 0.0025 µm, below one
+    // turn's 0.022 µm) is relaxed so that the push limit is what ends the part.
+    let recipe = Recipe::from_toml(
+        "threshold_um = 0.05\n[push]\nmax_pushes = 2\n[quality]\nmax_u_e_fraction = 1.0\n",
+    )
+    .unwrap();
     let c = BatchConfig {
         recipe,
         ..cfg(Faults::default())
@@ -106,7 +123,10 @@ fn max_pushes_rejects() {
 
 #[test]
 fn timeout_rejects() {
-    let recipe = Recipe::from_toml("threshold_um = 0.05\ntimeout_s = 12.0\n").unwrap();
+    let recipe = Recipe::from_toml(
+        "threshold_um = 0.05\ntimeout_s = 12.0\n[quality]\nmax_u_e_fraction = 1.0\n",
+    )
+    .unwrap();
     let c = BatchConfig {
         recipe,
         strategy: Strategy::LeastSquares,
@@ -121,7 +141,7 @@ fn timeout_rejects() {
 }
 
 #[test]
-fn device_error_aborts_with_the_device_named() {
+fn device_error_ends_the_part_with_a_record_and_stops_the_batch() {
     for (id, name) in [
         (DeviceId::Rod, "push rod"),
         (DeviceId::Camera, "camera"),
@@ -129,7 +149,7 @@ fn device_error_aborts_with_the_device_named() {
         (DeviceId::Focus, "focus drive"),
         (DeviceId::Clock, "clock"),
     ] {
-        let e = run_batch(
+        let r = run_batch(
             &cfg(Faults {
                 device_error: Some((id, 1)),
                 ..Faults::default()
@@ -137,10 +157,98 @@ fn device_error_aborts_with_the_device_named() {
             1,
             &mut |_, _, _| {},
         )
-        .unwrap_err();
-        match e {
-            StationError::Device { device, .. } => assert_eq!(device, name),
+        .unwrap();
+        // The recipe's default `on_device_error = "stop"`: the batch stops after the part.
+        assert_eq!(r.parts.len(), 1, "{name}");
+        assert!(
+            r.stopped.as_deref().unwrap().contains(name),
+            "{:?}",
+            r.stopped
+        );
+        let p = &r.parts[0].record;
+        assert_eq!(p.result, PartResult::RejectedDeviceError);
+        let fault = p.device_error.as_ref().unwrap();
+        assert_eq!(fault.device, name);
+        assert!(
+            fault.message.contains("injected fault"),
+            "{}",
+            fault.message
+        );
+        match p.device_error() {
+            Some(StationError::Device { device, .. }) => assert_eq!(device, name),
             other => panic!("{other:?}"),
         }
+        assert_eq!(r.summary.device_errors, 1);
+    }
+}
+
+#[test]
+fn device_error_mid_part_keeps_the_record_and_the_batch_can_go_on() {
+    // The camera's 250th call: after autofocus (19 frames) and the first turn (200 frames), in
+    // the middle of the first verify turn of part 1 (when it needs a push) or in part 2.
+    let recipe = Recipe {
+        on_device_error: DeviceErrorPolicy::Continue,
+        ..Recipe::default()
+    };
+    let c = BatchConfig {
+        recipe,
+        ..cfg(Faults {
+            device_error: Some((DeviceId::Camera, 250)),
+            ..Faults::default()
+        })
+    };
+    let r = run_batch(&c, 1, &mut |_, _, _| {}).unwrap();
+    assert_eq!(r.parts.len(), 3);
+    assert!(r.stopped.is_none());
+    let failed: Vec<_> = r
+        .parts
+        .iter()
+        .filter(|p| p.record.result == PartResult::RejectedDeviceError)
+        .collect();
+    assert_eq!(failed.len(), 1);
+    let p = &failed[0].record;
+    // What happened before the error is kept: the focus, the turns and pushes so far.
+    assert!(p.focus_um.is_finite());
+    assert!(!p.turns.is_empty(), "{p:?}");
+    assert!(p.reject_reason.as_deref().unwrap().starts_with("camera:"));
+    // The other parts are mounted as usual.
+    for q in r.parts.iter().filter(|q| q.record.device_error.is_none()) {
+        assert_eq!(q.record.result, PartResult::Accepted);
+    }
+}
+
+#[test]
+fn a_threshold_below_what_a_turn_resolves_is_untrusted() {
+    // A wrong recipe: 0.05 µm is below what one turn can tell apart (u(e) ≈ 0.022 µm, more than
+    // 5 % of the threshold). The station does not push on such a measurement.
+    let recipe = Recipe::from_toml("threshold_um = 0.05\n").unwrap();
+    let c = BatchConfig {
+        recipe,
+        ..cfg(Faults::default())
+    };
+    let r = run_batch(&c, 3, &mut |_, _, _| {}).unwrap();
+    for p in &r.parts {
+        assert_eq!(p.record.result, PartResult::MeasurementUntrusted);
+        assert_eq!(p.record.pushes, 0);
+        let why = p.record.reject_reason.as_deref().unwrap();
+        assert!(
+            why.contains("u_e 0.0") && why.contains("> 0.003 µm"),
+            "{why}"
+        );
+    }
+}
+
+#[test]
+fn invalid_recipe_is_an_error_naming_the_key() {
+    let mut recipe = Recipe::default();
+    recipe.fit.paper_half_window = 150;
+    let c = BatchConfig {
+        recipe,
+        strategy: Strategy::Paper,
+        ..cfg(Faults::default())
+    };
+    match run_batch(&c, 1, &mut |_, _, _| {}).unwrap_err() {
+        StationError::RecipeValue { key, .. } => assert_eq!(key, "fit.paper_half_window"),
+        other => panic!("{other:?}"),
     }
 }

@@ -1,19 +1,22 @@
-//! The mounting sequence (seed 004 §2): autofocus → measure → align → approach → push → verify →
-//! repeat or reject, generic over the hardware traits of [`crate::hal`].
+//! The mounting sequence (seed 004 §2, Yu et al., 2024): autofocus → measure → align → approach →
+//! push → verify → repeat or reject, generic over the hardware traits of [`crate::hal`], with the
+//! push strategies of [`crate::strategy`] and the quality gate of [`crate::quality`] on every turn.
 //!
-//! Strategies ([`Strategy`]):
-//! - `paper`: the seed's station: extreme-point fit, angles latched from the servo log, fast
-//!   contact, push by e toward θ_max.
-//! - `least-squares`: the robust least-squares fit with mid-exposure stamping, push by e.
-//! - `learned` (default): least squares plus a push model (expected overshoot, slip and
-//!   spring-back from the recipe), a slow approach for small e, and the push gain and the angle
-//!   offset between commanded and actual push direction learned from every push (carried across
-//!   parts by the same [`Controller`]).
-//! - `live`: as `learned`, but the push runs under feedback from the live baseline position: the
-//!   rod advances in steps until the ring's column reaches the fitted centre value at that angle.
+//! The station pushes only on a measurement it can trust:
+//! - every turn is judged by the quality gate; a turn that fails it (or loses the ring) is
+//!   measured again after a refocus, as often as the recipe's `quality.remeasure_turns` says;
+//!   if the last attempt fails too, the part ends `measurement_untrusted` (or
+//!   `rejected_ring_lost`) with every turn kept;
+//! - a push takes a [`Trusted`] fit, which only a turn that passed the gate gives;
+//! - after each push the verify turn must agree with the push model's prediction (within
+//!   `push.verify_tolerance_um` + `push.verify_tolerance_fraction` × the predicted move);
+//!   otherwise pushing stops and the part ends `push_inconsistent` (unless the trusted verify
+//!   turn already finds it within the threshold: then it is accepted, the push flagged).
 //!
-//! A part ends accepted (e below the recipe's threshold) or rejected (max pushes, ring lost,
-//! focus failure, timeout). A device error aborts the part with [`StationError::Device`].
+//! A part also ends accepted (e below the recipe's threshold) or rejected (max pushes, ring lost,
+//! focus failure, timeout). A device error ends the part `rejected_device_error` with its record
+//! kept (the device, its message, every turn and push so far); the controller then tries to
+//! leave the station safe (rod retracted, servo stopped).
 //!
 //! ```
 //! use gonio_station::{Controller, Recipe, Strategy};
@@ -21,198 +24,15 @@
 //! assert_eq!(c.strategy.name(), "learned");
 //! ```
 
-use crate::fit::{EccentricityFit, FitMethod, FitOptions, Sample, fit};
-use crate::hal::{
-    ApproachSpeed, Camera, CameraFrame, Clock, DeviceError, FocusDrive, PushRod, Servo,
+use crate::fit::{EccentricityFit, FitOptions, Sample, fit_judged};
+use crate::hal::{Camera, CameraFrame, Clock, DeviceError, FocusDrive, PushRod, Servo};
+use crate::interval::AngleLog;
+pub use crate::record::{
+    DeviceFault, PartRecord, PartResult, PhaseTimes, PushRecord, TurnKind, TurnRecord,
 };
-use crate::interval::{AngleLog, Stamping};
+pub use crate::strategy::{Learned, Strategy};
+use crate::strategy::{LiveFeedback, PushOutcome, PushPlan, PushPrediction, e_vec_um};
 use crate::{Recipe, StationError};
-use serde::{Deserialize, Serialize};
-
-/// A push strategy.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Strategy {
-    /// The seed's station.
-    Paper,
-    /// Least-squares fit, push by e.
-    LeastSquares,
-    /// Least squares, push model, learned gain and angle offset (default).
-    #[default]
-    Learned,
-    /// Push under live-baseline feedback.
-    Live,
-}
-
-impl Strategy {
-    /// The name used on the command line and in JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Strategy::Paper => "paper",
-            Strategy::LeastSquares => "least-squares",
-            Strategy::Learned => "learned",
-            Strategy::Live => "live",
-        }
-    }
-
-    /// All strategies.
-    pub const ALL: [Strategy; 4] = [
-        Strategy::Paper,
-        Strategy::LeastSquares,
-        Strategy::Learned,
-        Strategy::Live,
-    ];
-
-    /// The eccentricity fit it uses.
-    pub fn fit_method(self) -> FitMethod {
-        match self {
-            Strategy::Paper => FitMethod::Paper,
-            _ => FitMethod::LeastSquares,
-        }
-    }
-
-    /// How it stamps frame angles.
-    pub fn stamping(self) -> Stamping {
-        match self {
-            Strategy::Paper => Stamping::Latched,
-            _ => Stamping::MidExposure,
-        }
-    }
-
-    fn uses_model(self) -> bool {
-        matches!(self, Strategy::Learned | Strategy::Live)
-    }
-}
-
-impl std::str::FromStr for Strategy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Strategy::ALL
-            .into_iter()
-            .find(|x| x.name() == s)
-            .ok_or_else(|| {
-                format!("unknown strategy {s:?}: expected paper, least-squares, learned or live")
-            })
-    }
-}
-
-/// How a part ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PartResult {
-    /// Eccentricity below the threshold: cured.
-    Accepted,
-    /// The maximum number of pushes was reached.
-    RejectedMaxPushes,
-    /// Too few frames with a valid ring in a turn.
-    RejectedRingLost,
-    /// Autofocus found no peak.
-    RejectedFocusFailure,
-    /// The part took longer than the recipe's timeout.
-    RejectedTimeout,
-}
-
-impl PartResult {
-    /// Short name (`accepted`, `rejected_max_pushes`, …).
-    pub fn name(self) -> &'static str {
-        match self {
-            PartResult::Accepted => "accepted",
-            PartResult::RejectedMaxPushes => "rejected_max_pushes",
-            PartResult::RejectedRingLost => "rejected_ring_lost",
-            PartResult::RejectedFocusFailure => "rejected_focus_failure",
-            PartResult::RejectedTimeout => "rejected_timeout",
-        }
-    }
-}
-
-/// One measuring turn.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TurnRecord {
-    /// Start of the turn, s since the part started.
-    pub t_start_s: f64,
-    /// The valid frames' samples.
-    pub samples: Vec<Sample>,
-    /// Frames without a valid ring.
-    pub invalid_frames: usize,
-    /// Eccentricity, µm (NaN when the turn failed).
-    pub e_um: f64,
-    /// θ_max, degrees.
-    pub theta_max_deg: f64,
-    /// Mean column, px.
-    pub c0_px: f64,
-    /// Residual RMS, px.
-    pub residual_rms_px: f64,
-    /// Outliers rejected by the fit.
-    pub outliers: usize,
-}
-
-/// One push.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PushRecord {
-    /// Start, s since the part started.
-    pub t_start_s: f64,
-    /// Eccentricity before, µm.
-    pub e_before_um: f64,
-    /// Commanded push distance, µm (sum of the steps under live feedback).
-    pub commanded_um: f64,
-    /// Commanded push direction (servo angle facing the rod), degrees.
-    pub angle_deg: f64,
-    /// Approach speed.
-    pub approach: ApproachSpeed,
-    /// Feedback steps (live strategy; 1 otherwise).
-    pub steps: u32,
-}
-
-/// Everything the station knows about one part.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PartRecord {
-    /// The part's serial number.
-    pub serial: String,
-    /// The recipe's name.
-    pub recipe: String,
-    /// The strategy's name.
-    pub strategy: String,
-    /// First measured eccentricity, µm (NaN if never measured).
-    pub initial_e_um: f64,
-    /// Last measured eccentricity, µm (NaN if never measured).
-    pub final_e_um: f64,
-    /// Pushes made.
-    pub pushes: u32,
-    /// Time from start to the end of the part, s.
-    pub time_s: f64,
-    /// How the part ended.
-    pub result: PartResult,
-    /// Focus position found, µm (NaN on focus failure).
-    pub focus_um: f64,
-    /// Every measuring turn.
-    pub turns: Vec<TurnRecord>,
-    /// Every push.
-    pub push_log: Vec<PushRecord>,
-}
-
-/// The learned push gain and angle offset.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Learned {
-    /// Estimated push gain (actual move per commanded µm).
-    pub gain: f64,
-    /// Estimated offset of the actual push direction from the commanded one, degrees.
-    pub offset_deg: f64,
-    /// Observations behind the gain.
-    pub gain_observations: u32,
-    /// Observations behind the offset.
-    pub offset_observations: u32,
-}
-
-impl Default for Learned {
-    fn default() -> Self {
-        Learned {
-            gain: 1.0,
-            offset_deg: 0.0,
-            gain_observations: 0,
-            offset_observations: 0,
-        }
-    }
-}
 
 /// The five devices of a station.
 #[derive(Debug)]
@@ -250,10 +70,30 @@ pub struct Controller {
     pub carry_learning: bool,
 }
 
+/// A fit whose turn passed the quality gate: the only kind the station pushes on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trusted(EccentricityFit);
+
+impl Trusted {
+    /// The fit.
+    pub fn fit(&self) -> &EccentricityFit {
+        &self.0
+    }
+}
+
 enum Turn {
-    Ok(TurnRecord, EccentricityFit),
+    Ok(TurnRecord, Box<EccentricityFit>),
     Lost(TurnRecord),
 }
+
+/// How a gated measurement ended.
+enum Gated {
+    Trusted(Box<Trusted>),
+    Rejected(PartResult, String),
+}
+
+/// The end of a part, with the reason when rejected.
+type Ending = (PartResult, Option<String>);
 
 impl Controller {
     /// A controller with nothing learned yet.
@@ -273,11 +113,15 @@ impl Controller {
         }
     }
 
-    /// Mounts one part.
+    /// Mounts one part and returns its record, whatever happened to it.
+    ///
+    /// A device error ends the part `rejected_device_error` with the device and its message in
+    /// [`PartRecord::device_error`] (and [`PartRecord::device_error()`] as a
+    /// [`StationError::Device`] for callers that want the error); the caller decides whether to
+    /// go on with the next part ([`crate::recipe::DeviceErrorPolicy`]).
     ///
     /// # Errors
-    /// [`StationError::Device`] when a device fails (the part is aborted; the caller decides
-    /// whether to go on with the next one).
+    /// [`StationError::RecipeValue`] when the recipe is invalid (nothing is moved).
     pub fn mount<S, C, F, P, K>(
         &mut self,
         d: &mut Devices<S, C, F, P, K>,
@@ -290,87 +134,241 @@ impl Controller {
         P: PushRod,
         K: Clock,
     {
+        self.recipe.validate()?;
         if !self.carry_learning {
             self.learned = Learned::default();
         }
-        let t0 = d.clock.now_s().map_err(dev("clock"))?;
-        let mut rec = PartRecord {
-            serial: serial.to_string(),
-            recipe: self.recipe.name.clone(),
-            strategy: self.strategy.name().to_string(),
-            initial_e_um: f64::NAN,
-            final_e_um: f64::NAN,
-            pushes: 0,
-            time_s: 0.0,
-            result: PartResult::Accepted,
-            focus_um: f64::NAN,
-            turns: Vec::new(),
-            push_log: Vec::new(),
+        let mut rec = PartRecord::new(serial, &self.recipe.name, self.strategy.name());
+        let t0 = d.clock.now_s().map_err(dev("clock"));
+        let ending = match &t0 {
+            Ok(t0) => self.run(d, &mut rec, *t0).map(|e| (*t0, e)),
+            Err(e) => Err(e.clone()),
         };
-        let finish = |rec: &mut PartRecord, d: &mut Devices<S, C, F, P, K>, r: PartResult| {
-            rec.result = r;
-            rec.time_s = d.clock.now_s().map_err(dev("clock"))? - t0;
-            Ok::<(), StationError>(())
-        };
-        match self.autofocus(d)? {
+        match ending {
+            Ok((t0, (result, reason))) => {
+                rec.result = result;
+                rec.reject_reason = reason;
+                rec.time_s = d.clock.now_s().map_or(f64::NAN, |t| t - t0);
+            }
+            Err(StationError::Device {
+                device,
+                kind,
+                message,
+            }) => {
+                rec.result = PartResult::RejectedDeviceError;
+                rec.reject_reason = Some(format!("{device}: {kind:?} error: {message}"));
+                rec.device_error = Some(DeviceFault {
+                    device: device.to_string(),
+                    kind,
+                    message,
+                });
+                // Best effort: leave the station safe; a second failure is already covered.
+                let _ = d.rod.retract();
+                let _ = d.servo.stop();
+                if let Ok(t0) = t0 {
+                    rec.time_s = d.clock.now_s().map_or(f64::NAN, |t| t - t0);
+                }
+            }
+            Err(other) => return Err(other),
+        }
+        Ok(rec)
+    }
+
+    /// The sequence of one part; device errors propagate.
+    fn run<S, C, F, P, K>(
+        &mut self,
+        d: &mut Devices<S, C, F, P, K>,
+        rec: &mut PartRecord,
+        t0: f64,
+    ) -> Result<Ending, StationError>
+    where
+        S: Servo,
+        C: Camera,
+        F: FocusDrive,
+        P: PushRod,
+        K: Clock,
+    {
+        let t = now(d)?;
+        let focus = self.autofocus(d)?;
+        rec.phase_times.focus_s += now(d)? - t;
+        match focus {
             Some(z) => rec.focus_um = z,
             None => {
-                finish(&mut rec, d, PartResult::RejectedFocusFailure)?;
-                return Ok(rec);
+                return Ok((
+                    PartResult::RejectedFocusFailure,
+                    Some("autofocus: the focus measure has no peak in the sweep".into()),
+                ));
             }
         }
         let um = self.recipe.um_per_px;
-        let mut current = match self.measure(d, t0)? {
-            Turn::Ok(t, f) => {
-                rec.turns.push(t);
-                f
-            }
-            Turn::Lost(t) => {
-                rec.turns.push(t);
-                finish(&mut rec, d, PartResult::RejectedRingLost)?;
-                return Ok(rec);
-            }
+        let threshold = self.recipe.threshold_um;
+        let mut current = match self.gated_turn(d, rec, t0, TurnKind::Initial)? {
+            Gated::Trusted(f) => *f,
+            Gated::Rejected(r, why) => return Ok((r, Some(why))),
         };
-        rec.initial_e_um = current.e_px * um;
+        rec.initial_e_um = current.0.e_px * um;
         rec.final_e_um = rec.initial_e_um;
         loop {
-            let e_um = current.e_px * um;
-            if e_um < self.recipe.threshold_um {
-                finish(&mut rec, d, PartResult::Accepted)?;
-                return Ok(rec);
+            let (e_um, theta_max) = (current.0.e_px * um, current.0.theta_max_deg);
+            if e_um < threshold {
+                return Ok((PartResult::Accepted, None));
             }
             if rec.pushes >= self.recipe.push.max_pushes {
-                finish(&mut rec, d, PartResult::RejectedMaxPushes)?;
-                return Ok(rec);
+                return Ok((
+                    PartResult::RejectedMaxPushes,
+                    Some(format!(
+                        "e = {e_um:.2} µm ≥ {threshold} µm after {} pushes",
+                        rec.pushes
+                    )),
+                ));
             }
-            if d.clock.now_s().map_err(dev("clock"))? - t0 > self.recipe.timeout_s {
-                finish(&mut rec, d, PartResult::RejectedTimeout)?;
-                return Ok(rec);
+            let elapsed = now(d)? - t0;
+            if elapsed > self.recipe.timeout_s {
+                return Ok((
+                    PartResult::RejectedTimeout,
+                    Some(format!(
+                        "{elapsed:.1} s > timeout {} s with e = {e_um:.2} µm",
+                        self.recipe.timeout_s
+                    )),
+                ));
             }
-            let push = match self.push(d, &current, t0)? {
+            let plan = self
+                .strategy
+                .plan(e_um, theta_max, &self.learned, &self.recipe);
+            let t = now(d)?;
+            let pushed = self.push(d, &current, &plan, t - t0)?;
+            rec.phase_times.push_s += now(d)? - t;
+            let (push, prediction) = match pushed {
                 Some(p) => p,
                 None => {
-                    finish(&mut rec, d, PartResult::RejectedRingLost)?;
-                    return Ok(rec);
+                    return Ok((
+                        PartResult::RejectedRingLost,
+                        Some(format!(
+                            "push {}: the ring was lost in the live view",
+                            rec.pushes + 1
+                        )),
+                    ));
                 }
             };
             rec.pushes += 1;
-            let next = match self.measure(d, t0)? {
+            rec.push_log.push(push);
+            let next = match self.gated_turn(d, rec, t0, TurnKind::Verify)? {
+                Gated::Trusted(f) => *f,
+                Gated::Rejected(r, why) => return Ok((r, Some(why))),
+            };
+            let after = e_vec_um(&next.0, um);
+            let deviation = (after[0] - prediction.e_after_vec_um[0])
+                .hypot(after[1] - prediction.e_after_vec_um[1]);
+            let consistent = deviation <= prediction.tolerance_um;
+            let e_after = next.0.e_px * um;
+            rec.final_e_um = e_after;
+            let last = rec.push_log.last_mut().expect("the push was just logged");
+            last.e_after_um = e_after;
+            last.deviation_um = deviation;
+            last.consistent = Some(consistent);
+            if !consistent {
+                if e_after < threshold {
+                    // The trusted verify turn finds the part centred: nothing left to push.
+                    return Ok((PartResult::Accepted, None));
+                }
+                return Ok((
+                    PartResult::PushInconsistent,
+                    Some(format!(
+                        "push {}: verify turn e = {e_after:.2} µm at {:.1}°, the push model predicted {:.2} µm; {deviation:.2} µm apart > tolerance {:.2} µm",
+                        rec.pushes,
+                        next.0.theta_max_deg,
+                        prediction.e_after_um,
+                        prediction.tolerance_um
+                    )),
+                ));
+            }
+            let outcome = PushOutcome {
+                angle_deg: last.angle_deg,
+                commanded_um: last.commanded_um,
+                approach: last.approach,
+            };
+            self.learned
+                .learn(self.strategy, &self.recipe, &current.0, &next.0, &outcome);
+            current = next;
+        }
+    }
+
+    /// Measures a turn and judges it; a turn that fails the gate or loses the ring is measured
+    /// again (after a refocus) up to `quality.remeasure_turns` times.
+    fn gated_turn<S, C, F, P, K>(
+        &self,
+        d: &mut Devices<S, C, F, P, K>,
+        rec: &mut PartRecord,
+        t0: f64,
+        kind: TurnKind,
+    ) -> Result<Gated, StationError>
+    where
+        S: Servo,
+        C: Camera,
+        F: FocusDrive,
+        K: Clock,
+    {
+        let q = &self.recipe.quality;
+        let mut attempt = 0;
+        loop {
+            let k = if attempt == 0 {
+                kind
+            } else {
+                TurnKind::Remeasure
+            };
+            let t = now(d)?;
+            let turn = self.measure(d, t0, k)?;
+            rec.phase_times.measure_s += now(d)? - t;
+            let n = rec.turns.len() + 1;
+            let (failure, result) = match turn {
                 Turn::Ok(t, f) => {
                     rec.turns.push(t);
-                    f
+                    if f.quality.ok {
+                        return Ok(Gated::Trusted(Box::new(Trusted(*f))));
+                    }
+                    (
+                        format!(
+                            "turn {n} failed the quality gate: {}",
+                            f.quality.reasons().join("; ")
+                        ),
+                        PartResult::MeasurementUntrusted,
+                    )
                 }
                 Turn::Lost(t) => {
+                    let why = format!(
+                        "turn {n} lost the ring: {} of {} frames valid, {:.0} % needed",
+                        t.samples.len(),
+                        t.frames_taken,
+                        100.0 * self.recipe.measure.min_valid_fraction
+                    );
                     rec.turns.push(t);
-                    rec.push_log.push(push);
-                    finish(&mut rec, d, PartResult::RejectedRingLost)?;
-                    return Ok(rec);
+                    (why, PartResult::RejectedRingLost)
                 }
             };
-            self.learn(&current, &next, &push);
-            rec.push_log.push(push);
-            rec.final_e_um = next.e_px * um;
-            current = next;
+            if attempt >= q.remeasure_turns {
+                let why = if attempt > 0 {
+                    format!("{failure} (after {attempt} re-measurement(s))")
+                } else {
+                    failure
+                };
+                return Ok(Gated::Rejected(result, why));
+            }
+            attempt += 1;
+            rec.remeasured_turns += 1;
+            if q.refocus_before_remeasure {
+                let t = now(d)?;
+                let z = self.autofocus(d)?;
+                rec.phase_times.focus_s += now(d)? - t;
+                match z {
+                    Some(z) => rec.focus_um = z,
+                    None => {
+                        return Ok(Gated::Rejected(
+                            PartResult::RejectedFocusFailure,
+                            format!("{failure}; refocusing found no focus peak"),
+                        ));
+                    }
+                }
+            }
         }
     }
 
@@ -442,11 +440,12 @@ impl Controller {
         Ok(Some(z_star))
     }
 
-    /// One measuring turn and its fit.
+    /// One measuring turn, its fit and the quality gate's verdict.
     fn measure<S, C, F, P, K>(
         &self,
         d: &mut Devices<S, C, F, P, K>,
         t0: f64,
+        kind: TurnKind,
     ) -> Result<Turn, StationError>
     where
         S: Servo,
@@ -454,7 +453,7 @@ impl Controller {
         K: Clock,
     {
         let ms = &self.recipe.measure;
-        let t_start = d.clock.now_s().map_err(dev("clock"))?;
+        let t_start = now(d)?;
         d.servo
             .start_turn(ms.speed_deg_per_s)
             .map_err(dev("servo"))?;
@@ -467,13 +466,17 @@ impl Controller {
         let log = d.servo.angle_log(t_start).map_err(dev("servo"))?;
         let mut rec = TurnRecord {
             t_start_s: t_start - t0,
+            kind,
+            frames_taken: n,
             samples: Vec::with_capacity(n),
             invalid_frames: 0,
             e_um: f64::NAN,
+            u_e_um: f64::NAN,
             theta_max_deg: f64::NAN,
             c0_px: f64::NAN,
             residual_rms_px: f64::NAN,
             outliers: 0,
+            quality: None,
         };
         let log = match AngleLog::new(log) {
             Ok(l) => l,
@@ -508,184 +511,110 @@ impl Controller {
         if valid < 3 || (valid as f64) < ms.min_valid_fraction * n as f64 {
             return Ok(Turn::Lost(rec));
         }
-        match fit(&rec.samples, &self.fit_options()) {
+        let limits = self.recipe.quality_limits();
+        match fit_judged(&rec.samples, n, &self.fit_options(), &limits) {
             Ok(f) => {
-                rec.e_um = f.e_px * self.recipe.um_per_px;
+                let um = self.recipe.um_per_px;
+                rec.e_um = f.e_px * um;
+                rec.u_e_um = f.u_e_px * um;
                 rec.theta_max_deg = f.theta_max_deg;
                 rec.c0_px = f.c0_px;
                 rec.residual_rms_px = f.residual_rms_px;
                 rec.outliers = f.outliers.len();
-                Ok(Turn::Ok(rec, f))
+                rec.quality = Some(f.quality.clone());
+                Ok(Turn::Ok(rec, Box::new(f)))
             }
             Err(_) => Ok(Turn::Lost(rec)),
         }
     }
 
-    /// Align, approach, push (open loop or under live feedback), retract. `None` if the ring was
-    /// lost during a live push.
+    /// Align, approach, push (open loop or under live feedback), retract; the push model's
+    /// prediction for the verify turn. `None` if the ring was lost during a live push.
     fn push<S, C, F, P, K>(
         &self,
         d: &mut Devices<S, C, F, P, K>,
-        cur: &EccentricityFit,
-        t0: f64,
-    ) -> Result<Option<PushRecord>, StationError>
+        cur: &Trusted,
+        plan: &PushPlan,
+        t_start_s: f64,
+    ) -> Result<Option<(PushRecord, PushPrediction)>, StationError>
     where
         S: Servo,
         C: Camera,
         P: PushRod,
         K: Clock,
     {
-        let ps = &self.recipe.push;
+        let cur = &cur.0;
         let um = self.recipe.um_per_px;
         let e_um = cur.e_px * um;
-        let model = self.strategy.uses_model();
-        let angle = if model {
-            cur.theta_max_deg - self.learned.offset_deg
-        } else {
-            cur.theta_max_deg
-        };
-        let approach = if model && e_um < ps.slow_contact_below_um {
-            ApproachSpeed::Slow
-        } else {
-            ApproachSpeed::Fast
-        };
-        let overshoot = match approach {
-            ApproachSpeed::Fast => ps.overshoot_fast_um,
-            ApproachSpeed::Slow => ps.overshoot_slow_um,
-        };
-        let t_start = d.clock.now_s().map_err(dev("clock"))? - t0;
-        // Align: the nearest servo angle equivalent to `angle`.
-        let now = d.servo.angle_deg().map_err(dev("servo"))?;
-        let target = now + (angle - now + 180.0).rem_euclid(360.0) - 180.0;
+        // Align: the nearest servo angle equivalent to the commanded direction.
+        let now_deg = d.servo.angle_deg().map_err(dev("servo"))?;
+        let target = now_deg + (plan.angle_deg - now_deg + 180.0).rem_euclid(360.0) - 180.0;
         d.servo.move_to_deg(target).map_err(dev("servo"))?;
-        d.rod.approach(approach).map_err(dev("push rod"))?;
-        let gain = self.learned.gain.clamp(0.5, 1.5);
-        let mut commanded = 0.0;
-        let mut steps = 0u32;
-        let mut lost = false;
-        if self.strategy == Strategy::Live {
-            // Live feedback: the camera sees the grating's offset along the push direction.
-            let c_target =
-                cur.model_px(target) - cur.e_px * (target - cur.theta_max_deg).to_radians().cos();
-            let goal_um = -ps.spring_back * e_um;
-            let mut stalls = 0;
-            let mut last = f64::INFINITY;
-            // The gain of this push, measured from the first step under feedback.
-            let mut k_live = gain;
-            let mut prev: Option<(f64, f64)> = None;
-            for _ in 0..60 {
-                let mut sum = 0.0;
-                let mut cnt = 0;
-                for _ in 0..ps.live_frames {
-                    let f = d.camera.capture().map_err(dev("camera"))?;
-                    if let Some(c) = f.c_px.filter(|c| c.is_finite()) {
-                        sum += c;
-                        cnt += 1;
+        d.rod.approach(plan.approach).map_err(dev("push rod"))?;
+        let (commanded, steps, prediction, lost) = match plan.open_loop_um {
+            Some(dd) => {
+                d.rod.push_um(dd).map_err(dev("push rod"))?;
+                (
+                    dd,
+                    1,
+                    plan.predict_open_loop(e_um, cur.theta_max_deg, &self.recipe),
+                    false,
+                )
+            }
+            None => {
+                // Live feedback: the camera sees the grating's offset along the push direction.
+                let c_target = cur.model_px(target)
+                    - cur.e_px * (target - cur.theta_max_deg).to_radians().cos();
+                let mut fb = LiveFeedback::new(&self.recipe, plan.gain, e_um);
+                let mut lost = false;
+                while fb.wants_reading() {
+                    let mut sum = 0.0;
+                    let mut cnt = 0;
+                    for _ in 0..self.recipe.push.live_frames {
+                        let f = d.camera.capture().map_err(dev("camera"))?;
+                        if let Some(c) = f.c_px.filter(|c| c.is_finite()) {
+                            sum += c;
+                            cnt += 1;
+                        }
                     }
-                }
-                if cnt == 0 {
-                    lost = true;
-                    break;
-                }
-                let along_um = (sum / cnt as f64 - c_target) * um;
-                if let Some((a_prev, d_prev)) = prev {
-                    if d_prev * k_live > 10.0 {
-                        k_live = ((a_prev - along_um) / d_prev).clamp(0.5, 1.5);
-                    }
-                }
-                let remaining = along_um - goal_um;
-                if remaining < ps.live_tolerance_um {
-                    break;
-                }
-                if remaining > last - 0.2 {
-                    stalls += 1;
-                    if stalls >= 3 {
+                    if cnt == 0 {
+                        lost = true;
                         break;
                     }
+                    match fb.next((sum / cnt as f64 - c_target) * um) {
+                        Some(dd) => d.rod.push_um(dd).map_err(dev("push rod"))?,
+                        None => break,
+                    }
                 }
-                last = remaining;
-                // The first step stops short (the push's gain is not known yet); later steps
-                // use the gain just measured.
-                let frac = if steps == 0 && remaining > 10.0 {
-                    0.85
-                } else {
-                    1.0
-                };
-                let dd = (frac * remaining / k_live)
-                    .max(1.05 / k_live)
-                    .min(ps.max_push_um - commanded);
-                if dd <= 0.0 {
-                    break;
-                }
-                d.rod.push_um(dd).map_err(dev("push rod"))?;
-                prev = Some((along_um, dd));
-                commanded += dd;
-                steps += 1;
+                let p = fb.predict(e_um, cur.theta_max_deg, plan);
+                (fb.commanded_um, fb.steps, p, lost)
             }
-        } else {
-            let dd = if model {
-                (e_um / (1.0 - ps.spring_back) - overshoot - ps.slip_um) / gain
-            } else {
-                e_um
-            };
-            let dd = dd.clamp(0.0, ps.max_push_um);
-            d.rod.push_um(dd).map_err(dev("push rod"))?;
-            commanded = dd;
-            steps = 1;
-        }
+        };
         d.rod.retract().map_err(dev("push rod"))?;
         if lost {
             return Ok(None);
         }
-        Ok(Some(PushRecord {
-            t_start_s: t_start,
-            e_before_um: e_um,
-            commanded_um: commanded,
-            angle_deg: angle,
-            approach,
-            steps,
-        }))
+        Ok(Some((
+            PushRecord {
+                t_start_s,
+                e_before_um: e_um,
+                commanded_um: commanded,
+                angle_deg: plan.angle_deg,
+                approach: plan.approach,
+                steps,
+                gain: plan.gain,
+                predicted_move_um: prediction.move_um,
+                predicted_e_after_um: prediction.e_after_um,
+                tolerance_um: prediction.tolerance_um,
+                e_after_um: f64::NAN,
+                deviation_um: f64::NAN,
+                consistent: None,
+            },
+            prediction,
+        )))
     }
+}
 
-    /// Learns the push gain and angle offset from the move seen between two turns.
-    fn learn(&mut self, before: &EccentricityFit, after: &EccentricityFit, push: &PushRecord) {
-        if !self.strategy.uses_model() {
-            return;
-        }
-        let um = self.recipe.um_per_px;
-        let vec = |f: &EccentricityFit| {
-            let t = f.theta_max_deg.to_radians();
-            (f.e_px * um * t.cos(), f.e_px * um * t.sin())
-        };
-        let (bx, by) = vec(before);
-        let (ax, ay) = vec(after);
-        let (mx, my) = (bx - ax, by - ay);
-        let phi = push.angle_deg.to_radians();
-        let along = mx * phi.cos() + my * phi.sin();
-        let perp = -mx * phi.sin() + my * phi.cos();
-        let moved = mx.hypot(my);
-        let l = &mut self.learned;
-        if moved >= 20.0 && along > 0.0 {
-            let delta = perp.atan2(along).to_degrees();
-            if delta.abs() < 10.0 {
-                let n = l.offset_observations as f64;
-                // Running mean with the prior 0° worth one observation.
-                l.offset_deg = (l.offset_deg * (n + 1.0) + delta) / (n + 2.0);
-                l.offset_observations += 1;
-            }
-        }
-        if self.strategy == Strategy::Learned && push.commanded_um >= 20.0 {
-            let ps = &self.recipe.push;
-            let overshoot = match push.approach {
-                ApproachSpeed::Fast => ps.overshoot_fast_um,
-                ApproachSpeed::Slow => ps.overshoot_slow_um,
-            };
-            let k = (along / (1.0 - ps.spring_back) - overshoot - ps.slip_um) / push.commanded_um;
-            if (0.5..1.5).contains(&k) {
-                let n = l.gain_observations as f64;
-                l.gain = (l.gain * (n + 1.0) + k) / (n + 2.0);
-                l.gain_observations += 1;
-            }
-        }
-    }
+fn now<S, C, F, P, K: Clock>(d: &mut Devices<S, C, F, P, K>) -> Result<f64, StationError> {
+    d.clock.now_s().map_err(dev("clock"))
 }

@@ -71,6 +71,20 @@ pub enum StationError {
         /// What was wrong and what was expected.
         message: String,
     },
+    /// A recipe value is outside its allowed range (or inconsistent with another value).
+    #[error("{}", setting_message(*line, *column, key, value, expected))]
+    RecipeValue {
+        /// The key, with its section (`fit.huber_k`, `push.max_push_um`).
+        key: String,
+        /// The value given, as written.
+        value: String,
+        /// What is allowed.
+        expected: String,
+        /// 1-based line of the key in the recipe file (0 when not read from a file).
+        line: usize,
+        /// 1-based column of the key (0 when not read from a file).
+        column: usize,
+    },
     /// A device reported an error; the part is aborted.
     #[error("{device}: {kind:?} error: {message}")]
     Device {
@@ -81,4 +95,12 @@ pub enum StationError {
         /// The device's message.
         message: String,
     },
+}
+
+fn setting_message(line: usize, column: usize, key: &str, value: &str, expected: &str) -> String {
+    if line > 0 {
+        format!("line {line}, column {column}: {key} = {value}: expected {expected}")
+    } else {
+        format!("{key} = {value}: expected {expected}")
+    }
 }

@@ -32,7 +32,8 @@
 //! ```
 
 use crate::StationError;
-use nalgebra::{DMatrix, DVector};
+use crate::quality::{self, HalfTurns, QualityLimits, QualityVerdict};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// One frame's measurement: the servo angle and the ring's column.
@@ -104,7 +105,58 @@ impl FitOptions {
             ..Self::default()
         }
     }
+
+    /// Checks the settings; with `samples`, also those that depend on the number of samples.
+    ///
+    /// # Errors
+    /// [`StationError::OutOfRange`] naming the setting (`huber_k`, `roundness_prior_px`,
+    /// `outlier_sigma`, `roundness_orders`, `paper_half_window`).
+    pub fn validate(&self, samples: Option<usize>) -> Result<(), StationError> {
+        let positive = |name: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(StationError::OutOfRange {
+                    name,
+                    value: v,
+                    expected: "a finite number > 0",
+                })
+            }
+        };
+        positive("roundness_prior_px", self.roundness_prior_px)?;
+        positive("huber_k", self.huber_k)?;
+        positive("outlier_sigma", self.outlier_sigma)?;
+        for (i, &k) in self.roundness_orders.iter().enumerate() {
+            if !(2..=MAX_ROUNDNESS_ORDER).contains(&k) || self.roundness_orders[..i].contains(&k) {
+                return Err(StationError::OutOfRange {
+                    name: "roundness_orders",
+                    value: k as f64,
+                    expected: "distinct orders from 2 to 50 (0 and 1 are c₀ and the eccentricity)",
+                });
+            }
+        }
+        if self.paper_half_window == 0 {
+            return Err(StationError::OutOfRange {
+                name: "paper_half_window",
+                value: 0.0,
+                expected: "at least 1 point on each side",
+            });
+        }
+        if let Some(n) = samples {
+            if self.method == FitMethod::Paper && 2 * self.paper_half_window + 1 > n {
+                return Err(StationError::OutOfRange {
+                    name: "paper_half_window",
+                    value: self.paper_half_window as f64,
+                    expected: "a window (2·half + 1 points) no larger than the samples",
+                });
+            }
+        }
+        Ok(())
+    }
 }
+
+/// Highest roundness order the fit accepts.
+pub const MAX_ROUNDNESS_ORDER: u32 = 50;
 
 /// One roundness harmonic `amplitude_px·cos(order·θ − phase)`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -147,6 +199,8 @@ pub struct EccentricityFit {
     pub roundness: Vec<RoundnessTerm>,
     /// Angular span of the samples, degrees.
     pub arc_deg: f64,
+    /// The quality gate's verdict on the turn ([`crate::quality`]).
+    pub quality: QualityVerdict,
 }
 
 impl EccentricityFit {
@@ -205,17 +259,105 @@ pub fn validate(samples: &[Sample]) -> Result<(), StationError> {
     Ok(())
 }
 
-/// Fits the eccentricity of one turn (or part of one).
+/// Fits the eccentricity of one turn (or part of one) and judges it against the seed station's
+/// quality limits ([`QualityLimits::default`]), taking every sample as a frame taken. Use
+/// [`fit_judged`] for a recipe's limits and the frames the station took.
 ///
 /// # Errors
 /// Those of [`validate`]; [`StationError::Singular`] when the angles do not determine the
 /// sinusoid (least squares); [`StationError::OutOfRange`] for invalid options.
 pub fn fit(samples: &[Sample], opts: &FitOptions) -> Result<EccentricityFit, StationError> {
+    fit_judged(samples, samples.len(), opts, &QualityLimits::default())
+}
+
+/// Fits the eccentricity of one turn and judges the turn ([`crate::quality`]): `frames_taken`
+/// is the number of frames the turn had, valid or not (at least `samples.len()`).
+///
+/// The verdict always comes from the robust least-squares model of the samples, also when the
+/// method is the seed's (which has no residual model of its own).
+///
+/// # Errors
+/// As [`fit`]; [`StationError::OutOfRange`] when `frames_taken < samples.len()`.
+pub fn fit_judged(
+    samples: &[Sample],
+    frames_taken: usize,
+    opts: &FitOptions,
+    limits: &QualityLimits,
+) -> Result<EccentricityFit, StationError> {
     validate(samples)?;
-    match opts.method {
-        FitMethod::LeastSquares => fit_least_squares(samples, opts),
-        FitMethod::Paper => fit_paper(samples, opts),
+    opts.validate(Some(samples.len()))?;
+    if frames_taken < samples.len() {
+        return Err(StationError::OutOfRange {
+            name: "frames_taken",
+            value: frames_taken as f64,
+            expected: "at least the number of samples",
+        });
     }
+    let least_squares = fit_least_squares(samples, opts);
+    let (mut out, ls) = match opts.method {
+        FitMethod::LeastSquares => {
+            let ls = least_squares?;
+            (ls.0.clone(), Ok(ls))
+        }
+        FitMethod::Paper => (fit_paper(samples, opts)?, least_squares),
+    };
+    out.quality = match ls {
+        Ok((ls, _)) => {
+            let used: Vec<Sample> = (0..samples.len())
+                .filter(|i| !ls.outliers.contains(i))
+                .map(|i| samples[i])
+                .collect();
+            let halves = half_turns(&used, opts, limits.systematic_px);
+            quality::judge(
+                &used,
+                samples.len(),
+                frames_taken,
+                ls.residual_rms_px,
+                ls.u_e_px,
+                halves,
+                limits,
+            )
+        }
+        // The data do not determine the least-squares model: nothing to trust.
+        Err(_) => quality::judge(
+            &[],
+            samples.len(),
+            frames_taken,
+            f64::NAN,
+            f64::NAN,
+            None,
+            limits,
+        ),
+    };
+    Ok(out)
+}
+
+/// Fits the first and the second half of the turn (split at the middle of its span) and
+/// measures the distance of their (c₀, a, b) in their combined uncertainty, with the detector's
+/// systematic allowance `sys_px` added to each coefficient. `None` when a half does not
+/// determine the model.
+fn half_turns(used: &[Sample], opts: &FitOptions, sys_px: f64) -> Option<HalfTurns> {
+    let (first, last) = (used.first()?.theta_deg, used.last()?.theta_deg);
+    let mid = 0.5 * (first + last);
+    let split = used.partition_point(|s| s.theta_deg < mid);
+    let (a, b) = used.split_at(split);
+    if a.len() < 3 || b.len() < 3 {
+        return None;
+    }
+    let (fa, ca) = fit_least_squares(a, opts).ok()?;
+    let (fb, cb) = fit_least_squares(b, opts).ok()?;
+    let coef = |f: &EccentricityFit| {
+        let t = f.theta_max_deg.to_radians();
+        Vector3::new(f.c0_px, f.e_px * t.cos(), f.e_px * t.sin())
+    };
+    let d = coef(&fa) - coef(&fb);
+    let c = ca + cb + Matrix3::identity() * (sys_px * sys_px);
+    let z2 = c.cholesky()?.solve(&d).dot(&d);
+    Some(HalfTurns {
+        z: z2.max(0.0).sqrt(),
+        dc0_px: d[0],
+        de_px: d[1].hypot(d[2]),
+    })
 }
 
 fn wrap360(d: f64) -> f64 {
@@ -244,24 +386,12 @@ fn robust_sigma(r: &[f64]) -> f64 {
     1.4826 * median(&dev)
 }
 
+/// The robust least-squares fit and the covariance of (c₀, a, b), px². The fit's verdict is left
+/// unjudged (the caller judges).
 fn fit_least_squares(
     samples: &[Sample],
     opts: &FitOptions,
-) -> Result<EccentricityFit, StationError> {
-    if opts.roundness_prior_px.is_nan() || opts.roundness_prior_px <= 0.0 {
-        return Err(StationError::OutOfRange {
-            name: "roundness_prior_px",
-            value: opts.roundness_prior_px,
-            expected: "> 0",
-        });
-    }
-    if opts.huber_k.is_nan() || opts.huber_k <= 0.0 {
-        return Err(StationError::OutOfRange {
-            name: "huber_k",
-            value: opts.huber_k,
-            expected: "> 0",
-        });
-    }
+) -> Result<(EccentricityFit, Matrix3<f64>), StationError> {
     let n = samples.len();
     let orders = &opts.roundness_orders;
     let p = 3 + 2 * orders.len();
@@ -278,7 +408,10 @@ fn fit_least_squares(
         }
     }
     // Weighted, ridge-penalised normal equations: (XᵀWX + Λ) β = XᵀWy.
-    let solve = |w: &[f64], lambda: f64| -> Result<(DVector<f64>, DMatrix<f64>), StationError> {
+    let solve = |w: &[f64],
+                 lambda: f64,
+                 want_inverse: bool|
+     -> Result<(DVector<f64>, Option<DMatrix<f64>>), StationError> {
         let mut a = DMatrix::<f64>::zeros(p, p);
         let mut rhs = DVector::<f64>::zeros(p);
         for i in 0..n {
@@ -322,8 +455,7 @@ fn fit_least_squares(
             what: "normal matrix not positive definite".into(),
         })?;
         let beta = chol.solve(&rhs);
-        let inv = chol.inverse();
-        Ok((beta, inv))
+        Ok((beta, want_inverse.then(|| chol.inverse())))
     };
     let resid = |beta: &DVector<f64>| -> Vec<f64> {
         let m = &x * beta;
@@ -331,7 +463,7 @@ fn fit_least_squares(
     };
     // Start: unweighted, a light ridge; then IRLS with Huber weights and the prior's ridge.
     let mut w = vec![1.0; n];
-    let (mut beta, _) = solve(&w, 1e-6 * n as f64)?;
+    let (mut beta, _) = solve(&w, 1e-6 * n as f64, false)?;
     let mut sigma = robust_sigma(&resid(&beta)).max(1e-9);
     let prior2 = opts.roundness_prior_px * opts.roundness_prior_px;
     for _ in 0..100 {
@@ -341,7 +473,7 @@ fn fit_least_squares(
         for i in 0..n {
             w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
         }
-        let (nb, _) = solve(&w, sigma * sigma / prior2)?;
+        let (nb, _) = solve(&w, sigma * sigma / prior2, false)?;
         let delta = (&nb - &beta).amax();
         beta = nb;
         if delta < 1e-10 * (1.0 + beta.amax()) {
@@ -364,7 +496,7 @@ fn fit_least_squares(
                     w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
                 }
             }
-            let (nb, _) = solve(&w, sigma * sigma / prior2)?;
+            let (nb, _) = solve(&w, sigma * sigma / prior2, false)?;
             let delta = (&nb - &beta).amax();
             beta = nb;
             if delta < 1e-10 * (1.0 + beta.amax()) {
@@ -372,7 +504,9 @@ fn fit_least_squares(
             }
         }
     }
-    let (_, inv) = solve(&w, sigma * sigma / prior2)?;
+    let inv = solve(&w, sigma * sigma / prior2, true)?
+        .1
+        .expect("the inverse was asked for");
     let r = resid(&beta);
     let used: Vec<usize> = (0..n).filter(|i| !outliers.contains(i)).collect();
     let rms = (used.iter().map(|&i| r[i] * r[i]).sum::<f64>() / used.len().max(1) as f64).sqrt();
@@ -390,8 +524,10 @@ fn fit_least_squares(
                 .to_degrees(),
         )
     } else {
-        (f64::NAN, f64::NAN)
+        // At e = 0 the direction is undefined; u(e) is the mean of the two components'.
+        ((0.5 * (caa + cbb)).sqrt(), f64::NAN)
     };
+    let cov = Matrix3::from_fn(|r, c| s2 * inv[(r, c)]);
     let roundness = orders
         .iter()
         .enumerate()
@@ -404,7 +540,7 @@ fn fit_least_squares(
             }
         })
         .collect();
-    Ok(EccentricityFit {
+    let fit = EccentricityFit {
         method: FitMethod::LeastSquares,
         e_px: e,
         theta_max_deg: wrap360(b.atan2(a).to_degrees()),
@@ -418,7 +554,9 @@ fn fit_least_squares(
         residuals_px: r,
         roundness,
         arc_deg: samples[n - 1].theta_deg - samples[0].theta_deg,
-    })
+        quality: QualityVerdict::default(),
+    };
+    Ok((fit, cov))
 }
 
 /// Points around sample `i` (± `half` samples), wrapping around a full turn; angles unwrapped.
@@ -466,7 +604,7 @@ fn fit_paper(samples: &[Sample], opts: &FitOptions) -> Result<EccentricityFit, S
             if s.c_px < samples[mn].c_px { i } else { mn },
         )
     });
-    let half = opts.paper_half_window.max(1);
+    let half = opts.paper_half_window;
     let (xa, ya) = window(samples, imax, half, full_turn);
     let (xb, yb) = window(samples, imin, half, full_turn);
     let (t_max, c_max) = crate::spline::NaturalSpline::new(&xa, &ya)?.maximum();
@@ -493,6 +631,7 @@ fn fit_paper(samples: &[Sample], opts: &FitOptions) -> Result<EccentricityFit, S
         residuals_px: r,
         roundness: Vec::new(),
         arc_deg: arc,
+        quality: QualityVerdict::default(),
     })
 }
 

@@ -6,8 +6,12 @@
 //! - [`interval`]: mid-exposure angle stamping from the servo's angle log; the frame-interval
 //!   error ε = e(1 − cos(v/FPS)) as a planning helper.
 //! - [`hal`]: small fallible traits for the servo, camera, focus drive, push rod and clock.
+//! - [`quality`]: the quality gate on every turn: may the station push on this measurement?
 //! - [`recipe`]: per-grating-type settings (TOML).
-//! - [`controller`]: the mounting sequence with its push strategies, one part at a time.
+//! - [`strategy`]: the push strategies, the live-feedback loop, the push model's prediction
+//!   and what is learned from each push.
+//! - [`controller`]: the mounting sequence, one part at a time, pushing only on trusted turns.
+//! - [`record`]: what is recorded about every part (turns, pushes, verdicts, reasons, times).
 //!
 //! ```
 //! use gonio_station::interval::frame_interval_error_um;
@@ -21,10 +25,16 @@ pub mod error;
 pub mod fit;
 pub mod hal;
 pub mod interval;
+pub mod quality;
 pub mod recipe;
+pub mod record;
 pub mod spline;
+pub mod strategy;
 
-pub use controller::{Controller, Devices, PartRecord, PartResult, Strategy};
+pub use controller::{Controller, Devices, Trusted};
 pub use error::StationError;
 pub use fit::{EccentricityFit, FitMethod, FitOptions, Sample};
-pub use recipe::Recipe;
+pub use quality::{QualityLimits, QualitySettings, QualityVerdict};
+pub use recipe::{DeviceErrorPolicy, Recipe};
+pub use record::{PartRecord, PartResult};
+pub use strategy::Strategy;

@@ -13,6 +13,7 @@
 
 use crate::StationError;
 use crate::fit::FitOptions;
+use crate::quality::{QualityLimits, QualitySettings};
 use serde::{Deserialize, Serialize};
 
 /// One grating type's settings.
@@ -41,6 +42,24 @@ pub struct Recipe {
     pub push: PushSettings,
     /// The least-squares fit's settings (the method itself comes from the strategy).
     pub fit: FitOptions,
+    /// The quality gate on every turn ([`crate::quality`]).
+    pub quality: QualitySettings,
+    /// What the learning strategies learn from each push, and within which bounds.
+    pub learn: LearnSettings,
+    /// What a batch does after a device error ends a part.
+    pub on_device_error: DeviceErrorPolicy,
+}
+
+/// What a batch does after a device error ends a part (the part is recorded as
+/// `rejected_device_error` either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeviceErrorPolicy {
+    /// Stop the batch after the part (default: a station with a failing device stops safely).
+    #[default]
+    Stop,
+    /// Go on with the next part.
+    Continue,
 }
 
 /// The measuring turn.
@@ -98,6 +117,47 @@ pub struct PushSettings {
     pub live_tolerance_um: f64,
     /// Frames averaged per live-feedback reading.
     pub live_frames: usize,
+    /// Most live-feedback readings in one push.
+    pub live_max_steps: u32,
+    /// The first live step covers this share of the remaining distance (the push's gain is not
+    /// known yet) …
+    pub live_first_step_fraction: f64,
+    /// … when the remaining distance is above this, µm.
+    pub live_first_step_above_um: f64,
+    /// Measure the push's gain from a live step only when it was expected to move at least
+    /// this, µm.
+    pub live_gain_min_move_um: f64,
+    /// A live step that brings the remaining distance down by less than this is a stall, µm.
+    pub live_stall_um: f64,
+    /// Stop the live push after this many stalls.
+    pub live_max_stalls: u32,
+    /// Smallest move asked of one live step, µm (just above the rod's stiction, 1 µm).
+    pub live_min_step_um: f64,
+    /// Tolerance of the verify turn against the push model's prediction: this much, µm …
+    pub verify_tolerance_um: f64,
+    /// … plus this share of the predicted move.
+    pub verify_tolerance_fraction: f64,
+}
+
+/// What the learning strategies learn from each push: the push gain and the angle offset
+/// between the commanded and the actual push direction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LearnSettings {
+    /// Smallest plausible push gain: learned gains are clamped to it and gains measured below it
+    /// are not learned.
+    pub gain_min: f64,
+    /// Largest plausible push gain (as `gain_min`).
+    pub gain_max: f64,
+    /// Learn the gain only from pushes commanded at least this far, µm.
+    pub gain_min_push_um: f64,
+    /// Learn the angle offset only from moves at least this long, µm.
+    pub offset_min_move_um: f64,
+    /// Learn the angle offset only from moves within this angle of the commanded direction,
+    /// degrees.
+    pub max_offset_deg: f64,
+    /// Weight of the prior (gain 1, offset 0°) in the running means, in observations.
+    pub prior_weight: f64,
 }
 
 impl Default for Recipe {
@@ -114,6 +174,22 @@ impl Default for Recipe {
             focus: FocusSettings::default(),
             push: PushSettings::default(),
             fit: FitOptions::default(),
+            quality: QualitySettings::default(),
+            learn: LearnSettings::default(),
+            on_device_error: DeviceErrorPolicy::Stop,
+        }
+    }
+}
+
+impl Default for LearnSettings {
+    fn default() -> Self {
+        LearnSettings {
+            gain_min: 0.5,
+            gain_max: 1.5,
+            gain_min_push_um: 20.0,
+            offset_min_move_um: 20.0,
+            max_offset_deg: 10.0,
+            prior_weight: 1.0,
         }
     }
 }
@@ -155,8 +231,74 @@ impl Default for PushSettings {
             spring_back: 0.015,
             live_tolerance_um: 0.3,
             live_frames: 3,
+            live_max_steps: 60,
+            live_first_step_fraction: 0.85,
+            live_first_step_above_um: 10.0,
+            live_gain_min_move_um: 10.0,
+            live_stall_um: 0.2,
+            live_max_stalls: 3,
+            live_min_step_um: 1.05,
+            verify_tolerance_um: VERIFY_TOLERANCE_UM,
+            verify_tolerance_fraction: VERIFY_TOLERANCE_FRACTION,
         }
     }
+}
+
+/// Default absolute part of the verify-turn tolerance, µm (`docs/quality-gates.md`).
+pub const VERIFY_TOLERANCE_UM: f64 = 8.0;
+/// Default share of the predicted move in the verify-turn tolerance (`docs/quality-gates.md`).
+pub const VERIFY_TOLERANCE_FRACTION: f64 = 0.45;
+
+fn bad(key: &str, value: impl ToString, expected: &str) -> StationError {
+    StationError::RecipeValue {
+        key: key.to_string(),
+        value: value.to_string(),
+        expected: expected.to_string(),
+        line: 0,
+        column: 0,
+    }
+}
+
+fn check(key: &str, v: f64, ok: bool, expected: &str) -> Result<(), StationError> {
+    if v.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(bad(key, v, expected))
+    }
+}
+
+fn pos(key: &str, v: f64) -> Result<(), StationError> {
+    check(key, v, v > 0.0, "a finite number > 0")
+}
+
+fn non_neg(key: &str, v: f64) -> Result<(), StationError> {
+    check(key, v, v >= 0.0, "a finite number ≥ 0")
+}
+
+fn finite(key: &str, v: f64) -> Result<(), StationError> {
+    check(key, v, true, "a finite number")
+}
+
+fn unit(key: &str, v: f64) -> Result<(), StationError> {
+    check(key, v, (0.0..=1.0).contains(&v), "a fraction from 0 to 1")
+}
+
+/// 1-based line and column of a dotted key (`fit.huber_k`) in a TOML text.
+fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
+    let doc = toml::de::DeTable::parse(text).ok()?;
+    let mut table = doc.get_ref();
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, part) in parts.iter().enumerate() {
+        let (k, v) = table.iter().find(|(k, _)| k.get_ref().as_ref() == *part)?;
+        if i + 1 == parts.len() {
+            return Some(line_col(text, k.span().start));
+        }
+        match v.get_ref() {
+            toml::de::DeValue::Table(t) => table = t,
+            _ => return None,
+        }
+    }
+    None
 }
 
 /// 1-based line and column of a byte offset in `text`.
@@ -171,11 +313,12 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 }
 
 impl Recipe {
-    /// Parses a recipe from TOML text.
+    /// Parses a recipe from TOML text and checks its values.
     ///
     /// # Errors
     /// [`StationError::Recipe`] with the line and column of a syntax error, an unknown key or a
-    /// value of the wrong type or range.
+    /// value of the wrong type; [`StationError::RecipeValue`] with the key, its line and column
+    /// for a value out of its range.
     pub fn from_toml(text: &str) -> Result<Recipe, StationError> {
         let r: Recipe = toml::from_str(text).map_err(|e| {
             let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
@@ -185,7 +328,24 @@ impl Recipe {
                 message: e.message().trim().replace('\n', " "),
             }
         })?;
-        r.validate()?;
+        r.validate().map_err(|e| match e {
+            StationError::RecipeValue {
+                key,
+                value,
+                expected,
+                ..
+            } => {
+                let (line, column) = key_position(text, &key).unwrap_or((0, 0));
+                StationError::RecipeValue {
+                    key,
+                    value,
+                    expected,
+                    line,
+                    column,
+                }
+            }
+            other => other,
+        })?;
         Ok(r)
     }
 
@@ -194,51 +354,154 @@ impl Recipe {
         toml::to_string(self).unwrap_or_default()
     }
 
-    /// Checks the ranges of the values.
+    /// Checks the ranges of the values (and that they fit together).
     ///
     /// # Errors
-    /// [`StationError::Recipe`] (line 0) naming the key and the allowed range.
+    /// [`StationError::RecipeValue`] (line 0) naming the first key out of range and what is
+    /// allowed.
     pub fn validate(&self) -> Result<(), StationError> {
-        let pos = |name: &str, v: f64| -> Result<(), StationError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(StationError::Recipe {
-                    line: 0,
-                    column: 0,
-                    message: format!("{name} = {v}: expected a finite number > 0"),
-                })
-            }
-        };
+        let m = &self.measure;
+        let f = &self.focus;
+        let p = &self.push;
+        let q = &self.quality;
+        let l = &self.learn;
         pos("um_per_px", self.um_per_px)?;
         pos("threshold_um", self.threshold_um)?;
         pos("timeout_s", self.timeout_s)?;
         pos("ring_radius_mm", self.ring_radius_mm)?;
         pos("ring_width_um", self.ring_width_um)?;
-        pos("measure.speed_deg_per_s", self.measure.speed_deg_per_s)?;
-        pos("measure.fps", self.measure.fps)?;
-        pos("measure.exposure_s", self.measure.exposure_s)?;
-        pos("measure.turn_deg", self.measure.turn_deg)?;
-        pos("push.max_push_um", self.push.max_push_um)?;
-        pos("push.live_tolerance_um", self.push.live_tolerance_um)?;
-        if self.focus.steps < 5 || self.push.live_frames == 0 {
-            return Err(StationError::Recipe {
-                line: 0,
-                column: 0,
-                message: "focus.steps must be ≥ 5 and push.live_frames ≥ 1".into(),
-            });
+        if self.window_px.contains(&0) {
+            return Err(bad(
+                "window_px",
+                format!("{:?}", self.window_px),
+                "two sizes (width, height) > 0 px",
+            ));
         }
-        if !(0.0..=1.0).contains(&self.measure.min_valid_fraction) {
-            return Err(StationError::Recipe {
-                line: 0,
-                column: 0,
-                message: format!(
-                    "measure.min_valid_fraction = {}: expected 0 to 1",
-                    self.measure.min_valid_fraction
-                ),
-            });
+        pos("measure.speed_deg_per_s", m.speed_deg_per_s)?;
+        pos("measure.fps", m.fps)?;
+        pos("measure.exposure_s", m.exposure_s)?;
+        if m.exposure_s > 1.0 / m.fps {
+            return Err(bad(
+                "measure.exposure_s",
+                m.exposure_s,
+                "no longer than one frame period (1/fps)",
+            ));
         }
+        pos("measure.turn_deg", m.turn_deg)?;
+        if m.turn_deg > 720.0 {
+            return Err(bad("measure.turn_deg", m.turn_deg, "at most 720°"));
+        }
+        unit("measure.min_valid_fraction", m.min_valid_fraction)?;
+        if self.frames_per_turn() < 10 {
+            return Err(bad(
+                "measure.fps",
+                m.fps,
+                "at least 10 frames per turn (turn_deg / speed_deg_per_s · fps)",
+            ));
+        }
+        pos("focus.range_um", f.range_um)?;
+        if f.steps < 5 {
+            return Err(bad("focus.steps", f.steps, "at least 5"));
+        }
+        finite("focus.nominal_um", f.nominal_um)?;
+        non_neg("focus.min_measure", f.min_measure)?;
+        pos("focus.min_contrast", f.min_contrast)?;
+        pos("push.max_push_um", p.max_push_um)?;
+        non_neg("push.slow_contact_below_um", p.slow_contact_below_um)?;
+        non_neg("push.overshoot_fast_um", p.overshoot_fast_um)?;
+        non_neg("push.overshoot_slow_um", p.overshoot_slow_um)?;
+        non_neg("push.slip_um", p.slip_um)?;
+        if !(0.0..1.0).contains(&p.spring_back) {
+            return Err(bad("push.spring_back", p.spring_back, "0 to below 1"));
+        }
+        pos("push.live_tolerance_um", p.live_tolerance_um)?;
+        if p.live_frames == 0 {
+            return Err(bad("push.live_frames", 0, "at least 1"));
+        }
+        if p.live_max_steps == 0 {
+            return Err(bad("push.live_max_steps", 0, "at least 1"));
+        }
+        if !(p.live_first_step_fraction > 0.0 && p.live_first_step_fraction <= 1.0) {
+            return Err(bad(
+                "push.live_first_step_fraction",
+                p.live_first_step_fraction,
+                "above 0, at most 1",
+            ));
+        }
+        non_neg("push.live_first_step_above_um", p.live_first_step_above_um)?;
+        non_neg("push.live_gain_min_move_um", p.live_gain_min_move_um)?;
+        non_neg("push.live_stall_um", p.live_stall_um)?;
+        if p.live_max_stalls == 0 {
+            return Err(bad("push.live_max_stalls", 0, "at least 1"));
+        }
+        pos("push.live_min_step_um", p.live_min_step_um)?;
+        non_neg("push.verify_tolerance_um", p.verify_tolerance_um)?;
+        non_neg(
+            "push.verify_tolerance_fraction",
+            p.verify_tolerance_fraction,
+        )?;
+        self.fit.validate(None).map_err(|e| match e {
+            StationError::OutOfRange {
+                name,
+                value,
+                expected,
+            } => {
+                let value = if name == "roundness_orders" {
+                    format!("{:?}", self.fit.roundness_orders)
+                } else {
+                    value.to_string()
+                };
+                bad(&format!("fit.{name}"), value, expected)
+            }
+            other => other,
+        })?;
+        if 2 * self.fit.paper_half_window + 1 > self.frames_per_turn() {
+            return Err(bad(
+                "fit.paper_half_window",
+                self.fit.paper_half_window,
+                "a spline window (2·half + 1 points) no larger than the frames of one turn",
+            ));
+        }
+        pos("quality.detector_accuracy_px", q.detector_accuracy_px)?;
+        pos("quality.frame_noise_px", q.frame_noise_px)?;
+        if let Some(v) = q.max_residual_rms_px {
+            pos("quality.max_residual_rms_px", v)?;
+        }
+        if let Some(v) = q.min_coverage {
+            unit("quality.min_coverage", v)?;
+        }
+        if !(q.max_gap_deg > 0.0 && q.max_gap_deg <= 360.0) {
+            return Err(bad(
+                "quality.max_gap_deg",
+                q.max_gap_deg,
+                "above 0°, at most 360°",
+            ));
+        }
+        unit("quality.min_used_fraction", q.min_used_fraction)?;
+        unit("quality.max_outlier_fraction", q.max_outlier_fraction)?;
+        pos("quality.max_u_e_fraction", q.max_u_e_fraction)?;
+        pos("quality.max_half_turn_z", q.max_half_turn_z)?;
+        pos("learn.gain_min", l.gain_min)?;
+        pos("learn.gain_max", l.gain_max)?;
+        if l.gain_max <= l.gain_min {
+            return Err(bad("learn.gain_max", l.gain_max, "above learn.gain_min"));
+        }
+        non_neg("learn.gain_min_push_um", l.gain_min_push_um)?;
+        non_neg("learn.offset_min_move_um", l.offset_min_move_um)?;
+        if !(l.max_offset_deg > 0.0 && l.max_offset_deg < 90.0) {
+            return Err(bad(
+                "learn.max_offset_deg",
+                l.max_offset_deg,
+                "above 0°, below 90°",
+            ));
+        }
+        pos("learn.prior_weight", l.prior_weight)?;
         Ok(())
+    }
+
+    /// The quality gate's limits for this recipe (derived defaults unless overridden).
+    pub fn quality_limits(&self) -> QualityLimits {
+        self.quality.limits(self.threshold_um, self.um_per_px)
     }
 
     /// Frames in one measuring turn.
@@ -259,6 +522,44 @@ mod tests {
             StationError::Recipe { line, column, .. } => assert_eq!((line, column), (5, 1)),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn out_of_range_values_name_their_key_and_line() {
+        for (text, key, line) in [
+            ("[fit]\nhuber_k = -1.0\n", "fit.huber_k", 2),
+            (
+                "name = \"x\"\n[fit]\npaper_half_window = 500\n",
+                "fit.paper_half_window",
+                3,
+            ),
+            (
+                "[fit]\nroundness_orders = [1, 2]\n",
+                "fit.roundness_orders",
+                2,
+            ),
+            ("window_px = [0, 540]\n", "window_px", 1),
+            ("[focus]\nrange_um = -150.0\n", "focus.range_um", 2),
+            (
+                "[learn]\ngain_min = 1.5\ngain_max = 0.5\n",
+                "learn.gain_max",
+                3,
+            ),
+            ("[quality]\nmax_gap_deg = 0.0\n", "quality.max_gap_deg", 2),
+            ("[measure]\nexposure_s = 0.5\n", "measure.exposure_s", 2),
+        ] {
+            match Recipe::from_toml(text).unwrap_err() {
+                StationError::RecipeValue {
+                    key: k, line: l, ..
+                } => assert_eq!((k.as_str(), l), (key, line), "{text}"),
+                other => panic!("{text}: {other:?}"),
+            }
+        }
+        let e = Recipe::from_toml("[fit]\nhuber_k = 0.0\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "line 2, column 1: fit.huber_k = 0: expected a finite number > 0"
+        );
     }
 
     #[test]

@@ -3,8 +3,11 @@
 
 use super::plant::{PartTruth, PlantConfig, StationTruth};
 use super::twin::{Faults, SimCamera, SimClock, SimFocus, SimRod, SimServo, Twin};
-use gonio_station::controller::Learned;
-use gonio_station::{Controller, Devices, PartRecord, PartResult, Recipe, StationError, Strategy};
+use gonio_station::hal::{Camera, PushRod};
+use gonio_station::strategy::Learned;
+use gonio_station::{
+    Controller, DeviceErrorPolicy, Devices, PartRecord, PartResult, Recipe, StationError, Strategy,
+};
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -80,6 +83,14 @@ pub struct BatchSummary {
     pub max_pushes: u32,
     /// Parts rejected.
     pub rejected: usize,
+    /// Parts rejected because their turns failed the quality gate (`measurement_untrusted`).
+    pub untrusted: usize,
+    /// Parts rejected because a verify turn disagreed with the push model (`push_inconsistent`).
+    pub push_inconsistent: usize,
+    /// Parts ended by a device error.
+    pub device_errors: usize,
+    /// Turns measured again over the batch.
+    pub remeasured_turns: u32,
     /// Total simulated station time, s.
     pub total_time_s: f64,
 }
@@ -101,6 +112,9 @@ pub struct BatchReport {
     pub learned: Learned,
     /// Every part.
     pub parts: Vec<SimPartRecord>,
+    /// Why the batch stopped before its last part (a device error under the recipe's
+    /// `on_device_error = "stop"`); `None` when every part was mounted.
+    pub stopped: Option<String>,
     /// Summary.
     pub summary: BatchSummary,
 }
@@ -109,6 +123,7 @@ pub struct BatchReport {
 pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
     let n = parts.len().max(1) as f64;
     let mean = |f: &dyn Fn(&SimPartRecord) -> f64| parts.iter().map(f).sum::<f64>() / n;
+    let count = |r: PartResult| parts.iter().filter(|p| p.record.result == r).count();
     BatchSummary {
         parts: parts.len(),
         mean_time_s: mean(&|p| p.record.time_s),
@@ -126,6 +141,10 @@ pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
             .iter()
             .filter(|p| p.record.result != PartResult::Accepted)
             .count(),
+        untrusted: count(PartResult::MeasurementUntrusted),
+        push_inconsistent: count(PartResult::PushInconsistent),
+        device_errors: count(PartResult::RejectedDeviceError),
+        remeasured_turns: parts.iter().map(|p| p.record.remeasured_turns).sum(),
         total_time_s: parts.iter().map(|p| p.record.time_s).sum(),
     }
 }
@@ -134,10 +153,14 @@ pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
 /// `progress(done, total, part)` is called after every part. The same seed gives the same
 /// report; part `i` is the same part for every strategy.
 ///
+/// A device error (injected through [`Faults`]) ends its part `rejected_device_error`; the
+/// batch then stops or goes on as the recipe's `on_device_error` says ([`BatchReport::stopped`]).
+/// The `frames` fidelity renders every frame and runs the real detector
+/// ([`super::RenderedDetector`]).
+///
 /// # Errors
-/// A device error (injected through [`Faults`]) aborts the batch with
-/// [`StationError::Device`]; an invalid recipe gives [`StationError::Recipe`]. The `frames`
-/// fidelity renders every frame and runs the real detector ([`super::RenderedDetector`]).
+/// [`StationError::RecipeValue`] for an invalid recipe; [`StationError::Device`] when the
+/// renderer and detector of the `frames` fidelity cannot be set up.
 pub fn run_batch(
     cfg: &BatchConfig,
     seed: u64,
@@ -166,6 +189,22 @@ pub fn run_batch_with(
     detector: Option<Box<dyn super::FrameDetector>>,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
+    run_batch_on(cfg, seed, detector, |c| c, |r| r, progress)
+}
+
+/// As [`run_batch_with`], with the twin's camera and push rod wrapped by the caller (to inject
+/// faults through the `Camera` and `PushRod` traits, as a real glitch would arrive).
+///
+/// # Errors
+/// As [`run_batch`].
+pub fn run_batch_on<C: Camera, P: PushRod>(
+    cfg: &BatchConfig,
+    seed: u64,
+    detector: Option<Box<dyn super::FrameDetector>>,
+    camera: impl FnOnce(SimCamera) -> C,
+    rod: impl FnOnce(SimRod) -> P,
+    progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
+) -> Result<BatchReport, StationError> {
     cfg.recipe.validate()?;
     let r = &cfg.recipe;
     let mut twin = Twin::new(
@@ -183,13 +222,14 @@ pub fn run_batch_with(
     let shared = Rc::new(RefCell::new(twin));
     let mut devices = Devices {
         servo: SimServo(shared.clone()),
-        camera: SimCamera(shared.clone()),
+        camera: camera(SimCamera(shared.clone())),
         focus: SimFocus(shared.clone()),
-        rod: SimRod(shared.clone()),
+        rod: rod(SimRod(shared.clone())),
         clock: SimClock(shared.clone()),
     };
     let mut ctl = Controller::new(cfg.recipe.clone(), cfg.strategy);
     let mut parts = Vec::with_capacity(cfg.parts);
+    let mut stopped = None;
     for i in 0..cfg.parts {
         let truth = PartTruth::draw(&cfg.plant, seed, i as u64 + 1);
         let true_initial = truth.e_um();
@@ -203,7 +243,20 @@ pub fn run_batch_with(
             true_final_e_um: true_final,
         };
         progress(i + 1, cfg.parts, &p);
+        let failed = p.record.device_error.is_some();
+        if failed && cfg.recipe.on_device_error == DeviceErrorPolicy::Stop && i + 1 < cfg.parts {
+            stopped = Some(format!(
+                "stopped after part {} of {} ({}): {}",
+                i + 1,
+                cfg.parts,
+                p.record.serial,
+                p.record.reject_reason.as_deref().unwrap_or("device error")
+            ));
+        }
         parts.push(p);
+        if stopped.is_some() {
+            break;
+        }
     }
     let summary = summarise(&parts);
     Ok(BatchReport {
@@ -214,6 +267,7 @@ pub fn run_batch_with(
         station_truth,
         learned: ctl.learned,
         parts,
+        stopped,
         summary,
     })
 }

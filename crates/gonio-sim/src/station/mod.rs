@@ -21,8 +21,12 @@ pub mod plant;
 pub mod twin;
 
 pub use batch::{
-    BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch, run_batch_with,
+    BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch, run_batch_on,
+    run_batch_with,
 };
 pub use frames::RenderedDetector;
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
-pub use twin::{DeviceId, Faults, FrameDetector, SimDeviceError, Twin};
+pub use twin::{
+    DeviceId, Faults, FrameDetector, SimCamera, SimClock, SimDeviceError, SimFocus, SimRod,
+    SimServo, Twin,
+};
