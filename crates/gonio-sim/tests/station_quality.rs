@@ -244,7 +244,7 @@ fn a_line_on_40_percent_of_frames_is_never_pushed_on() {
 fn a_5_px_jump_halfway_through_the_turn_is_never_pushed_on() {
     // The jump biases e by up to 5·2/π ≈ 3.2 px (2.4 µm) while the residual RMS stays near
     // 0.8 px, under its limit: the half-turn comparison catches it (c₀ differs by 5 px against
-    // a combined uncertainty of ≈ 0.15 px).
+    // a standard error of ≈ 0.45·0.3 = 0.14 px in the half-turn model).
     let r = with_camera(
         &config(10, Strategy::Learned),
         Fault::Jump { px: 5.0 },
@@ -437,8 +437,10 @@ fn a_part_that_does_not_move_is_not_shoved_again() {
 #[test]
 fn no_cost_on_good_parts_false_reject_rate() {
     // Issue 15, point 4: over 1 000 good parts on the default plant the gate rejects ≤ 0.5 %
-    // (≤ 5 parts). Expected: none (on good turns the half-turn distance stays below ≈ 3.1σ
-    // against the limit 4.6σ, the residual below 0.35 px against 0.95 px).
+    // (≤ 5 parts). Expected: none. A part is rejected only when a turn and its re-measurement
+    // both fail; the likeliest false alarm, the half-turn check (χ₃-distributed on good turns,
+    // limit at its 10⁻⁴ tail), makes that ≈ 10⁻⁸ per part; the residual stays below 0.35 px
+    // against 0.95 px, the push deviation below 0.8 of its tolerance.
     for s in Strategy::ALL {
         let r = run_batch(&config(1000, s), 2024, &mut |_, _, _| {}).unwrap();
         let b = &r.summary;

@@ -297,17 +297,17 @@ pub fn fit_judged(
     let (mut out, ls) = match opts.method {
         FitMethod::LeastSquares => {
             let ls = least_squares?;
-            (ls.0.clone(), Ok(ls))
+            (ls.clone(), Ok(ls))
         }
         FitMethod::Paper => (fit_paper(samples, opts)?, least_squares),
     };
     out.quality = match ls {
-        Ok((ls, _)) => {
+        Ok(ls) => {
             let used: Vec<Sample> = (0..samples.len())
                 .filter(|i| !ls.outliers.contains(i))
                 .map(|i| samples[i])
                 .collect();
-            let halves = half_turns(&used, opts, limits.systematic_px);
+            let halves = half_turns(&used, opts, ls.sigma_px, limits.systematic_px);
             quality::judge(
                 &used,
                 samples.len(),
@@ -332,26 +332,67 @@ pub fn fit_judged(
     Ok(out)
 }
 
-/// Fits the first and the second half of the turn (split at the middle of its span) and
-/// measures the distance of their (c₀, a, b) in their combined uncertainty, with the detector's
-/// systematic allowance `sys_px` added to each coefficient. `None` when a half does not
-/// determine the model.
-fn half_turns(used: &[Sample], opts: &FitOptions, sys_px: f64) -> Option<HalfTurns> {
+/// The agreement of the two half-turns: one least-squares fit of the used samples with the
+/// ring's roundness shared by the whole turn (it belongs to the ring) and, for the second half
+/// (from the middle of the span on), its own steps (Δc₀, Δa, Δb) of the mean column and of the
+/// eccentricity vector. Their Mahalanobis distance from zero uses the per-frame scatter of this
+/// model's residuals (RSS/(n − p)), at least `floor_px`: the detector's accuracy bound keeps
+/// in-spec systematic errors from failing a turn whose random noise is tiny. The roundness
+/// ridge uses the turn's robust `sigma_px` (as the fit does). `None` when the model is not
+/// determined.
+fn half_turns(
+    used: &[Sample],
+    opts: &FitOptions,
+    sigma_px: f64,
+    floor_px: f64,
+) -> Option<HalfTurns> {
     let (first, last) = (used.first()?.theta_deg, used.last()?.theta_deg);
     let mid = 0.5 * (first + last);
     let split = used.partition_point(|s| s.theta_deg < mid);
-    let (a, b) = used.split_at(split);
-    if a.len() < 3 || b.len() < 3 {
+    if split < 3 || used.len() - split < 3 {
         return None;
     }
-    let (fa, ca) = fit_least_squares(a, opts).ok()?;
-    let (fb, cb) = fit_least_squares(b, opts).ok()?;
-    let coef = |f: &EccentricityFit| {
-        let t = f.theta_max_deg.to_radians();
-        Vector3::new(f.c0_px, f.e_px * t.cos(), f.e_px * t.sin())
-    };
-    let d = coef(&fa) - coef(&fb);
-    let c = ca + cb + Matrix3::identity() * (sys_px * sys_px);
+    let orders = &opts.roundness_orders;
+    let h = 3 + 2 * orders.len();
+    let p = h + 3;
+    let x = DMatrix::<f64>::from_fn(used.len(), p, |i, j| {
+        let t = used[i].theta_deg.to_radians();
+        let step = if i >= split { 1.0 } else { 0.0 };
+        let base = |j: usize| match j {
+            0 => 1.0,
+            1 => t.cos(),
+            _ => t.sin(),
+        };
+        if j < 3 {
+            base(j)
+        } else if j < h {
+            let k = orders[(j - 3) / 2] as f64;
+            if (j - 3) % 2 == 0 {
+                (k * t).cos()
+            } else {
+                (k * t).sin()
+            }
+        } else {
+            step * base(j - h)
+        }
+    });
+    let n = used.len();
+    if n <= p {
+        return None;
+    }
+    let y = DVector::<f64>::from_iterator(n, used.iter().map(|s| s.c_px));
+    let mut a = x.transpose() * &x;
+    let lambda = (sigma_px.max(1e-9) / opts.roundness_prior_px).powi(2);
+    for j in 3..h {
+        a[(j, j)] += lambda;
+    }
+    let chol = a.cholesky()?;
+    let beta = chol.solve(&(x.transpose() * &y));
+    let inv = chol.inverse();
+    let rss = (&y - &x * &beta).norm_squared();
+    let sigma = (rss / (n - p) as f64).sqrt().max(floor_px);
+    let d = Vector3::new(beta[h], beta[h + 1], beta[h + 2]);
+    let c = Matrix3::from_fn(|r, k| sigma * sigma * inv[(h + r, h + k)]);
     let z2 = c.cholesky()?.solve(&d).dot(&d);
     Some(HalfTurns {
         z: z2.max(0.0).sqrt(),
@@ -386,12 +427,11 @@ fn robust_sigma(r: &[f64]) -> f64 {
     1.4826 * median(&dev)
 }
 
-/// The robust least-squares fit and the covariance of (c₀, a, b), px². The fit's verdict is left
-/// unjudged (the caller judges).
+/// The robust least-squares fit. Its verdict is left unjudged (the caller judges).
 fn fit_least_squares(
     samples: &[Sample],
     opts: &FitOptions,
-) -> Result<(EccentricityFit, Matrix3<f64>), StationError> {
+) -> Result<EccentricityFit, StationError> {
     let n = samples.len();
     let orders = &opts.roundness_orders;
     let p = 3 + 2 * orders.len();
@@ -527,7 +567,6 @@ fn fit_least_squares(
         // At e = 0 the direction is undefined; u(e) is the mean of the two components'.
         ((0.5 * (caa + cbb)).sqrt(), f64::NAN)
     };
-    let cov = Matrix3::from_fn(|r, c| s2 * inv[(r, c)]);
     let roundness = orders
         .iter()
         .enumerate()
@@ -556,7 +595,7 @@ fn fit_least_squares(
         arc_deg: samples[n - 1].theta_deg - samples[0].theta_deg,
         quality: QualityVerdict::default(),
     };
-    Ok((fit, cov))
+    Ok(fit)
 }
 
 /// Points around sample `i` (± `half` samples), wrapping around a full turn; angles unwrapped.

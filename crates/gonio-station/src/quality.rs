@@ -13,7 +13,7 @@
 //! | `frames_used` | frames used / frames taken | ≥ 75 % |
 //! | `outliers` | frames rejected by the fit / frames given to it | ≤ 5 % |
 //! | `u_e` | standard uncertainty of e, µm | ≤ 5 % of the threshold (0.25 µm) |
-//! | `half_turns` | distance of the two half-turns' (c₀, a, b), in σ | ≤ 4.6 σ |
+//! | `half_turns` | the second half-turn's steps (Δc₀, Δa, Δb), in σ | ≤ 4.6 σ |
 //!
 //! (acc: the detector's accuracy bound per valid frame, 0.1 px; σ: the station's per-frame noise,
 //! 0.3 px.) The gate judges the turn's data through the least-squares model whatever the fit
@@ -73,7 +73,8 @@ pub struct QualitySettings {
     pub max_outlier_fraction: f64,
     /// Largest u(e) as a share of the recipe's threshold (0.05: U = 2u ≤ threshold/10).
     pub max_u_e_fraction: f64,
-    /// Largest distance between the two half-turns' (c₀, a, b), in standard deviations.
+    /// Largest distance between the two half-turns' (c₀, a, b), in standard deviations
+    /// (√χ²₃ at a tail probability of 10⁻⁴).
     pub max_half_turn_z: f64,
     /// Turns measured again after one fails the gate (each after a refocus when
     /// `refocus_before_remeasure`).
@@ -135,7 +136,8 @@ pub struct QualityLimits {
     pub max_u_e_um: f64,
     /// Largest half-turn distance, standard deviations.
     pub max_half_turn_z: f64,
-    /// Systematic allowance per half-turn coefficient (c₀, a, b), px: the detector's accuracy.
+    /// Floor of the per-frame scatter in the half-turn comparison, px: the detector's accuracy
+    /// bound (in-spec systematic errors must not fail a turn whose random noise is tiny).
     pub systematic_px: f64,
     /// Pixel scale, µm per px.
     pub um_per_px: f64,
@@ -266,7 +268,7 @@ impl QualityVerdict {
 /// What the half-turn comparison found.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct HalfTurns {
-    /// Mahalanobis distance of the (c₀, a, b) difference.
+    /// Mahalanobis distance of the second half's steps (Δc₀, Δa, Δb) from zero.
     pub z: f64,
     /// c₀ difference, px.
     pub dc0_px: f64,

@@ -103,7 +103,7 @@ fn the_issues_turn_is_not_trusted() {
 fn a_jump_halfway_is_caught_by_the_half_turns_alone() {
     // A 5 px jump at half-turn leaves a residual RMS under its limit (the step's first harmonic,
     // 5·2/π px, is absorbed into a biased e; the roundness terms absorb part of the rest) but the
-    // half-turns' c₀ differ by ≈ 5 px against a combined uncertainty of ≈ 0.15 px.
+    // second half-turn's step Δc₀ ≈ 5 px against a standard error of ≈ 0.45·0.3 = 0.14 px.
     let limits = QualityLimits::default();
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for _ in 0..20 {
@@ -113,7 +113,7 @@ fn a_jump_halfway_is_caught_by_the_half_turns_alone() {
             x.c_px += 5.0;
         }
         let checks = failed(&s, 200, &limits);
-        assert!(checks.contains(&QualityCheck::HalfTurns), "{checks:?}");
+        assert_eq!(checks, vec![QualityCheck::HalfTurns]);
     }
 }
 

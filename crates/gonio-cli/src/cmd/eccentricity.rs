@@ -1,9 +1,11 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
+use crate::cmd::mount::load_recipe;
 use crate::io::{CsvTable, write_json};
 use anyhow::{Result, anyhow};
-use gonio_station::StationError;
-use gonio_station::fit::{FitMethod, FitOptions, Sample, fit, validate};
+use gonio_station::fit::{FitMethod, FitOptions, Sample, fit_judged, validate};
+use gonio_station::quality::{QualityMetrics, QualitySettings};
+use gonio_station::{Recipe, StationError};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -22,8 +24,15 @@ pub enum Method {
 Input: CSV with a header and columns theta_deg,c_px (servo angle at mid-exposure, ring column),
 one row per frame, angles increasing within the turn; partial turns and dropped frames are fine.
 
+Every fit is judged by the station's quality gate (residual RMS, coverage and largest gap,
+frames used, outliers, u(e) against the acceptance threshold, agreement of the two half-turns;
+limits derived from the detector's accuracy, see docs/quality-gates.md). A turn that fails it
+is reported as not trusted, with the reasons (exit code 0: the fit itself succeeded).
+
 Example:
   gonio eccentricity turn.csv --um-per-px 0.75 --json ecc.json
+  gonio eccentricity turn.csv --frames-taken 200 --threshold-um 5
+  gonio eccentricity turn.csv --recipe examples/recipes/r25-fine.toml
   gonio eccentricity turn.csv --method paper")]
 pub struct Args {
     /// Samples (CSV with `theta_deg,c_px`; `-` for standard input).
@@ -31,9 +40,19 @@ pub struct Args {
     /// Fit method.
     #[arg(long, value_enum, default_value = "least-squares")]
     pub method: Method,
-    /// Pixel scale on the grating, µm per px.
-    #[arg(long, default_value_t = 0.75)]
-    pub um_per_px: f64,
+    /// Pixel scale on the grating, µm per px [default: the recipe's, else 0.75].
+    #[arg(long)]
+    pub um_per_px: Option<f64>,
+    /// Frames the turn had, valid or not [default: the rows of the file].
+    #[arg(long)]
+    pub frames_taken: Option<usize>,
+    /// Acceptance threshold of e, µm, against which u(e) is judged [default: the recipe's, else
+    /// 5].
+    #[arg(long)]
+    pub threshold_um: Option<f64>,
+    /// Recipe (TOML) whose fit settings and quality limits to use.
+    #[arg(long)]
+    pub recipe: Option<PathBuf>,
     /// Write the result as JSON here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -55,14 +74,25 @@ struct Output {
     outlier_lines: Vec<u64>,
     arc_deg: f64,
     um_per_px: f64,
+    quality_ok: bool,
+    quality_reasons: Vec<String>,
+    quality: Option<QualityMetrics>,
 }
 
 /// Runs `gonio eccentricity`.
 pub fn run(a: Args) -> Result<()> {
-    if !(a.um_per_px.is_finite() && a.um_per_px > 0.0) {
+    let recipe = match &a.recipe {
+        Some(p) => load_recipe(p)?,
+        None => Recipe::default(),
+    };
+    let um = a.um_per_px.unwrap_or(recipe.um_per_px);
+    if !(um.is_finite() && um > 0.0) {
+        return Err(anyhow!("--um-per-px {um}: expected a finite number > 0"));
+    }
+    let threshold = a.threshold_um.unwrap_or(recipe.threshold_um);
+    if !(threshold.is_finite() && threshold > 0.0) {
         return Err(anyhow!(
-            "--um-per-px {}: expected a finite number > 0",
-            a.um_per_px
+            "--threshold-um {threshold}: expected a finite number > 0"
         ));
     }
     let t = CsvTable::read(&a.samples)?;
@@ -98,9 +128,22 @@ pub fn run(a: Args) -> Result<()> {
         Method::LeastSquares => FitMethod::LeastSquares,
         Method::Paper => FitMethod::Paper,
     };
-    let f =
-        fit(&samples, &FitOptions::with_method(method)).map_err(|e| anyhow!("{}: {e}", t.name))?;
-    let um = a.um_per_px;
+    let frames_taken = a.frames_taken.unwrap_or(samples.len());
+    if frames_taken < samples.len() {
+        return Err(anyhow!(
+            "--frames-taken {frames_taken}: expected at least the {} rows of {}",
+            samples.len(),
+            t.name
+        ));
+    }
+    let quality: &QualitySettings = &recipe.quality;
+    let limits = quality.limits(threshold, um);
+    let opts = FitOptions {
+        method,
+        ..recipe.fit.clone()
+    };
+    let f = fit_judged(&samples, frames_taken, &opts, &limits)
+        .map_err(|e| anyhow!("{}: {e}", t.name))?;
     let finite = |v: f64| v.is_finite().then_some(v);
     let out = Output {
         method: method.name(),
@@ -117,6 +160,9 @@ pub fn run(a: Args) -> Result<()> {
         outlier_lines: f.outliers.iter().map(|&i| line_of(i)).collect(),
         arc_deg: f.arc_deg,
         um_per_px: um,
+        quality_ok: f.quality.ok,
+        quality_reasons: f.quality.reasons(),
+        quality: f.quality.metrics.clone(),
     };
     let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
     if !to_stdout {
@@ -131,6 +177,14 @@ pub fn run(a: Args) -> Result<()> {
             "method {}, {} frames used over {:.1}°, {} outliers, residual RMS {:.3} px",
             out.method, out.frames_used, out.arc_deg, out.outliers, out.residual_rms_px
         );
+        if out.quality_ok {
+            println!("quality: trusted (every check of the quality gate passed)");
+        } else {
+            println!(
+                "quality: NOT TRUSTED, do not push on this turn: {}",
+                out.quality_reasons.join("; ")
+            );
+        }
     }
     if let Some(p) = &a.json {
         write_json(p, &out)?;
@@ -149,7 +203,10 @@ mod tests {
         run(Args {
             samples: p,
             method,
-            um_per_px: 0.75,
+            um_per_px: Some(0.75),
+            frames_taken: None,
+            threshold_um: None,
+            recipe: None,
             json: Some(d.path().join("o.json")),
         })
     }
@@ -190,7 +247,10 @@ mod tests {
             run(Args {
                 samples: p.clone(),
                 method: m,
-                um_per_px: 0.75,
+                um_per_px: Some(0.75),
+                frames_taken: None,
+                threshold_um: None,
+                recipe: None,
                 json: Some(o.clone()),
             })
             .unwrap();
@@ -205,10 +265,63 @@ mod tests {
                 "frames_used",
                 "outliers",
                 "method",
+                "quality_ok",
+                "quality_reasons",
             ] {
                 assert!(v.get(k).is_some(), "{k}");
             }
             assert!((v["e_um"].as_f64().unwrap() - 7.5).abs() < 1e-5);
+            assert_eq!(v["quality_ok"], serde_json::json!(true));
+            assert_eq!(v["quality_reasons"], serde_json::json!([]));
         }
+    }
+
+    #[test]
+    fn an_untrusted_turn_says_why() {
+        // 200 frames taken, 120 valid, on a line 30 px off on every third of them.
+        let mut s = String::from("theta_deg,c_px\n");
+        for i in 0..120 {
+            let t = 3.0 * i as f64;
+            let line = if i % 3 == 0 { 30.0 } else { 0.0 };
+            s.push_str(&format!(
+                "{t},{}\n",
+                700.0 + 10.0 * (t - 40.0f64).to_radians().cos() + line
+            ));
+        }
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("s.csv");
+        std::fs::write(&p, &s).unwrap();
+        let o = d.path().join("o.json");
+        run(Args {
+            samples: p,
+            method: Method::LeastSquares,
+            um_per_px: None,
+            frames_taken: Some(200),
+            threshold_um: None,
+            recipe: None,
+            json: Some(o.clone()),
+        })
+        .unwrap();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&o).unwrap()).unwrap();
+        assert_eq!(v["quality_ok"], serde_json::json!(false));
+        let reasons: Vec<String> = v["quality_reasons"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r.as_str().unwrap().to_string())
+            .collect();
+        assert!(
+            reasons
+                .iter()
+                .any(|r| r.starts_with("frames_used 60.0 % < 75.0 %")),
+            "{reasons:?}"
+        );
+        assert!(
+            reasons
+                .iter()
+                .any(|r| r.starts_with("residual_rms ") || r.starts_with("outliers ")),
+            "{reasons:?}"
+        );
     }
 }

@@ -43,8 +43,15 @@ pub enum FidelityArg {
 /// Arguments of `gonio mount`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
-Runs the sequence autofocus → measure → align → approach → push → verify for every part and
-prints a table like Table 3 of Yu et al., 2024. Only the simulated station (--sim) is available.
+Runs the sequence autofocus → measure → align → approach → push → verify for every part (Yu et
+al., 2024) and prints a table like their Table 3. Only the simulated station (--sim) is available.
+
+The station pushes only on a turn that passes the quality gate (docs/quality-gates.md). A failing
+turn is measured again after a refocus (recipe: quality.remeasure_turns); if it fails again the
+part ends measurement_untrusted. A verify turn that disagrees with the push model's prediction
+ends the part push_inconsistent. A device error ends the part rejected_device_error; the batch
+then stops (exit code 2, records written) or goes on, as the recipe's on_device_error says.
+Every part record keeps its turns, pushes, verdict, reject_reason and remeasured_turns.
 
 Examples:
   gonio mount --sim --seed 1
@@ -83,6 +90,21 @@ pub fn load_recipe(path: &Path) -> Result<Recipe> {
             column,
             message,
         } if line > 0 => anyhow!("{}:{}:{}: {}", path.display(), line, column, message),
+        StationError::RecipeValue {
+            key,
+            value,
+            expected,
+            line,
+            column,
+        } if line > 0 => anyhow!(
+            "{}:{}:{}: {} = {}: expected {}",
+            path.display(),
+            line,
+            column,
+            key,
+            value,
+            expected
+        ),
         other => anyhow!("{}: {}", path.display(), other),
     })
 }
@@ -123,20 +145,24 @@ pub fn run(a: Args) -> Result<()> {
     bar.finish_and_clear();
     if !to_stdout {
         println!(
-            "{:<14} {:>12} {:>12} {:>7} {:>8}  result",
-            "serial", "initial e/µm", "final e/µm", "pushes", "time/s"
+            "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
+            "serial", "initial e/µm", "final e/µm", "pushes", "remeasured", "time/s"
         );
         for p in &report.parts {
             let r = &p.record;
             println!(
-                "{:<14} {:>12.1} {:>12.2} {:>7} {:>8.1}  {}",
+                "{:<14} {:>12.1} {:>12.2} {:>7} {:>11} {:>8.1}  {}",
                 r.serial,
                 r.initial_e_um,
                 r.final_e_um,
                 r.pushes,
+                r.remeasured_turns,
                 r.time_s,
                 r.result.name()
             );
+            if let Some(why) = &r.reject_reason {
+                println!("{:<14} why: {why}", "");
+            }
         }
         let s = &report.summary;
         println!(
@@ -152,6 +178,10 @@ pub fn run(a: Args) -> Result<()> {
             s.rejected
         );
         println!(
+            "quality gate: {} turns re-measured, {} parts measurement_untrusted, {} push_inconsistent, {} device errors",
+            s.remeasured_turns, s.untrusted, s.push_inconsistent, s.device_errors
+        );
+        println!(
             "Yu et al., 2024, 25 real parts: mean 25.1 s, 2.1 pushes (max 5), final e 3.8 µm; manual: 13.7 µm in 30–40 s; Wang et al.: 6.0 µm in 32.4 s"
         );
         println!(
@@ -164,6 +194,9 @@ pub fn run(a: Args) -> Result<()> {
     }
     if let Some(p) = &a.json {
         write_json(p, &report)?;
+    }
+    if let Some(why) = &report.stopped {
+        bail!("the batch {why} (recipe on_device_error = \"stop\"); the records so far are kept");
     }
     Ok(())
 }
