@@ -421,10 +421,17 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
+/// Robust standard deviation: 1.4826·MAD, or 1.2533 × the mean absolute deviation when more
+/// than half of the residuals are equal (MAD = 0, e.g. noise-free or quantised data).
 fn robust_sigma(r: &[f64]) -> f64 {
     let med = median(r);
     let dev: Vec<f64> = r.iter().map(|x| (x - med).abs()).collect();
-    1.4826 * median(&dev)
+    let mad = 1.4826 * median(&dev);
+    if mad > 0.0 {
+        mad
+    } else {
+        1.2533 * dev.iter().sum::<f64>() / dev.len().max(1) as f64
+    }
 }
 
 /// The robust least-squares fit. Its verdict is left unjudged (the caller judges).
@@ -523,7 +530,12 @@ fn fit_least_squares(
     // Hard rejection of gross outliers, then a final reweighted solve.
     let r = resid(&beta);
     let cut = opts.outlier_sigma * sigma;
-    let outliers: Vec<usize> = (0..n).filter(|&i| r[i].abs() > cut).collect();
+    let mut outliers: Vec<usize> = (0..n).filter(|&i| r[i].abs() > cut).collect();
+    if 2 * outliers.len() > n {
+        // A majority cannot be outliers: the model does not describe these data (the gate's
+        // residual check will say so).
+        outliers.clear();
+    }
     if !outliers.is_empty() {
         for &i in &outliers {
             w[i] = 0.0;
@@ -697,6 +709,19 @@ mod tests {
         assert!((f.e_px - 12.5).abs() < 1e-8, "{}", f.e_px);
         assert!((f.theta_max_deg - 200.0).abs() < 1e-7);
         assert!(f.outliers.is_empty());
+    }
+
+    #[test]
+    fn noise_free_turn_with_a_line_on_a_third_is_judged_not_an_error() {
+        // More than half of the residuals equal (MAD = 0) once collapsed σ and cut every frame
+        // as an outlier ("singular"); now the fit returns and the gate says why not to trust it.
+        let mut s = sinusoid(10.0, 40.0, 0.0, 120, 3.0);
+        for x in s.iter_mut().step_by(3) {
+            x.c_px += 30.0;
+        }
+        let f = fit(&s, &FitOptions::default()).unwrap();
+        assert!(!f.quality.ok);
+        assert!(f.quality.reasons()[0].starts_with("residual_rms"));
     }
 
     #[test]
