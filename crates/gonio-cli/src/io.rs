@@ -75,6 +75,37 @@ pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
 }
 
+/// Reads a whole file, or standard input for `-`, as bytes, refusing one of more than `limit`
+/// bytes before reading it (a file by its size, a pipe after `limit` + 1 bytes).
+pub fn read_bytes(path: &Path, limit: usize) -> Result<Vec<u8>> {
+    let name = path.display();
+    let too_big =
+        |what: String| anyhow!("{name}:1:1: {what}, more than the limit of {limit} bytes");
+    let mut data = Vec::new();
+    if path.as_os_str() == "-" {
+        std::io::stdin()
+            .lock()
+            .take(limit as u64 + 1)
+            .read_to_end(&mut data)
+            .context("cannot read standard input")?;
+    } else {
+        let f = std::fs::File::open(path).with_context(|| format!("cannot read {name}"))?;
+        if let Ok(m) = f.metadata()
+            && m.is_file()
+            && m.len() > limit as u64
+        {
+            return Err(too_big(format!("the file is {} bytes", m.len())));
+        }
+        f.take(limit as u64 + 1)
+            .read_to_end(&mut data)
+            .with_context(|| format!("cannot read {name}"))?;
+    }
+    if data.len() > limit {
+        return Err(too_big(format!("the input goes on beyond {limit} bytes")));
+    }
+    Ok(data)
+}
+
 /// A CSV file read whole, with the line number of every record, for precise error messages.
 #[derive(Debug)]
 pub struct CsvTable {

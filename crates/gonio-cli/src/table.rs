@@ -4,6 +4,21 @@
 use gonio_uncertainty::BudgetResult;
 use std::fmt::Write as _;
 
+/// Longest row or budget name shown whole in a table; longer names are cut with `…` (the CSV and
+/// JSON outputs keep every name whole).
+pub const NAME_WIDTH: usize = 48;
+
+/// A name as shown in a table: at most [`NAME_WIDTH`] characters, longer ones cut with `…`.
+pub fn display_name(name: &str) -> String {
+    if name.chars().count() <= NAME_WIDTH {
+        name.to_string()
+    } else {
+        let mut s: String = name.chars().take(NAME_WIDTH - 1).collect();
+        s.push('…');
+        s
+    }
+}
+
 /// ν for a table: a whole number, two decimals, or `inf`.
 pub fn dof_text(nu: f64) -> String {
     if nu.is_infinite() {
@@ -51,26 +66,36 @@ pub fn summary_line(r: &BudgetResult) -> String {
     )
 }
 
-/// The budget as a text table (rows with shares, then the summary line).
+/// The budget as a text table (rows with shares, then the summary line); names longer than
+/// [`NAME_WIDTH`] are cut.
 pub fn text_table(out: &mut String, r: &BudgetResult) {
-    let w = r
+    let names: Vec<String> = r
         .contributions
         .iter()
-        .map(|c| c.name.chars().count())
+        .map(|c| display_name(&c.name))
+        .collect();
+    let w = names
+        .iter()
+        .map(|n| n.chars().count())
         .max()
         .unwrap_or(12)
         .max(12);
-    let _ = writeln!(out, "Budget \"{}\"{}", r.name, unit(r).replace(' ', " in "));
+    let _ = writeln!(
+        out,
+        "Budget \"{}\"{}",
+        display_name(&r.name),
+        unit(r).replace(' ', " in ")
+    );
     let _ = writeln!(
         out,
         "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>7}",
         "contribution", "u", "c", "|c·u|", "ν", "share"
     );
-    for c in &r.contributions {
+    for (c, name) in r.contributions.iter().zip(&names) {
         let _ = writeln!(
             out,
             "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>6.1}%",
-            c.name,
+            name,
             sig(c.u, 4),
             sig(c.c, 4),
             sig(c.cu, 4),
@@ -79,7 +104,12 @@ pub fn text_table(out: &mut String, r: &BudgetResult) {
         );
     }
     for (a, b, rho) in &r.correlations {
-        let _ = writeln!(out, "  correlation r({a}, {b}) = {rho}");
+        let _ = writeln!(
+            out,
+            "  correlation r({}, {}) = {rho}",
+            display_name(a),
+            display_name(b)
+        );
     }
     let _ = writeln!(out, "  {}\n", summary_line(r));
 }

@@ -25,13 +25,16 @@
 //! ```
 
 use crate::budget::{Budget, BudgetSet, Contribution, Correlation, Source};
-use crate::{UncertaintyError, check_coverage};
+use crate::limits::{MAX_BUDGETS, MAX_FILE_BYTES, MAX_MESSAGE_CHARS, MAX_OBSERVATIONS, MAX_ROWS};
+use crate::{UncertaintyError, check_coverage, short};
 use serde::Deserialize;
+use std::collections::HashSet;
 use std::ops::Range;
 use toml::Spanned;
 
 /// An error in a budget (or instrument) file, at a 1-based line and column. Display:
-/// `LINE:COLUMN: message`; the caller prefixes the file name.
+/// `LINE:COLUMN: message`; the caller prefixes the file name. The message is one line of at most
+/// [`MAX_MESSAGE_CHARS`] characters, whatever the input.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{line}:{column}: {message}")]
 pub struct BudgetFileError {
@@ -43,7 +46,29 @@ pub struct BudgetFileError {
     pub message: String,
 }
 
-/// 1-based line and column of a byte offset.
+impl BudgetFileError {
+    /// An error at `line`:`column`; line breaks in the message become spaces and a message
+    /// longer than [`MAX_MESSAGE_CHARS`] characters is cut (with `…`).
+    pub fn new(line: usize, column: usize, message: impl Into<String>) -> BudgetFileError {
+        let message = message.into();
+        let mut m: String = message
+            .chars()
+            .take(MAX_MESSAGE_CHARS)
+            .map(|c| if c.is_control() { ' ' } else { c })
+            .collect();
+        if message.chars().nth(MAX_MESSAGE_CHARS).is_some() {
+            m.pop();
+            m.push('…');
+        }
+        BudgetFileError {
+            line,
+            column,
+            message: m,
+        }
+    }
+}
+
+/// 1-based line and column (in characters) of a byte offset.
 pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
     let mut o = offset;
@@ -56,26 +81,93 @@ pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
+/// Line and column of many byte offsets in one pass over the text (linear, whatever the number
+/// of offsets or the length of the lines).
+fn line_cols(text: &str, offsets: &[usize]) -> Vec<(usize, usize)> {
+    let mut order: Vec<usize> = (0..offsets.len()).collect();
+    order.sort_unstable_by_key(|&k| offsets[k]);
+    let mut out = vec![(1, 1); offsets.len()];
+    let (mut line, mut col) = (1usize, 1usize);
+    let mut chars = text.char_indices().peekable();
+    for k in order {
+        let target = offsets[k].min(text.len());
+        while let Some(&(i, c)) = chars.peek() {
+            if i >= target {
+                break;
+            }
+            if c == '\n' {
+                line += 1;
+                col = 1;
+            } else {
+                col += 1;
+            }
+            chars.next();
+        }
+        out[k] = (line, col);
+    }
+    out
+}
+
 pub(crate) fn err_at(
     text: &str,
     span: &Range<usize>,
     message: impl Into<String>,
 ) -> BudgetFileError {
     let (line, column) = line_col(text, span.start);
-    BudgetFileError {
-        line,
-        column,
-        message: message.into(),
-    }
+    BudgetFileError::new(line, column, message)
 }
 
 pub(crate) fn toml_error(text: &str, e: toml::de::Error) -> BudgetFileError {
     let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-    BudgetFileError {
-        line,
-        column,
-        message: e.message().trim().replace('\n', " "),
+    BudgetFileError::new(line, column, e.message().trim().replace('\n', " "))
+}
+
+/// The text of a budget or instrument file from its bytes: at most [`MAX_FILE_BYTES`], UTF-8, a
+/// leading byte-order mark skipped (line and column then count from after it).
+///
+/// # Errors
+/// A file too large (at 1:1), a UTF-16 file (1:1), or invalid UTF-8 at the line and column of the
+/// first bad byte.
+///
+/// ```
+/// use gonio_uncertainty::decode_text;
+/// assert_eq!(decode_text(b"\xEF\xBB\xBFcoverage = 0.95\n").unwrap(), "coverage = 0.95\n");
+/// let e = decode_text(b"[[budget]]\nname = \"temp\xE9rature\"\n").unwrap_err();
+/// assert_eq!((e.line, e.column), (2, 13));
+/// assert!(e.message.starts_with("invalid UTF-8 (byte 0xE9)"));
+/// ```
+pub fn decode_text(bytes: &[u8]) -> Result<&str, BudgetFileError> {
+    if bytes.len() > MAX_FILE_BYTES {
+        return Err(BudgetFileError::new(
+            1,
+            1,
+            format!(
+                "the file is {} bytes, more than the limit of {MAX_FILE_BYTES} bytes (16 MiB) for a budget or instrument file",
+                bytes.len()
+            ),
+        ));
     }
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        return Err(BudgetFileError::new(
+            1,
+            1,
+            "the file is UTF-16 (it starts with a UTF-16 byte-order mark): expected UTF-8 text; save it as UTF-8",
+        ));
+    }
+    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    std::str::from_utf8(body).map_err(|e| {
+        let good = e.valid_up_to();
+        let prefix = std::str::from_utf8(&body[..good]).unwrap_or_default();
+        let (line, column) = line_col(prefix, good);
+        BudgetFileError::new(
+            line,
+            column,
+            format!(
+                "invalid UTF-8 (byte 0x{:02X}): expected UTF-8 text; save the file as UTF-8 (it may be Latin-1 or Windows-1252)",
+                body[good]
+            ),
+        )
+    })
 }
 
 /// Degrees of freedom as written: a number or `"inf"`.
@@ -185,8 +277,9 @@ pub(crate) fn build_contribution(
         let s = c.name.as_ref().map_or(span.clone(), |n| n.span());
         return Err(err_at(text, &s, "empty contribution name"));
     }
+    let sname = short(&name);
     let at =
-        |s: Range<usize>, m: String| Err(err_at(text, &s, format!("contribution '{name}': {m}")));
+        |s: Range<usize>, m: String| Err(err_at(text, &s, format!("contribution '{sname}': {m}")));
     // Exactly one way to give u.
     let kinds: Vec<(&str, Range<usize>)> = [
         ("u", c.u.as_ref().map(|x| x.span())),
@@ -221,7 +314,7 @@ pub(crate) fn build_contribution(
                     text,
                     &s,
                     format!(
-                        "contribution '{name}': {field} is not used with {}",
+                        "contribution '{sname}': {field} is not used with {}",
                         kinds[0].0
                     ),
                 )),
@@ -248,7 +341,10 @@ pub(crate) fn build_contribution(
     {
         return at(
             ds.span(),
-            format!("unknown distribution \"{d}\": expected {DISTRIBUTIONS}"),
+            format!(
+                "unknown distribution \"{}\": expected {DISTRIBUTIONS}",
+                short(d)
+            ),
         );
     }
     unused("n", c.n.as_ref().map(|x| x.span()), c.std_dev.is_some())?;
@@ -270,6 +366,15 @@ pub(crate) fn build_contribution(
     let mut contrib = if let Some(u) = &c.u {
         Contribution::direct(&name, *u.get_ref())
     } else if let Some(obs) = &c.observations {
+        if obs.get_ref().len() > MAX_OBSERVATIONS {
+            return at(
+                obs.span(),
+                format!(
+                    "{} observations, more than the limit of {MAX_OBSERVATIONS}; give std_dev and n instead",
+                    obs.get_ref().len()
+                ),
+            );
+        }
         Contribution::type_a(&name, obs.get_ref()).or_else(|e| at(obs.span(), strip(&e, &name)))?
     } else if let Some(s) = &c.std_dev {
         let Some(n) = &c.n else {
@@ -291,7 +396,7 @@ pub(crate) fn build_contribution(
                 err_at(
                     text,
                     &ds,
-                    format!("contribution '{name}': distribution \"{d}\" needs {field}"),
+                    format!("contribution '{sname}': distribution \"{d}\" needs {field}"),
                 )
             })
         };
@@ -305,7 +410,17 @@ pub(crate) fn build_contribution(
             }
             "resolution" => Contribution::resolution(&name, need("step", &c.step)?),
             "normal" | "gaussian" => {
-                Contribution::normal(&name, need("expanded", &c.expanded)?, need("k", &c.k)?)
+                let (big_u, k) = (need("expanded", &c.expanded)?, need("k", &c.k)?);
+                if big_u.is_finite() && k.is_finite() && k > 0.0 && !(big_u / k).is_finite() {
+                    let ks = c.k.as_ref().map_or(ds.clone(), |x| x.span());
+                    return at(
+                        ks,
+                        format!(
+                            "u = expanded/k = {big_u:e}/{k:e} is not finite: the numbers overflow the floating-point range (about 1.8e308)"
+                        ),
+                    );
+                }
+                Contribution::normal(&name, big_u, k)
             }
             other => {
                 return at(
@@ -404,17 +519,143 @@ pub(crate) fn build_contribution(
 
 fn strip(e: &UncertaintyError, name: &str) -> String {
     let s = e.to_string();
-    s.strip_prefix(&format!("contribution '{name}': "))
+    s.strip_prefix(&format!("contribution '{}': ", short(name)))
         .map_or(s.clone(), str::to_string)
 }
 
 /// Parses a budget file into a [`BudgetSet`], checking everything that can be checked without
 /// evaluating: fields, distributions, u ≥ 0, ν > 0, 0 < coverage < 1, unique names, nested
-/// references (missing or cyclic) and correlations.
+/// references (missing or cyclic), correlations, and the size limits of [`crate::limits`].
 ///
 /// # Errors
 /// [`BudgetFileError`] at the offending line and column, with what was expected.
 pub fn parse_budget_file(text: &str) -> Result<BudgetSet, BudgetFileError> {
+    BudgetFile::parse(text).map(|f| f.set)
+}
+
+/// As [`parse_budget_file`], from the file's bytes ([`decode_text`]: UTF-8, a byte-order mark
+/// skipped).
+///
+/// # Errors
+/// As [`decode_text`] and [`parse_budget_file`].
+pub fn parse_budget_bytes(bytes: &[u8]) -> Result<BudgetSet, BudgetFileError> {
+    BudgetFile::parse_bytes(bytes).map(|f| f.set)
+}
+
+/// A parsed budget file: the [`BudgetSet`] and where each budget, row and correlation is written,
+/// so that errors found later (when evaluating, or in Monte Carlo) name the line and column too.
+///
+/// ```
+/// use gonio_uncertainty::BudgetFile;
+/// let text = "[[budget]]\nname = \"b\"\n[[budget.contribution]]\nname = \"a\"\nu = 1e308\n\
+///             [[budget.contribution]]\nname = \"c\"\nu = 1e308\n";
+/// let f = BudgetFile::parse(text).unwrap();
+/// // Each row is fine; U = k·u_c overflows when they are combined.
+/// let e = f.set.evaluate(None, None).unwrap_err();
+/// assert_eq!(f.locate(&e), Some((2, 8)));
+/// assert!(e.to_string().starts_with("budget 'b': U = k·u_c = 1.9600 × 1.414"));
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct BudgetFile {
+    /// The budgets.
+    pub set: BudgetSet,
+    /// Line and column of each budget's name.
+    budget_at: Vec<(usize, usize)>,
+    /// Of each row: its `from` when it has one, else its name (or its table).
+    row_at: Vec<Vec<(usize, usize)>>,
+    /// Of each correlation.
+    correlation_at: Vec<Vec<(usize, usize)>>,
+}
+
+impl BudgetFile {
+    /// Parses a budget file (see [`parse_budget_file`]).
+    ///
+    /// # Errors
+    /// [`BudgetFileError`] at the offending line and column, with what was expected.
+    pub fn parse(text: &str) -> Result<BudgetFile, BudgetFileError> {
+        if text.len() > MAX_FILE_BYTES {
+            return Err(BudgetFileError::new(
+                1,
+                1,
+                format!(
+                    "the file is {} bytes, more than the limit of {MAX_FILE_BYTES} bytes (16 MiB)",
+                    text.len()
+                ),
+            ));
+        }
+        parse(text)
+    }
+
+    /// Parses a budget file from its bytes ([`decode_text`], then [`parse`](Self::parse)).
+    ///
+    /// # Errors
+    /// As [`decode_text`] and [`parse`](Self::parse).
+    pub fn parse_bytes(bytes: &[u8]) -> Result<BudgetFile, BudgetFileError> {
+        parse(decode_text(bytes)?)
+    }
+
+    /// The line and column an evaluation or Monte Carlo error refers to: the row (its `from`, or
+    /// its name) for an error about one row, the correlation for a correlation, the budget's name
+    /// for an error about a whole budget; `None` when the error is not about the file (e.g. the
+    /// number of Monte Carlo trials asked for).
+    pub fn locate(&self, e: &UncertaintyError) -> Option<(usize, usize)> {
+        let budget = |name: &str| self.set.budgets.iter().position(|b| b.name == name);
+        let row = |b: usize, name: &str| {
+            let r = self.set.budgets[b]
+                .contributions
+                .iter()
+                .position(|c| c.name == name)?;
+            self.row_at.get(b)?.get(r).copied()
+        };
+        let correlation = |b: usize, x: &str, y: &str| {
+            let k = self.set.budgets[b]
+                .correlations
+                .iter()
+                .position(|c| (c.a == x && c.b == y) || (c.a == y && c.b == x))?;
+            self.correlation_at.get(b)?.get(k).copied()
+        };
+        match e {
+            UncertaintyError::MissingBudget {
+                budget: b,
+                contribution,
+                ..
+            } => row(budget(b)?, contribution),
+            UncertaintyError::CyclicBudget { budgets, .. } => {
+                let b = budget(budgets.first()?)?;
+                let next = budgets.get(1)?;
+                let r = self.set.budgets[b]
+                    .contributions
+                    .iter()
+                    .position(|c| matches!(&c.source, Source::Budget { name } if name == next))?;
+                self.row_at.get(b)?.get(r).copied()
+            }
+            UncertaintyError::BadCorrelation {
+                budget: b, a, b: y, ..
+            }
+            | UncertaintyError::CorrelatedNestedBudget { budget: b, a, b: y } => {
+                let i = budget(b)?;
+                correlation(i, a, y).or_else(|| self.budget_at.get(i).copied())
+            }
+            UncertaintyError::NonFinite {
+                budget: b,
+                contribution,
+                ..
+            } => {
+                let i = budget(b)?;
+                contribution
+                    .as_deref()
+                    .and_then(|c| row(i, c))
+                    .or_else(|| self.budget_at.get(i).copied())
+            }
+            UncertaintyError::TooLarge {
+                budget: Some(b), ..
+            } => self.budget_at.get(budget(b)?).copied(),
+            _ => None,
+        }
+    }
+}
+
+fn parse(text: &str) -> Result<BudgetFile, BudgetFileError> {
     let raw: RawFile = toml::from_str(text).map_err(|e| toml_error(text, e))?;
     let coverage = match &raw.coverage {
         Some(c) => {
@@ -423,16 +664,28 @@ pub fn parse_budget_file(text: &str) -> Result<BudgetSet, BudgetFileError> {
         None => 0.95,
     };
     if raw.budget.is_empty() {
-        return Err(BudgetFileError {
-            line: 1,
-            column: 1,
-            message: "no budget: expected at least one [[budget]] table with [[budget.contribution]] rows".into(),
-        });
+        return Err(BudgetFileError::new(
+            1,
+            1,
+            "no budget: expected at least one [[budget]] table with [[budget.contribution]] rows",
+        ));
+    }
+    if raw.budget.len() > MAX_BUDGETS {
+        return Err(err_at(
+            text,
+            &raw.budget[MAX_BUDGETS].span(),
+            format!(
+                "{} budgets, more than the limit of {MAX_BUDGETS}",
+                raw.budget.len()
+            ),
+        ));
     }
     let mut budgets = Vec::with_capacity(raw.budget.len());
-    // Spans: budget name, each contribution's `from` (or table), each correlation.
-    let mut name_spans = Vec::new();
-    let mut from_spans: Vec<Vec<Range<usize>>> = Vec::new();
+    let mut names: HashSet<String> = HashSet::with_capacity(raw.budget.len());
+    // Byte offsets of each budget's name, each row's `from` (or name, or table), each correlation.
+    let mut budget_span = Vec::with_capacity(raw.budget.len());
+    let mut row_spans: Vec<Vec<usize>> = Vec::with_capacity(raw.budget.len());
+    let mut cor_spans: Vec<Vec<usize>> = Vec::with_capacity(raw.budget.len());
     for rb in &raw.budget {
         let b = rb.get_ref();
         let Some(name) = &b.name else {
@@ -446,127 +699,122 @@ pub fn parse_budget_file(text: &str) -> Result<BudgetSet, BudgetFileError> {
         if bname.is_empty() {
             return Err(err_at(text, &name.span(), "empty budget name"));
         }
-        if budgets.iter().any(|x: &Budget| x.name == bname) {
+        if !names.insert(bname.clone()) {
             return Err(err_at(
                 text,
                 &name.span(),
-                format!("duplicate budget name '{bname}'"),
+                format!("duplicate budget name '{}'", short(&bname)),
             ));
         }
+        let sname = short(&bname);
         if b.contribution.is_empty() {
             return Err(err_at(
                 text,
                 &rb.span(),
-                format!("budget '{bname}' has no rows: expected [[budget.contribution]] tables"),
+                format!("budget '{sname}' has no rows: expected [[budget.contribution]] tables"),
+            ));
+        }
+        if b.contribution.len() > MAX_ROWS {
+            return Err(err_at(
+                text,
+                &b.contribution[MAX_ROWS].span(),
+                format!(
+                    "budget '{sname}' has {} rows, more than the limit of {MAX_ROWS}",
+                    b.contribution.len()
+                ),
             ));
         }
         let mut budget = Budget::new(&bname);
         budget.unit = b.unit.clone();
-        let mut froms = Vec::new();
+        let mut rows: HashSet<String> = HashSet::with_capacity(b.contribution.len());
+        let mut spans = Vec::with_capacity(b.contribution.len());
         for rc in &b.contribution {
             let c = build_contribution(text, rc, None)?;
-            if budget.contributions.iter().any(|x| x.name == c.name) {
-                let s = rc.get_ref().name.as_ref().map_or(rc.span(), |n| n.span());
+            let r = rc.get_ref();
+            if !rows.insert(c.name.clone()) {
+                let s = r.name.as_ref().map_or(rc.span(), |n| n.span());
                 return Err(err_at(
                     text,
                     &s,
                     format!(
-                        "duplicate contribution name '{}' in budget '{bname}'",
-                        c.name
+                        "duplicate contribution name '{}' in budget '{sname}'",
+                        short(&c.name)
                     ),
                 ));
             }
-            froms.push(rc.get_ref().from.as_ref().map_or(rc.span(), |f| f.span()));
+            spans.push(
+                r.from
+                    .as_ref()
+                    .map(|f| f.span())
+                    .or_else(|| r.name.as_ref().map(|n| n.span()))
+                    .unwrap_or(rc.span())
+                    .start,
+            );
             budget.contributions.push(c);
         }
         for rcor in &b.correlation {
             let cor = rcor.get_ref();
-            let names = cor.between.get_ref();
-            if names.len() != 2 {
+            let pair = cor.between.get_ref();
+            if pair.len() != 2 {
                 return Err(err_at(
                     text,
                     &cor.between.span(),
                     format!(
                         "between must name exactly 2 contributions, found {}",
-                        names.len()
+                        pair.len()
                     ),
                 ));
             }
             budget.correlations.push(Correlation {
-                a: names[0].clone(),
-                b: names[1].clone(),
+                a: pair[0].clone(),
+                b: pair[1].clone(),
                 r: *cor.r.get_ref(),
             });
-            let single = Budget {
-                correlations: vec![budget.correlations.last().cloned().unwrap_or_else(|| {
-                    Correlation {
-                        a: String::new(),
-                        b: String::new(),
-                        r: 0.0,
-                    }
-                })],
-                ..budget.clone()
-            };
-            if let Err(e) = single.correlation_indices() {
-                let s = if matches!(&e, UncertaintyError::BadCorrelation { what, .. } if what.starts_with("r "))
-                {
-                    cor.r.span()
-                } else {
-                    cor.between.span()
-                };
-                return Err(err_at(text, &s, e.to_string()));
-            }
         }
-        if let Err(e) = budget.correlation_indices() {
-            let s = b.correlation.first().map_or(rb.span(), |c| c.span());
+        // Names, |r| ≤ 1, pairs given twice, then the matrix as a whole (at the first
+        // correlation), in one pass: linear in the rows and correlations.
+        if let Err((k, e)) = budget.resolve_correlations() {
+            let s = match k.and_then(|k| b.correlation.get(k)) {
+                Some(c) if matches!(&e, UncertaintyError::BadCorrelation { what, .. } if what.starts_with("r ")) => {
+                    c.get_ref().r.span()
+                }
+                Some(c) => c.get_ref().between.span(),
+                None => b.correlation.first().map_or(rb.span(), |c| c.span()),
+            };
             return Err(err_at(text, &s, e.to_string()));
         }
-        name_spans.push(name.span());
-        from_spans.push(froms);
+        budget_span.push(name.span().start);
+        row_spans.push(spans);
+        cor_spans.push(b.correlation.iter().map(|c| c.span().start).collect());
         budgets.push(budget);
     }
     let set = BudgetSet { coverage, budgets };
-    // References: name the `from` line of the offending contribution.
-    if let Err(e) = set.check_references() {
-        let span = match &e {
-            UncertaintyError::MissingBudget {
-                budget,
-                contribution,
-                ..
-            } => locate(&set, &from_spans, budget, contribution),
-            UncertaintyError::CyclicBudget { cycle } => {
-                let parts: Vec<&str> = cycle.split(" -> ").collect();
-                // The reference from the cycle's first budget to the next.
-                let (b0, b1) = (parts[0], parts.get(1).copied().unwrap_or(parts[0]));
-                let bi = set.budgets.iter().position(|b| b.name == b0).unwrap_or(0);
-                let ci = set.budgets[bi]
-                    .contributions
-                    .iter()
-                    .position(|c| matches!(&c.source, Source::Budget { name } if name == b1))
-                    .unwrap_or(0);
-                from_spans.get(bi).and_then(|v| v.get(ci)).cloned()
-            }
-            _ => None,
-        }
-        .unwrap_or(0..0);
-        return Err(err_at(text, &span, e.to_string()));
-    }
-    let _ = name_spans;
-    Ok(set)
-}
-
-fn locate(
-    set: &BudgetSet,
-    spans: &[Vec<Range<usize>>],
-    budget: &str,
-    contribution: &str,
-) -> Option<Range<usize>> {
-    let bi = set.budgets.iter().position(|b| b.name == budget)?;
-    let ci = set.budgets[bi]
-        .contributions
+    // Every offset to a line and column, in one pass over the text.
+    let mut offsets = budget_span.clone();
+    offsets.extend(row_spans.iter().flatten());
+    offsets.extend(cor_spans.iter().flatten());
+    let mut at = line_cols(text, &offsets).into_iter();
+    let budget_at: Vec<(usize, usize)> = at.by_ref().take(budget_span.len()).collect();
+    let row_at: Vec<Vec<(usize, usize)>> = row_spans
         .iter()
-        .position(|c| c.name == contribution)?;
-    spans.get(bi)?.get(ci).cloned()
+        .map(|v| at.by_ref().take(v.len()).collect())
+        .collect();
+    let correlation_at: Vec<Vec<(usize, usize)>> = cor_spans
+        .iter()
+        .map(|v| at.by_ref().take(v.len()).collect())
+        .collect();
+    let file = BudgetFile {
+        set,
+        budget_at,
+        row_at,
+        correlation_at,
+    };
+    // References: the `from` of the offending contribution.
+    if let Err(e) = file.set.check_references() {
+        let (line, column) = file.locate(&e).unwrap_or((1, 1));
+        return Err(BudgetFileError::new(line, column, e.to_string()));
+    }
+    Ok(file)
 }
 
 #[cfg(test)]

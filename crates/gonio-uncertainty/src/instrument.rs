@@ -38,8 +38,11 @@
 //! ```
 
 use crate::budget::{Budget, Combined, Contribution, Source, Term, combine};
-use crate::file::{BudgetFileError, RawContribution, build_contribution, err_at, toml_error};
-use crate::{UncertaintyError, check_coverage};
+use crate::file::{
+    BudgetFileError, RawContribution, build_contribution, decode_text, err_at, toml_error,
+};
+use crate::limits::MAX_ROWS;
+use crate::{UncertaintyError, check_coverage, short};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -99,9 +102,20 @@ impl InstrumentFile {
     /// # Errors
     /// [`BudgetFileError`] at the offending line: TOML syntax, an unknown section or field, an
     /// unknown distribution, u < 0, ν ≤ 0, coverage outside (0, 1), or a `from` reference
-    /// (instrument terms cannot be nested budgets).
+    /// (instrument terms cannot be nested budgets), more than [`MAX_ROWS`] terms, or terms whose
+    /// combination overflows (U = k·u_c beyond the floating-point range, at the largest term).
     pub fn parse(text: &str) -> Result<InstrumentFile, BudgetFileError> {
         let raw: RawInstrument = toml::from_str(text).map_err(|e| toml_error(text, e))?;
+        if raw.contribution.len() > MAX_ROWS {
+            return Err(err_at(
+                text,
+                &raw.contribution[MAX_ROWS].span(),
+                format!(
+                    "{} [[contribution]] tables, more than the limit of {MAX_ROWS}",
+                    raw.contribution.len()
+                ),
+            ));
+        }
         let coverage = match &raw.coverage {
             Some(c) => {
                 check_coverage(*c.get_ref()).map_err(|e| err_at(text, &c.span(), e.to_string()))?
@@ -118,6 +132,8 @@ impl InstrumentFile {
             &raw.head_noise,
         ];
         let mut contributions: Vec<Contribution> = Vec::new();
+        let mut spans = Vec::new();
+        let mut names = std::collections::HashSet::new();
         let mut add = |rc: &Spanned<RawContribution>, default: Option<&str>| {
             if let Some(f) = &rc.get_ref().from {
                 return Err(err_at(
@@ -127,13 +143,14 @@ impl InstrumentFile {
                 ));
             }
             let c = build_contribution(text, rc, default)?;
-            if contributions.iter().any(|x| x.name == c.name) {
+            if !names.insert(c.name.clone()) {
                 return Err(err_at(
                     text,
                     &rc.span(),
-                    format!("duplicate instrument term '{}'", c.name),
+                    format!("duplicate instrument term '{}'", short(&c.name)),
                 ));
             }
+            spans.push(rc.span());
             contributions.push(c);
             Ok(())
         };
@@ -145,11 +162,35 @@ impl InstrumentFile {
         for rc in &raw.contribution {
             add(rc, None)?;
         }
+        // The terms alone must combine to a finite U at the file's coverage (a random part of 0
+        // only lowers ν_eff's denominator); otherwise name the largest term.
+        if let Err(e) = combine_with_instrument(0.0, f64::INFINITY, &contributions, coverage) {
+            let largest = contributions
+                .iter()
+                .enumerate()
+                .max_by(|a, b| {
+                    (a.1.sensitivity * a.1.u)
+                        .abs()
+                        .total_cmp(&(b.1.sensitivity * b.1.u).abs())
+                })
+                .map_or(0, |(i, _)| i);
+            let span = spans.get(largest).cloned().unwrap_or(0..0);
+            return Err(err_at(text, &span, e.to_string()));
+        }
         Ok(InstrumentFile {
             coverage,
             unit: raw.unit.unwrap_or_else(|| "arcsec".into()),
             contributions,
         })
+    }
+
+    /// Parses an instrument file from its bytes ([`decode_text`]: UTF-8, a byte-order mark
+    /// skipped, at most [`crate::limits::MAX_FILE_BYTES`]).
+    ///
+    /// # Errors
+    /// As [`decode_text`] and [`parse`](Self::parse).
+    pub fn parse_bytes(bytes: &[u8]) -> Result<InstrumentFile, BudgetFileError> {
+        Self::parse(decode_text(bytes)?)
     }
 
     /// Combines a random part (standard uncertainty `u_random` with `nu_random` degrees of
@@ -191,7 +232,8 @@ impl InstrumentFile {
 /// # Errors
 /// [`UncertaintyError::BadUncertainty`] for u_random < 0 or not finite,
 /// [`UncertaintyError::BadDof`] for ν_random ≤ 0, any invalid instrument term, a nested-budget
-/// term ([`UncertaintyError::BadParameter`]), [`UncertaintyError::BadCoverage`].
+/// term ([`UncertaintyError::BadParameter`]), [`UncertaintyError::BadCoverage`],
+/// [`UncertaintyError::NonFinite`] when c·u, u_c, k or U overflows.
 ///
 /// ```
 /// use gonio_uncertainty::{Contribution, instrument::combine_with_instrument};
@@ -216,6 +258,13 @@ pub fn combine_with_instrument(
     });
     for c in instrument {
         c.validate()?;
+        if !(c.sensitivity * c.u).is_finite() {
+            return Err(UncertaintyError::NonFinite {
+                budget: String::new(),
+                contribution: Some(c.name.clone()),
+                quantity: format!("|c·u| = |{:e} × {:e}|", c.sensitivity, c.u),
+            });
+        }
         if matches!(c.source, Source::Budget { .. }) {
             return Err(UncertaintyError::BadParameter {
                 name: c.name.clone(),

@@ -25,8 +25,10 @@
 #![deny(missing_docs)]
 
 pub mod budget;
+mod envelope;
 pub mod file;
 pub mod instrument;
+pub mod limits;
 pub mod montecarlo;
 pub mod student;
 
@@ -34,18 +36,22 @@ pub use budget::{
     Budget, BudgetResult, BudgetSet, Combined, Contribution, Correlation, LinearModel, Row, Source,
     Term, combine, en, gum_for_model,
 };
-pub use file::{BudgetFileError, parse_budget_file};
+pub use file::{BudgetFile, BudgetFileError, decode_text, parse_budget_bytes, parse_budget_file};
 pub use instrument::{InstrumentFile, combine_with_instrument};
 pub use montecarlo::{
-    InputDistribution, Interval, McConfig, McResult, McTrials, Validation, monte_carlo, validate,
+    InputDistribution, Interval, McConfig, McResult, McTrials, Validation, monte_carlo,
+    monte_carlo_with_progress, validate,
 };
 
 /// Errors of budget evaluation and Monte Carlo.
+///
+/// Names and other echoed input are shortened in the messages (see [`short`]), so that an error
+/// stays one short line whatever the input.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum UncertaintyError {
     /// A standard uncertainty (or a bound it was derived from) is negative or not finite.
-    #[error("contribution '{name}': {what} must be a finite number ≥ 0, found {value}")]
+    #[error("contribution '{}': {what} must be a finite number ≥ 0, found {value}", short(.name))]
     BadUncertainty {
         /// Contribution name.
         name: String,
@@ -55,7 +61,10 @@ pub enum UncertaintyError {
         value: f64,
     },
     /// Degrees of freedom ≤ 0 or NaN.
-    #[error("contribution '{name}': degrees of freedom must be > 0 (or infinite), found {nu}")]
+    #[error(
+        "contribution '{}': degrees of freedom must be > 0 (or infinite), found {nu}",
+        short(.name)
+    )]
     BadDof {
         /// Contribution name.
         name: String,
@@ -64,7 +73,7 @@ pub enum UncertaintyError {
     },
     /// A parameter other than u or ν is out of range (k ≤ 0, relative uncertainty ≤ 0, a
     /// non-finite sensitivity, fewer than 2 observations…).
-    #[error("contribution '{name}': {what}")]
+    #[error("contribution '{}': {what}", short(.name))]
     BadParameter {
         /// Contribution name.
         name: String,
@@ -79,7 +88,10 @@ pub enum UncertaintyError {
     },
     /// A nested budget refers to a budget that does not exist.
     #[error(
-        "budget '{budget}': contribution '{contribution}' refers to missing budget '{missing}'"
+        "budget '{}': contribution '{}' refers to missing budget '{}'",
+        short(.budget),
+        short(.contribution),
+        short(.missing)
     )]
     MissingBudget {
         /// The budget holding the reference.
@@ -92,11 +104,13 @@ pub enum UncertaintyError {
     /// Nested budgets refer to each other in a cycle.
     #[error("budgets refer to themselves in a cycle: {cycle}")]
     CyclicBudget {
-        /// The cycle, `a -> b -> a`.
+        /// The cycle for display, `a -> b -> a` (names shortened, at most a few shown).
         cycle: String,
+        /// The budgets of the cycle in order, full names, the first repeated at the end.
+        budgets: Vec<String>,
     },
     /// Two budgets, or two contributions of one budget, share a name.
-    #[error("duplicate name '{name}' {place}")]
+    #[error("duplicate name '{}' {place}", short(.name))]
     DuplicateName {
         /// The repeated name.
         name: String,
@@ -104,13 +118,18 @@ pub enum UncertaintyError {
         place: String,
     },
     /// No budget to evaluate.
-    #[error("no budget named '{name}'")]
+    #[error("no budget named '{}'", short(.name))]
     NoSuchBudget {
         /// The name asked for (empty: the file has no budget at all).
         name: String,
     },
     /// A correlation names an unknown contribution, pairs one with itself, or has |r| > 1.
-    #[error("budget '{budget}': correlation between '{a}' and '{b}': {what}")]
+    #[error(
+        "budget '{}': correlation between '{}' and '{}': {what}",
+        short(.budget),
+        short(.a),
+        short(.b)
+    )]
     BadCorrelation {
         /// Budget name.
         budget: String,
@@ -129,12 +148,98 @@ pub enum UncertaintyError {
         /// Budget or model name.
         context: String,
     },
+    /// Monte Carlo draws the inputs of a nested budget, so a correlation with the nested budget's
+    /// row itself cannot be represented.
+    #[error(
+        "budget '{}': the correlation between '{}' and '{}' involves a nested budget; Monte Carlo draws its inputs, so correlate those instead",
+        short(.budget),
+        short(.a),
+        short(.b)
+    )]
+    CorrelatedNestedBudget {
+        /// Budget name.
+        budget: String,
+        /// First contribution.
+        a: String,
+        /// Second contribution.
+        b: String,
+    },
+    /// A result or an intermediate quantity is not finite: the numbers overflow the range of
+    /// floating point (about ±1.8e308), e.g. U = k·u_c with u_c = 1.4e308.
+    #[error(
+        "{}{quantity} is not finite: the numbers overflow the floating-point range (about 1.8e308)",
+        place(.budget, .contribution)
+    )]
+    NonFinite {
+        /// The budget (empty when not known, e.g. a bare [`budget::combine`]).
+        budget: String,
+        /// The contribution, when one row is the cause.
+        contribution: Option<String>,
+        /// What overflowed, with its operands, e.g. `U = k·u_c = 1.96 × 1.41e308`.
+        quantity: String,
+    },
+    /// A size that comes from the input is above its stated limit (see [`limits`]).
+    #[error("{what}: {found} is more than the limit of {limit}{hint}")]
+    TooLarge {
+        /// The budget concerned, if one (to locate the error in its file).
+        budget: Option<String>,
+        /// What was counted, e.g. `budget 'x': rows`.
+        what: String,
+        /// The size found.
+        found: u64,
+        /// The limit.
+        limit: u64,
+        /// What to do instead (starts with `; ` when not empty).
+        hint: String,
+    },
     /// A Monte Carlo set-up error (no inputs, bad trial count, correlation not representable…).
     #[error("Monte Carlo: {what}")]
     MonteCarlo {
         /// What is wrong.
         what: String,
     },
+}
+
+/// The longest name (in characters) quoted whole in an error message; longer names are cut.
+pub const MAX_QUOTED_CHARS: usize = 60;
+
+/// A name or other input text as quoted in messages: at most [`MAX_QUOTED_CHARS`] characters,
+/// longer text cut with `…` and its length, and control characters (line breaks…) shown as
+/// `\u{..}` escapes, so that a message stays one short line.
+///
+/// ```
+/// use gonio_uncertainty::short;
+/// assert_eq!(short("autocollimator"), "autocollimator");
+/// let long = "x".repeat(65_536);
+/// assert_eq!(short(&long), format!("{}… (65536 characters)", "x".repeat(40)));
+/// assert_eq!(short("a\nb"), "a\\u{a}b");
+/// ```
+pub fn short(text: &str) -> String {
+    let escape = |c: char, out: &mut String| {
+        if c.is_control() {
+            out.push_str(&c.escape_unicode().to_string());
+        } else {
+            out.push(c);
+        }
+    };
+    let mut out = String::new();
+    let n = text.chars().count();
+    if n <= MAX_QUOTED_CHARS {
+        text.chars().for_each(|c| escape(c, &mut out));
+    } else {
+        text.chars().take(40).for_each(|c| escape(c, &mut out));
+        out.push_str(&format!("… ({n} characters)"));
+    }
+    out
+}
+
+fn place(budget: &str, contribution: &Option<String>) -> String {
+    match (budget.is_empty(), contribution) {
+        (true, None) => String::new(),
+        (true, Some(c)) => format!("contribution '{}': ", short(c)),
+        (false, None) => format!("budget '{}': ", short(budget)),
+        (false, Some(c)) => format!("budget '{}', contribution '{}': ", short(budget), short(c)),
+    }
 }
 
 /// Checks a coverage probability: 0 < p < 1.

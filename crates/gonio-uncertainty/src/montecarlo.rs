@@ -24,7 +24,8 @@
 //! assert!((r.std_uncertainty - 2f64.sqrt()).abs() < 0.01);
 //! ```
 
-use crate::{UncertaintyError, check_coverage};
+use crate::envelope::Envelope;
+use crate::{UncertaintyError, check_coverage, limits};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal, StudentT};
@@ -96,6 +97,19 @@ impl InputDistribution {
             InputDistribution::Triangular { half_width, .. } => half_width / 6f64.sqrt(),
             InputDistribution::Arcsine { half_width, .. } => half_width / 2f64.sqrt(),
             InputDistribution::StudentT { scale, .. } => scale,
+        }
+    }
+
+    /// A bound of |x| over the draws: the end of the support for the bounded shapes, 40 standard
+    /// uncertainties beyond the mean for the normal and the t (draws beyond it are possible for
+    /// the t but not expected; a run that meets one still fails cleanly).
+    pub(crate) fn reach(&self) -> f64 {
+        match *self {
+            InputDistribution::Rectangular { mean, half_width }
+            | InputDistribution::Triangular { mean, half_width }
+            | InputDistribution::Arcsine { mean, half_width } => mean.abs() + half_width,
+            InputDistribution::Normal { mean, sd } => mean.abs() + 40.0 * sd,
+            InputDistribution::StudentT { mean, scale, .. } => mean.abs() + 40.0 * scale,
         }
     }
 
@@ -253,39 +267,6 @@ pub fn numerical_tolerance(u: f64, ndig: u32) -> f64 {
     0.5 * 10f64.powi(l)
 }
 
-/// Lower Cholesky factor in place (row-major n×n); `None` if not positive semi-definite.
-/// Zero pivots (perfect correlation) are allowed.
-pub(crate) fn cholesky(m: &mut [f64], n: usize) -> Option<()> {
-    for j in 0..n {
-        let mut d = m[j * n + j];
-        for k in 0..j {
-            d -= m[j * n + k] * m[j * n + k];
-        }
-        if d < -1e-10 {
-            return None;
-        }
-        let d = d.max(0.0).sqrt();
-        m[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = m[i * n + j];
-            for k in 0..j {
-                s -= m[i * n + k] * m[j * n + k];
-            }
-            m[i * n + j] = if d > 0.0 {
-                s / d
-            } else if s.abs() < 1e-10 {
-                0.0
-            } else {
-                return None;
-            };
-        }
-        for k in j + 1..n {
-            m[j * n + k] = 0.0;
-        }
-    }
-    Some(())
-}
-
 /// (q, r) of JCGM 101 §7.7: q values cover p; the symmetric interval starts at the r-th (1-based).
 fn interval_indices(m: usize, p: f64) -> (usize, usize) {
     let pm = p * m as f64;
@@ -303,7 +284,27 @@ fn interval_indices(m: usize, p: f64) -> (usize, usize) {
     (q, r.max(1))
 }
 
-/// Intervals from sorted values.
+/// Puts in place the order statistics that the coverage intervals read: the m − q smallest values
+/// in order at the start and the m − q largest in order at the end (m values, q of them covering
+/// p). The middle is left partitioned but unsorted: a selection (`select_nth_unstable`) and two
+/// sorts of 5 % of the values each at p = 95 %, instead of a sort of all of them. The values at
+/// those indices are exactly those of a full sort.
+fn order_tails(v: &mut [f64], q: usize) {
+    let m = v.len();
+    let k = m - q;
+    if k == 0 || 2 * k >= m {
+        v.sort_unstable_by(f64::total_cmp);
+        return;
+    }
+    v.select_nth_unstable_by(k, f64::total_cmp);
+    v[..k].sort_unstable_by(f64::total_cmp);
+    if q > k {
+        v[k + 1..].select_nth_unstable_by(q - k - 1, f64::total_cmp);
+    }
+    v[q + 1..].sort_unstable_by(f64::total_cmp);
+}
+
+/// Intervals from values ordered by [`order_tails`] (or fully sorted).
 fn intervals(sorted: &[f64], p: f64) -> (Interval, Interval) {
     let m = sorted.len();
     let (q, r) = interval_indices(m, p);
@@ -325,10 +326,17 @@ fn intervals(sorted: &[f64], p: f64) -> (Interval, Interval) {
     (sym, shortest)
 }
 
-fn mean_sd(v: &[f64]) -> (f64, f64) {
+/// Coverage intervals of `values`, which are reordered.
+fn intervals_of(values: &mut [f64], p: f64) -> (Interval, Interval) {
+    let (q, _) = interval_indices(values.len(), p);
+    order_tails(values, q);
+    intervals(values, p)
+}
+
+fn mean_sd_plain(v: &[f64], scale: f64) -> (f64, f64) {
     let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let ss: f64 = v.iter().map(|x| (x - mean).powi(2)).sum();
+    let mean = v.iter().map(|x| x * scale).sum::<f64>() / n;
+    let ss: f64 = v.iter().map(|x| (x * scale - mean).powi(2)).sum();
     (
         mean,
         if v.len() > 1 {
@@ -339,45 +347,62 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     )
 }
 
-fn sort(v: &mut [f64]) {
-    v.sort_unstable_by(f64::total_cmp);
+/// Mean and sample standard deviation. When the sums would overflow (values beyond about
+/// 1e150), the values are scaled by a power of two first, which is exact.
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let (mean, sd) = mean_sd_plain(v, 1.0);
+    if mean.is_finite() && sd.is_finite() {
+        return (mean, sd);
+    }
+    let big = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    if !big.is_finite() || big == 0.0 {
+        return (mean, sd);
+    }
+    let e = big.log2().ceil() as i32;
+    let (mean, sd) = mean_sd_plain(v, 2f64.powi(-e));
+    let back = 2f64.powi(e);
+    (mean * back, sd * back)
 }
 
-/// The sampler: inputs, the correlated group's Cholesky factor, and reusable buffers.
+/// The sampler: inputs, the correlated group's Cholesky factor (envelope storage), and reusable
+/// buffers.
 struct Sampler<'a> {
     inputs: &'a [InputDistribution],
-    /// Indices of the correlated inputs and the lower Cholesky factor of their correlation matrix.
+    /// Whether each input is drawn as part of the correlated group.
+    in_group: Vec<bool>,
+    /// Indices of the correlated inputs (ascending) and the lower Cholesky factor of their
+    /// correlation matrix.
     group: Vec<usize>,
-    chol: Vec<f64>,
+    chol: Option<Envelope>,
+    z: Vec<f64>,
     columns: Vec<f64>,
     rng: ChaCha20Rng,
 }
 
 impl Sampler<'_> {
-    /// Draws `m` trials into column-major `columns` (input i at `i*m..(i+1)*m`).
+    /// Draws `m` trials into column-major `columns` (input i at `i*m..(i+1)*m`): each independent
+    /// input's column in turn, then the correlated group trial by trial.
     fn draw(&mut self, m: usize) {
         let n = self.inputs.len();
         self.columns.resize(n * m, 0.0);
         for (i, d) in self.inputs.iter().enumerate() {
-            if !self.group.contains(&i) {
+            if !self.in_group[i] {
                 d.fill(&mut self.rng, &mut self.columns[i * m..(i + 1) * m]);
             }
         }
-        let g = self.group.len();
-        if g > 0 {
-            let mut z = vec![0.0; g];
-            for j in 0..m {
-                for zk in z.iter_mut() {
-                    *zk = StandardNormal.sample(&mut self.rng);
+        let Some(chol) = &self.chol else { return };
+        for j in 0..m {
+            for zk in self.z.iter_mut() {
+                *zk = StandardNormal.sample(&mut self.rng);
+            }
+            for (a, &i) in self.group.iter().enumerate() {
+                let (first, row) = chol.row(a);
+                let mut s = 0.0;
+                for (l, zb) in row.iter().zip(&self.z[first..]) {
+                    s += l * zb;
                 }
-                for (a, &i) in self.group.iter().enumerate() {
-                    let mut s = 0.0;
-                    for (b, zb) in z.iter().enumerate().take(a + 1) {
-                        s += self.chol[a * g + b] * zb;
-                    }
-                    let d = &self.inputs[i];
-                    self.columns[i * m + j] = d.mean() + d.std_uncertainty() * s;
-                }
+                let d = &self.inputs[i];
+                self.columns[i * m + j] = d.mean() + d.std_uncertainty() * s;
             }
         }
     }
@@ -389,7 +414,9 @@ impl Sampler<'_> {
 /// # Errors
 /// [`UncertaintyError::MonteCarlo`] for no inputs, an invalid distribution or trial count, a
 /// non-finite model value, or a bad correlation; [`UncertaintyError::BadCoverage`];
-/// [`UncertaintyError::NotPositiveDefinite`].
+/// [`UncertaintyError::NotPositiveDefinite`]; [`UncertaintyError::TooLarge`] beyond
+/// [`limits::MAX_MC_DRAWS`] or [`limits::MAX_CORRELATION_ENVELOPE`];
+/// [`UncertaintyError::NonFinite`] when u(y) overflows.
 pub fn monte_carlo<F>(
     inputs: &[InputDistribution],
     correlations: &[(usize, usize, f64)],
@@ -402,7 +429,9 @@ where
     monte_carlo_with_progress(inputs, correlations, model, cfg, |_| {})
 }
 
-/// As [`monte_carlo`], calling `progress(trials_so_far)` after every batch.
+/// As [`monte_carlo`], calling `progress(trials_so_far)` as the trials are drawn: after every
+/// chunk of at most 16,384 trials (fewer for models of more than 256 inputs, see
+/// [`limits::MAX_MC_BUFFER`]).
 ///
 /// # Errors
 /// As [`monte_carlo`].
@@ -411,11 +440,148 @@ pub fn monte_carlo_with_progress<F, P>(
     correlations: &[(usize, usize, f64)],
     model: F,
     cfg: &McConfig,
-    mut progress: P,
+    progress: P,
 ) -> Result<McResult, UncertaintyError>
 where
     F: Fn(&[f64]) -> f64,
     P: FnMut(usize),
+{
+    let n = inputs.len();
+    let mut x = vec![0.0; n];
+    run(
+        inputs,
+        correlations,
+        cfg,
+        progress,
+        |cols: &[f64], m: usize, out: &mut Vec<f64>| {
+            for j in 0..m {
+                for (i, xi) in x.iter_mut().enumerate() {
+                    *xi = cols[i * m + j];
+                }
+                out.push(model(&x));
+            }
+        },
+    )
+}
+
+/// Monte Carlo for the linear model y = Σ c_i x_i, evaluated a chunk of trials at a time, column
+/// by column (the same sums, in the same order, as `x.iter().zip(c).map(|(x, c)| x * c).sum()`
+/// per trial, so the results are those of [`monte_carlo`] with that closure, bit for bit).
+pub(crate) fn monte_carlo_linear<P: FnMut(usize)>(
+    inputs: &[InputDistribution],
+    correlations: &[(usize, usize, f64)],
+    coefficients: &[f64],
+    cfg: &McConfig,
+    progress: P,
+) -> Result<McResult, UncertaintyError> {
+    if coefficients.len() != inputs.len() {
+        return Err(UncertaintyError::MonteCarlo {
+            what: format!(
+                "{} coefficients for {} inputs",
+                coefficients.len(),
+                inputs.len()
+            ),
+        });
+    }
+    run(
+        inputs,
+        correlations,
+        cfg,
+        progress,
+        |cols: &[f64], m: usize, out: &mut Vec<f64>| {
+            let start = out.len();
+            let c0 = coefficients[0];
+            out.extend(cols[..m].iter().map(|x| x * c0));
+            let y = &mut out[start..];
+            for (i, &ci) in coefficients.iter().enumerate().skip(1) {
+                for (yj, x) in y.iter_mut().zip(&cols[i * m..(i + 1) * m]) {
+                    *yj += x * ci;
+                }
+            }
+        },
+    )
+}
+
+/// The number of draws and correlation products per trial: the inputs, plus the off-diagonal
+/// entries of the correlated group's Cholesky factor (its envelope). `Err` when the envelope is
+/// beyond [`limits::MAX_CORRELATION_ENVELOPE`]. Also returns the group and its correlation
+/// matrix (not yet factorised).
+#[allow(clippy::type_complexity)]
+fn correlated_group(
+    n: usize,
+    correlations: &[(usize, usize, f64)],
+) -> Result<(Vec<usize>, Option<Envelope>, u64), UncertaintyError> {
+    let mut slot = vec![usize::MAX; n];
+    let mut group: Vec<usize> = Vec::new();
+    for &(i, j, r) in correlations {
+        if i >= n || j >= n || i == j || r.is_nan() || r.abs() > 1.0 {
+            return Err(UncertaintyError::MonteCarlo {
+                what: format!("bad correlation ({i}, {j}, {r}) for {n} inputs"),
+            });
+        }
+        for k in [i, j] {
+            if slot[k] == usize::MAX {
+                slot[k] = 0;
+                group.push(k);
+            }
+        }
+    }
+    if group.is_empty() {
+        return Ok((group, None, n as u64));
+    }
+    group.sort_unstable();
+    for (a, &k) in group.iter().enumerate() {
+        slot[k] = a;
+    }
+    let pairs: Vec<(usize, usize, f64)> = correlations
+        .iter()
+        .map(|&(i, j, r)| (slot[i], slot[j], r))
+        .collect();
+    let g = group.len();
+    let env = Envelope::correlation(g, &pairs, limits::MAX_CORRELATION_ENVELOPE).map_err(
+        |entries| UncertaintyError::TooLarge {
+            budget: None,
+            what: "Monte Carlo: the correlation matrix's envelope (for each correlated input, the entries from its first correlated input to itself)".into(),
+            found: entries as u64,
+            limit: limits::MAX_CORRELATION_ENVELOPE as u64,
+            hint: "; list correlated rows next to each other".into(),
+        },
+    )?;
+    let work = n as u64 + (env.entries() - g) as u64;
+    Ok((group, Some(env), work))
+}
+
+/// The most trials a run of these inputs may use: [`MAX_TRIALS`], and at most
+/// [`limits::MAX_MC_DRAWS`] draws and correlation products in all.
+///
+/// # Errors
+/// A bad correlation, or one beyond [`limits::MAX_CORRELATION_ENVELOPE`].
+///
+/// ```
+/// use gonio_uncertainty::montecarlo::{InputDistribution, max_trials};
+/// let inputs = vec![InputDistribution::Normal { mean: 0.0, sd: 1.0 }; 10_000];
+/// assert_eq!(max_trials(&inputs, &[]).unwrap(), 200_000);
+/// ```
+pub fn max_trials(
+    inputs: &[InputDistribution],
+    correlations: &[(usize, usize, f64)],
+) -> Result<usize, UncertaintyError> {
+    let (_, _, work) = correlated_group(inputs.len(), correlations)?;
+    Ok(MAX_TRIALS.min((limits::MAX_MC_DRAWS / work.max(1)) as usize))
+}
+
+/// The engine: draws chunks of trials and lets `eval(columns, m, values)` append the m model
+/// values of each chunk.
+fn run<P, E>(
+    inputs: &[InputDistribution],
+    correlations: &[(usize, usize, f64)],
+    cfg: &McConfig,
+    mut progress: P,
+    mut eval: E,
+) -> Result<McResult, UncertaintyError>
+where
+    P: FnMut(usize),
+    E: FnMut(&[f64], usize, &mut Vec<f64>),
 {
     let p = check_coverage(cfg.coverage)?;
     let n = inputs.len();
@@ -427,37 +593,28 @@ where
     for (i, d) in inputs.iter().enumerate() {
         d.check(i)?;
     }
-    // The correlated group.
-    let mut group: Vec<usize> = Vec::new();
-    for &(i, j, r) in correlations {
-        if i >= n || j >= n || i == j || r.is_nan() || r.abs() > 1.0 {
-            return Err(UncertaintyError::MonteCarlo {
-                what: format!("bad correlation ({i}, {j}, {r}) for {n} inputs"),
-            });
-        }
-        for k in [i, j] {
-            if !group.contains(&k) {
-                group.push(k);
+    let (group, chol, work) = correlated_group(n, correlations)?;
+    let chol = match chol {
+        Some(mut c) => {
+            if c.cholesky().is_none() {
+                return Err(UncertaintyError::NotPositiveDefinite {
+                    context: "Monte Carlo inputs".into(),
+                });
             }
+            Some(c)
         }
-    }
-    group.sort_unstable();
-    let g = group.len();
-    let mut chol = vec![0.0; g * g];
-    for a in 0..g {
-        chol[a * g + a] = 1.0;
-    }
-    for &(i, j, r) in correlations {
-        let a = group.iter().position(|&x| x == i).unwrap_or(0);
-        let b = group.iter().position(|&x| x == j).unwrap_or(0);
-        chol[a * g + b] = r;
-        chol[b * g + a] = r;
-    }
-    if g > 0 && cholesky(&mut chol, g).is_none() {
-        return Err(UncertaintyError::NotPositiveDefinite {
-            context: "Monte Carlo inputs".into(),
-        });
-    }
+        None => None,
+    };
+    let draw_limit = MAX_TRIALS.min((limits::MAX_MC_DRAWS / work.max(1)) as usize);
+    let too_many = |trials: usize, what: &str| UncertaintyError::TooLarge {
+        budget: None,
+        what: format!(
+            "Monte Carlo: {what} ({trials} trials × {work} draws and correlation products per trial, {n} inputs)"
+        ),
+        found: trials as u64 * work,
+        limit: limits::MAX_MC_DRAWS,
+        hint: format!("; use at most {draw_limit} trials, or fewer rows"),
+    };
     let min_batch = ((1.0 / (1.0 - p)).ceil() as usize).max(2);
     let (batch, fixed_total, max_trials) = match cfg.trials {
         McTrials::Fixed(m) => {
@@ -473,6 +630,9 @@ where
                     what: format!("{m} trials is more than the limit of {MAX_TRIALS}"),
                 });
             }
+            if m as u64 * work > limits::MAX_MC_DRAWS {
+                return Err(too_many(m, "the draws of the trials asked for"));
+            }
             (m.min(16_384), Some(m), m)
         }
         McTrials::Adaptive { max_trials } => {
@@ -485,18 +645,32 @@ where
                     ),
                 });
             }
-            (b, None, max_trials)
+            if (2 * b) as u64 * work > limits::MAX_MC_DRAWS {
+                return Err(too_many(
+                    2 * b,
+                    "the first two batches of the adaptive procedure",
+                ));
+            }
+            (b, None, max_trials.min(draw_limit))
         }
     };
+    // Chunks of trials drawn at once: the whole batch unless the buffer of n columns would exceed
+    // MAX_MC_BUFFER values.
+    let chunk = batch.min((limits::MAX_MC_BUFFER / n).max(1));
     let mut sampler = Sampler {
         inputs,
+        in_group: {
+            let mut v = vec![false; n];
+            group.iter().for_each(|&i| v[i] = true);
+            v
+        },
+        z: vec![0.0; group.len()],
         group,
         chol,
         columns: Vec::new(),
         rng: ChaCha20Rng::seed_from_u64(cfg.seed),
     };
     let mut values: Vec<f64> = Vec::with_capacity(fixed_total.unwrap_or(4 * batch));
-    let mut x = vec![0.0; n];
     let mut scratch: Vec<f64> = Vec::with_capacity(batch);
     // Per-batch statistics for the adaptive stop: mean, u, symmetric and shortest end points.
     let mut stats: Vec<[f64; 6]> = Vec::new();
@@ -512,30 +686,33 @@ where
         if todo == 0 {
             break;
         }
-        sampler.draw(todo);
         let start = values.len();
-        let cols = &sampler.columns;
-        for j in 0..todo {
-            for (i, xi) in x.iter_mut().enumerate() {
-                *xi = cols[i * todo + j];
+        let mut done = 0;
+        while done < todo {
+            let m = chunk.min(todo - done);
+            sampler.draw(m);
+            let at = values.len();
+            eval(&sampler.columns, m, &mut values);
+            if let Some(k) = values[at..].iter().position(|v| !v.is_finite()) {
+                return Err(UncertaintyError::MonteCarlo {
+                    what: format!(
+                        "trial {}: the measurement function returned {} (an input draw or the model overflowed)",
+                        at + k + 1,
+                        values[at + k]
+                    ),
+                });
             }
-            values.push(model(&x));
-        }
-        if let Some(bad) = values[start..].iter().find(|v| !v.is_finite()) {
-            return Err(UncertaintyError::MonteCarlo {
-                what: format!("the measurement function returned {bad}"),
-            });
+            done += m;
+            progress(values.len());
         }
         batches += 1;
-        progress(values.len());
         if fixed_total.is_some() {
             continue;
         }
         scratch.clear();
         scratch.extend_from_slice(&values[start..]);
         let (m, s) = mean_sd(&scratch);
-        sort(&mut scratch);
-        let (sym, short) = intervals(&scratch, p);
+        let (sym, short) = intervals_of(&mut scratch, p);
         stats.push([m, s, sym.low, sym.high, short.low, short.high]);
         // Running mean and sum of squared deviations of all values (Chan et al.'s update).
         let nb = todo as f64;
@@ -563,8 +740,16 @@ where
         }
     }
     let (estimate, std_uncertainty) = mean_sd(&values);
-    sort(&mut values);
-    let (symmetric, shortest) = intervals(&values, p);
+    if !(estimate.is_finite() && std_uncertainty.is_finite()) {
+        return Err(UncertaintyError::NonFinite {
+            budget: String::new(),
+            contribution: None,
+            quantity: format!(
+                "the Monte Carlo estimate y = {estimate:e} or its standard uncertainty u(y) = {std_uncertainty:e}"
+            ),
+        });
+    }
+    let (symmetric, shortest) = intervals_of(&mut values, p);
     Ok(McResult {
         estimate,
         std_uncertainty,

@@ -1,13 +1,19 @@
 //! `gonio budget`: evaluate a GUM uncertainty budget file (TOML), optionally with Monte Carlo.
 
 use crate::io;
-use crate::table::{dof_text, sig, summary_line, text_table, unit};
+use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
+use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use gonio_uncertainty::montecarlo::{McConfig, McResult, McTrials, Validation, validate};
-use gonio_uncertainty::{BudgetResult, BudgetSet, Source, parse_budget_file};
+use gonio_uncertainty::{BudgetFile, BudgetResult, UncertaintyError, short};
 use serde::Serialize;
+use std::collections::HashSet;
 use std::fmt::Write as _;
+use std::io::IsTerminal;
 use std::path::PathBuf;
+
+/// Default upper limit of the adaptive Monte Carlo procedure, in trials.
+const ADAPTIVE_MAX_TRIALS: usize = 10_000_000;
 
 /// Arguments of `gonio budget`.
 #[derive(Debug, clap::Args)]
@@ -77,7 +83,7 @@ pub fn run(args: Args) -> Result<()> {
     if !matches!(format.as_str(), "text" | "markdown" | "md" | "csv") {
         bail!(
             "--format: expected text, markdown or csv, found '{}'",
-            args.format
+            short(&args.format)
         );
     }
     if let Some(p) = args.coverage
@@ -85,113 +91,177 @@ pub fn run(args: Args) -> Result<()> {
     {
         bail!("--coverage: expected a probability strictly between 0 and 1 (e.g. 0.95), found {p}");
     }
-    let text = io::read_text(&args.budget)?;
-    let set = parse_budget_file(&text).map_err(|e| anyhow!("{file}:{e}"))?;
+    let bytes = io::read_bytes(&args.budget, MAX_FILE_BYTES)?;
+    let parsed = BudgetFile::parse_bytes(&bytes).map_err(|e| anyhow!("{file}:{e}"))?;
+    drop(bytes);
+    // An error found after parsing, at its line and column when it concerns the file.
+    let located = |e: UncertaintyError| match parsed.locate(&e) {
+        Some((line, col)) => anyhow!("{file}:{line}:{col}: {e}"),
+        None => anyhow!("{file}: {e}"),
+    };
+    let set = &parsed.set;
     let selected = set
         .select(args.name.as_deref())
         .map_err(|_| {
-            let names: Vec<&str> = set.budgets.iter().map(|b| b.name.as_str()).collect();
+            const LISTED: usize = 10;
+            let mut names: Vec<String> = set
+                .budgets
+                .iter()
+                .take(LISTED)
+                .map(|b| short(&b.name))
+                .collect();
+            if set.budgets.len() > LISTED {
+                names.push(format!("… ({} budgets)", set.budgets.len()));
+            }
             anyhow!(
                 "--budget: no budget named '{}' in {file}; the file has: {}",
-                args.name.as_deref().unwrap_or(""),
+                short(args.name.as_deref().unwrap_or("")),
                 names.join(", ")
             )
         })?
         .name
         .clone();
-    let all = set
-        .evaluate_all(args.coverage)
-        .map_err(|e| anyhow!("{file}: {e}"))?;
-    let shown = dependencies(&set, &selected);
+    let all = set.evaluate_all(args.coverage).map_err(located)?;
+    let shown: HashSet<&str> = set
+        .dependencies(Some(&selected))
+        .map_err(located)?
+        .into_iter()
+        .collect();
     let result = all
         .iter()
         .find(|r| r.name == selected)
-        .ok_or_else(|| anyhow!("{file}: budget '{selected}' was not evaluated"))?;
+        .ok_or_else(|| anyhow!("{file}: budget '{}' was not evaluated", short(&selected)))?;
 
     let mc = if args.monte_carlo {
+        let model = set.linear_model(Some(&selected)).map_err(located)?;
+        let limit = model.max_trials().map_err(located)?;
+        let (trials, total) = match args.trials {
+            Some(n) => (McTrials::Fixed(n), n),
+            None => {
+                let max = ADAPTIVE_MAX_TRIALS.min(limit);
+                (McTrials::Adaptive { max_trials: max }, max)
+            }
+        };
         let cfg = McConfig {
             coverage: result.coverage,
             seed: args.seed,
             ndig: args.ndig,
-            trials: match args.trials {
-                Some(n) => McTrials::Fixed(n),
-                None => McTrials::Adaptive {
-                    max_trials: 10_000_000,
-                },
-            },
+            trials,
         };
-        let model = set
-            .linear_model(Some(&selected))
-            .map_err(|e| anyhow!("{file}: {e}"))?;
+        let bar = progress_bar(total, args.trials.is_none(), model.inputs.len());
         let r = model
-            .monte_carlo(&cfg)
-            .map_err(|e| anyhow!("{file}: {e}"))?;
+            .monte_carlo_with_progress(&cfg, |t| bar.set_position(t as u64))
+            .map_err(located);
+        bar.finish_and_clear();
+        let r = r?;
         let v = validate(result.value, result.u_c, result.expanded, &r, args.ndig);
-        Some(McJson {
-            result: r,
-            validation: v,
-            reported: if v.passed { "GUM" } else { "Monte Carlo" },
-        })
+        if !(v.d_low.is_finite() && v.d_high.is_finite()) {
+            bail!(
+                "{file}: the GUM–Monte Carlo comparison overflows (y ± U = {:e} ± {:e})",
+                result.value,
+                result.expanded
+            );
+        }
+        Some((
+            McJson {
+                result: r,
+                validation: v,
+                reported: if v.passed { "GUM" } else { "Monte Carlo" },
+            },
+            (args.trials.is_none() && limit < ADAPTIVE_MAX_TRIALS).then_some(limit),
+        ))
     } else {
         None
     };
 
     let mut out = String::new();
-    for r in all.iter().filter(|r| shown.contains(&r.name)) {
+    for r in all.iter().filter(|r| shown.contains(r.name.as_str())) {
         match format.as_str() {
             "csv" => csv_table(&mut out, r),
             "markdown" | "md" => markdown_table(&mut out, r),
             _ => text_table(&mut out, r),
         }
     }
-    if let Some(m) = &mc {
-        mc_summary(&mut out, m, result, format.as_str());
+    if let Some((m, capped)) = &mc {
+        mc_summary(&mut out, m, *capped, result, format.as_str());
+    }
+
+    let output = Output {
+        file: file.clone(),
+        budget: &selected,
+        result,
+        budgets: &all,
+        monte_carlo: mc.map(|(m, _)| m),
+    };
+    if args.json.is_some()
+        && let Some(at) = find_null(&serde_json::to_value(&output)?, "")
+    {
+        bail!(
+            "{file}: internal error: a number that is not finite reached the JSON output at {at}; nothing was written"
+        );
     }
     io::write_atomic(std::path::Path::new("-"), out.as_bytes())?;
-
     if let Some(path) = &args.json {
-        io::write_json(
-            path,
-            &Output {
-                file: file.clone(),
-                budget: &selected,
-                result,
-                budgets: &all,
-                monte_carlo: mc,
-            },
-        )?;
+        io::write_json(path, &output)?;
     }
     Ok(())
 }
 
-/// The selected budget and every budget it refers to (transitively), by name.
-fn dependencies(set: &BudgetSet, name: &str) -> Vec<String> {
-    let mut out = vec![name.to_string()];
-    let mut i = 0;
-    while i < out.len() {
-        if let Some(b) = set.budgets.iter().find(|b| b.name == out[i]) {
-            for c in &b.contributions {
-                if let Source::Budget { name } = &c.source
-                    && !out.contains(name)
-                {
-                    out.push(name.clone());
-                }
-            }
-        }
-        i += 1;
+/// A progress bar on standard error for a Monte Carlo run of `total` trials (the upper limit of
+/// an adaptive run), drawn only when standard error is a terminal.
+fn progress_bar(total: usize, adaptive: bool, inputs: usize) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
     }
-    out
+    let bar = indicatif::ProgressBar::new(total as u64);
+    let what = if adaptive {
+        "trials (adaptive: stops when stable, at most {len})"
+    } else {
+        "/{len} trials"
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "Monte Carlo, {inputs} inputs: {{bar:30}} {{pos}} {what} {{elapsed}}"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// The path of the first `null` in a JSON value (every number gonio writes must be finite; serde
+/// writes NaN and ∞ as null).
+fn find_null(v: &serde_json::Value, path: &str) -> Option<String> {
+    match v {
+        serde_json::Value::Null => Some(if path.is_empty() {
+            "/".into()
+        } else {
+            path.into()
+        }),
+        serde_json::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, x)| find_null(x, &format!("{path}/{i}"))),
+        serde_json::Value::Object(o) => o
+            .iter()
+            .find_map(|(k, x)| find_null(x, &format!("{path}/{k}"))),
+        _ => None,
+    }
 }
 
 fn markdown_table(out: &mut String, r: &BudgetResult) {
-    let _ = writeln!(out, "### {}{}\n", r.name, unit(r).replace(' ', " in "));
+    let _ = writeln!(
+        out,
+        "### {}{}\n",
+        display_name(&r.name),
+        unit(r).replace(' ', " in ")
+    );
     let _ = writeln!(out, "| contribution | u | c | \\|c·u\\| | ν | share |");
     let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|");
     for c in &r.contributions {
         let _ = writeln!(
             out,
             "| {} | {} | {} | {} | {} | {:.1} % |",
-            c.name.replace('|', "\\|"),
+            display_name(&c.name).replace('|', "\\|"),
             sig(c.u, 4),
             sig(c.c, 4),
             sig(c.cu, 4),
@@ -240,7 +310,15 @@ fn csv_table(out: &mut String, r: &BudgetResult) {
     );
 }
 
-fn mc_summary(out: &mut String, m: &McJson, gum: &BudgetResult, format: &str) {
+/// The Monte Carlo summary; `capped`: the adaptive run's trial limit when the model's size lowered
+/// it below the default 10⁷.
+fn mc_summary(
+    out: &mut String,
+    m: &McJson,
+    capped: Option<usize>,
+    gum: &BudgetResult,
+    format: &str,
+) {
     let r = &m.result;
     let v = &m.validation;
     let p = if format == "csv" { "# " } else { "" };
@@ -252,12 +330,17 @@ fn mc_summary(out: &mut String, m: &McJson, gum: &BudgetResult, format: &str) {
         r.batches,
         if r.batches > 1 || r.converged {
             if r.converged {
-                "adaptive, converged"
+                "adaptive, converged".to_string()
             } else {
-                "adaptive, NOT converged at the trial limit"
+                match capped {
+                    Some(limit) => format!(
+                        "adaptive, NOT converged at the trial limit of {limit} (for this many inputs)"
+                    ),
+                    None => "adaptive, NOT converged at the trial limit".to_string(),
+                }
             }
         } else {
-            "fixed"
+            "fixed".to_string()
         },
         r.seed,
         sig(r.tolerance, 1),

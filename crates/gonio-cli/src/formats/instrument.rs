@@ -10,8 +10,9 @@ use std::path::Path;
 pub fn load(path: Option<&Path>, coverage: Option<f64>) -> Result<Instrument> {
     let inst = match path {
         Some(p) => {
-            let text = crate::io::read_text(p)?;
-            let file = InstrumentFile::parse(&text).map_err(|e| anyhow!("{}:{e}", p.display()))?;
+            let bytes = crate::io::read_bytes(p, gonio_uncertainty::limits::MAX_FILE_BYTES)?;
+            let file =
+                InstrumentFile::parse_bytes(&bytes).map_err(|e| anyhow!("{}:{e}", p.display()))?;
             Instrument::new(file, Some(p.display().to_string()))
         }
         None => Instrument::default(),

@@ -101,9 +101,14 @@ pub fn truncate_dof(nu: f64) -> f64 {
 /// Combines terms with optional correlations `(i, j, r_ij)` (indices into `terms`, i ≠ j) into
 /// u_c, ν_eff, k and U at coverage p.
 ///
+/// The correlation sum runs over the listed pairs only (a sparse combination): the work is
+/// linear in the number of terms plus the number of correlations.
+///
 /// # Errors
 /// [`UncertaintyError::BadCoverage`] for p outside (0, 1);
-/// [`UncertaintyError::NotPositiveDefinite`] when correlations make u_c² negative.
+/// [`UncertaintyError::NotPositiveDefinite`] when correlations make u_c² negative;
+/// [`UncertaintyError::BadParameter`] for a correlation index out of range;
+/// [`UncertaintyError::NonFinite`] when c·u, u_c, k or U overflows (it names the quantity).
 ///
 /// ```
 /// use gonio_uncertainty::{Term, combine};
@@ -119,6 +124,31 @@ pub fn combine(
     coverage: f64,
 ) -> Result<Combined, UncertaintyError> {
     check_coverage(coverage)?;
+    let overflow = |quantity: String| UncertaintyError::NonFinite {
+        budget: String::new(),
+        contribution: None,
+        quantity,
+    };
+    for (i, t) in terms.iter().enumerate() {
+        if !(t.c * t.u).is_finite() {
+            return Err(overflow(format!(
+                "|c·u| of term {i} = |{:e} × {:e}|",
+                t.c, t.u
+            )));
+        }
+    }
+    if let Some(&(i, j, _)) = correlations
+        .iter()
+        .find(|&&(i, j, _)| i >= terms.len() || j >= terms.len())
+    {
+        return Err(UncertaintyError::BadParameter {
+            name: "combination".into(),
+            what: format!(
+                "correlation ({i}, {j}) refers to a term beyond the {} given",
+                terms.len()
+            ),
+        });
+    }
     // Work in units of the largest |c·u| so that squares cannot overflow or underflow.
     let scale = terms
         .iter()
@@ -140,6 +170,27 @@ pub fn combine(
         });
     }
     let u_c = s * var.max(0.0).sqrt();
+    if !u_c.is_finite() {
+        return Err(overflow(format!(
+            "u_c = √Σ(c·u)² = {s:e} × {}",
+            var.max(0.0).sqrt()
+        )));
+    }
+    finish(terms, u_c, coverage)
+}
+
+/// ν_eff (Welch–Satterthwaite over the terms), k and U for a combined standard uncertainty u_c
+/// computed by the caller.
+pub(crate) fn finish(
+    terms: &[Term],
+    u_c: f64,
+    coverage: f64,
+) -> Result<Combined, UncertaintyError> {
+    let overflow = |quantity: String| UncertaintyError::NonFinite {
+        budget: String::new(),
+        contribution: None,
+        quantity,
+    };
     // ν_eff = u_c⁴ / Σ (c u)⁴/ν, with every term divided by u_c first so that no power overflows.
     let denom: f64 = if u_c > 0.0 {
         terms
@@ -157,6 +208,14 @@ pub fn combine(
     };
     let nu_eff = truncate_dof(nu_eff_raw);
     let k = coverage_factor(coverage, nu_eff);
+    if !k.is_finite() {
+        return Err(overflow(format!(
+            "the coverage factor k = t_p(ν_eff) for p = {coverage} and ν_eff = {nu_eff:e}"
+        )));
+    }
+    if !(k * u_c).is_finite() {
+        return Err(overflow(format!("U = k·u_c = {k:.4} × {u_c:e}")));
+    }
     Ok(Combined {
         u_c,
         nu_eff,

@@ -29,6 +29,7 @@ mod combine;
 mod contribution;
 mod model;
 mod set;
+mod shared;
 
 pub use combine::{
     Combined, Term, combine, deserialize_dof, deserialize_opt_dof, en, gum_for_model,

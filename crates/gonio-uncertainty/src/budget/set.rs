@@ -1,10 +1,20 @@
 //! Budgets and sets of budgets that refer to each other by name: evaluation of every budget,
 //! nested references resolved first.
+//!
+//! Everything here is linear in the size of the set: names are looked up through hash maps, the
+//! reference graph is walked without recursion (no stack overflow on a chain of 10,000 nested
+//! budgets), each budget is evaluated once however often it is referred to (a "diamond" of 60
+//! levels, each referring twice to the next, is 61 evaluations, not 2⁶⁰), and correlations are
+//! checked through the envelope of their matrix ([`crate::limits`]).
 
+use super::combine::finish;
+use super::shared::shared_u_c;
 use super::{Contribution, Source, Term, combine, deserialize_dof, serialize_dof};
-use crate::{UncertaintyError, check_coverage};
+use crate::envelope::Envelope;
+use crate::limits::{MAX_BUDGETS, MAX_CORRELATION_ENVELOPE, MAX_CORRELATIONS, MAX_ROWS};
+use crate::{UncertaintyError, check_coverage, short};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// A correlation coefficient r between two contributions of the same budget, by name.
 #[derive(Debug, Clone, PartialEq)]
@@ -122,48 +132,90 @@ impl Budget {
         .evaluate(Some(&self.name), None)
     }
 
-    /// Indices of the correlations `(i, j, r)`, validated.
+    /// Indices of the correlations `(i, j, r)`, validated: both names exist, i ≠ j, |r| ≤ 1, no
+    /// pair twice, and together they form a valid (positive semi-definite) correlation matrix.
     pub(crate) fn correlation_indices(&self) -> Result<Vec<(usize, usize, f64)>, UncertaintyError> {
-        let index = |n: &str| self.contributions.iter().position(|c| c.name == n);
+        self.resolve_correlations().map_err(|(_, e)| e)
+    }
+
+    /// As [`correlation_indices`](Self::correlation_indices), with the position in
+    /// `correlations` of the one that is wrong (`None`: the matrix as a whole, or their number).
+    pub(crate) fn resolve_correlations(
+        &self,
+    ) -> Result<Vec<(usize, usize, f64)>, LocatedCorrelationError> {
+        if self.correlations.is_empty() {
+            return Ok(Vec::new());
+        }
+        if self.correlations.len() > MAX_CORRELATIONS {
+            return Err((
+                None,
+                UncertaintyError::TooLarge {
+                    budget: Some(self.name.clone()),
+                    what: format!("budget '{}': correlations", short(&self.name)),
+                    found: self.correlations.len() as u64,
+                    limit: MAX_CORRELATIONS as u64,
+                    hint: String::new(),
+                },
+            ));
+        }
+        let mut index: HashMap<&str, usize> = HashMap::with_capacity(self.contributions.len());
+        for (i, c) in self.contributions.iter().enumerate() {
+            index.entry(c.name.as_str()).or_insert(i);
+        }
+        let mut seen = HashSet::with_capacity(self.correlations.len());
         let mut out = Vec::with_capacity(self.correlations.len());
-        for cor in &self.correlations {
-            let bad = |what: String| UncertaintyError::BadCorrelation {
-                budget: self.name.clone(),
-                a: cor.a.clone(),
-                b: cor.b.clone(),
-                what,
+        for (k, cor) in self.correlations.iter().enumerate() {
+            let bad = |what: String| {
+                (
+                    Some(k),
+                    UncertaintyError::BadCorrelation {
+                        budget: self.name.clone(),
+                        a: cor.a.clone(),
+                        b: cor.b.clone(),
+                        what,
+                    },
+                )
             };
-            let i = index(&cor.a).ok_or_else(|| bad(format!("no contribution '{}'", cor.a)))?;
-            let j = index(&cor.b).ok_or_else(|| bad(format!("no contribution '{}'", cor.b)))?;
+            let i = *index
+                .get(cor.a.as_str())
+                .ok_or_else(|| bad(format!("no contribution '{}'", short(&cor.a))))?;
+            let j = *index
+                .get(cor.b.as_str())
+                .ok_or_else(|| bad(format!("no contribution '{}'", short(&cor.b))))?;
             if i == j {
                 return Err(bad("a contribution cannot be correlated with itself".into()));
             }
             if cor.r.is_nan() || cor.r.abs() > 1.0 {
                 return Err(bad(format!("r must be within [-1, 1], found {}", cor.r)));
             }
-            if out
-                .iter()
-                .any(|&(p, q, _)| (p, q) == (i, j) || (p, q) == (j, i))
-            {
+            if !seen.insert((i.min(j), i.max(j))) {
                 return Err(bad("given twice".into()));
             }
             out.push((i, j, cor.r));
         }
-        if !out.is_empty() {
-            let n = self.contributions.len();
-            let mut m = vec![0.0; n * n];
-            for i in 0..n {
-                m[i * n + i] = 1.0;
-            }
-            for &(i, j, r) in &out {
-                m[i * n + j] = r;
-                m[j * n + i] = r;
-            }
-            if crate::montecarlo::cholesky(&mut m, n).is_none() {
-                return Err(UncertaintyError::NotPositiveDefinite {
-                    context: format!("budget '{}'", self.name),
-                });
-            }
+        let mut m = Envelope::correlation(self.contributions.len(), &out, MAX_CORRELATION_ENVELOPE)
+            .map_err(|entries| {
+                (
+                    None,
+                    UncertaintyError::TooLarge {
+                        budget: Some(self.name.clone()),
+                        what: format!(
+                            "budget '{}': the correlation matrix's envelope (for each correlated row, the entries from its first correlated row to itself)",
+                            short(&self.name)
+                        ),
+                        found: entries as u64,
+                        limit: MAX_CORRELATION_ENVELOPE as u64,
+                        hint: "; list correlated rows next to each other".into(),
+                    },
+                )
+            })?;
+        if m.cholesky().is_none() {
+            return Err((
+                None,
+                UncertaintyError::NotPositiveDefinite {
+                    context: format!("budget '{}'", short(&self.name)),
+                },
+            ));
         }
         Ok(out)
     }
@@ -179,116 +231,163 @@ pub struct BudgetSet {
     pub budgets: Vec<Budget>,
 }
 
+/// A correlation error with the position of the wrong correlation (`None`: all of them).
+pub(crate) type LocatedCorrelationError = (Option<usize>, UncertaintyError);
+
+/// For each budget, for each row, the index of the budget the row refers to (`from`), if any.
+pub(crate) type References = Vec<Vec<Option<usize>>>;
+
 impl BudgetSet {
     /// Finds a budget by name, or the last one.
     ///
     /// # Errors
     /// [`UncertaintyError::NoSuchBudget`].
     pub fn select(&self, name: Option<&str>) -> Result<&Budget, UncertaintyError> {
+        self.position(name).map(|i| &self.budgets[i])
+    }
+
+    /// Index of a budget by name, or of the last one.
+    pub(crate) fn position(&self, name: Option<&str>) -> Result<usize, UncertaintyError> {
         match name {
-            Some(n) => self.budgets.iter().find(|b| b.name == n),
-            None => self.budgets.last(),
+            Some(n) => self.budgets.iter().position(|b| b.name == n),
+            None => self.budgets.len().checked_sub(1),
         }
         .ok_or_else(|| UncertaintyError::NoSuchBudget {
             name: name.unwrap_or("").to_string(),
         })
     }
 
-    /// Checks names (unique budgets, unique rows per budget) and references (no missing budget, no
-    /// cycle).
+    /// Checks sizes ([`crate::limits`]: budgets, rows per budget), names (unique budgets, unique
+    /// rows per budget) and references (no missing budget, no cycle).
     ///
     /// # Errors
-    /// [`UncertaintyError::DuplicateName`], [`UncertaintyError::MissingBudget`],
-    /// [`UncertaintyError::CyclicBudget`].
+    /// [`UncertaintyError::TooLarge`], [`UncertaintyError::DuplicateName`],
+    /// [`UncertaintyError::MissingBudget`], [`UncertaintyError::CyclicBudget`].
     pub fn check_references(&self) -> Result<(), UncertaintyError> {
-        let mut seen = HashMap::new();
+        self.references().map(|_| ())
+    }
+
+    /// As [`check_references`](Self::check_references), returning the resolved references.
+    pub(crate) fn references(&self) -> Result<References, UncertaintyError> {
+        if self.budgets.len() > MAX_BUDGETS {
+            return Err(UncertaintyError::TooLarge {
+                budget: None,
+                what: "budgets".into(),
+                found: self.budgets.len() as u64,
+                limit: MAX_BUDGETS as u64,
+                hint: String::new(),
+            });
+        }
+        let mut index: HashMap<&str, usize> = HashMap::with_capacity(self.budgets.len());
         for (i, b) in self.budgets.iter().enumerate() {
-            if seen.insert(b.name.as_str(), i).is_some() {
+            if index.insert(b.name.as_str(), i).is_some() {
                 return Err(UncertaintyError::DuplicateName {
                     name: b.name.clone(),
                     place: "among budgets".into(),
                 });
             }
-            let mut rows = HashMap::new();
+        }
+        let mut refs = Vec::with_capacity(self.budgets.len());
+        for b in &self.budgets {
+            if b.contributions.len() > MAX_ROWS {
+                return Err(UncertaintyError::TooLarge {
+                    budget: Some(b.name.clone()),
+                    what: format!("budget '{}': rows", short(&b.name)),
+                    found: b.contributions.len() as u64,
+                    limit: MAX_ROWS as u64,
+                    hint: String::new(),
+                });
+            }
+            let mut rows = HashSet::with_capacity(b.contributions.len());
+            let mut r = Vec::with_capacity(b.contributions.len());
             for c in &b.contributions {
-                if rows.insert(c.name.as_str(), ()).is_some() {
+                if !rows.insert(c.name.as_str()) {
                     return Err(UncertaintyError::DuplicateName {
                         name: c.name.clone(),
-                        place: format!("in budget '{}'", b.name),
+                        place: format!("in budget '{}'", short(&b.name)),
                     });
                 }
-                if let Source::Budget { name } = &c.source
-                    && !seen.contains_key(name.as_str())
-                    && !self.budgets.iter().any(|x| &x.name == name)
-                {
-                    return Err(UncertaintyError::MissingBudget {
-                        budget: b.name.clone(),
-                        contribution: c.name.clone(),
-                        missing: name.clone(),
-                    });
-                }
-            }
-        }
-        // Cycle detection by depth-first search.
-        fn visit<'a>(
-            set: &'a BudgetSet,
-            name: &'a str,
-            state: &mut HashMap<&'a str, u8>,
-            stack: &mut Vec<&'a str>,
-        ) -> Result<(), UncertaintyError> {
-            match state.get(name) {
-                Some(2) => return Ok(()),
-                Some(1) => {
-                    let start = stack.iter().position(|s| *s == name).unwrap_or(0);
-                    let mut cycle: Vec<&str> = stack[start..].to_vec();
-                    cycle.push(name);
-                    return Err(UncertaintyError::CyclicBudget {
-                        cycle: cycle.join(" -> "),
-                    });
-                }
-                _ => {}
-            }
-            state.insert(name, 1);
-            stack.push(name);
-            if let Some(b) = set.budgets.iter().find(|b| b.name == name) {
-                for c in &b.contributions {
-                    if let Source::Budget { name: sub } = &c.source {
-                        visit(set, sub, state, stack)?;
+                r.push(match &c.source {
+                    Source::Budget { name } => {
+                        Some(*index.get(name.as_str()).ok_or_else(|| {
+                            UncertaintyError::MissingBudget {
+                                budget: b.name.clone(),
+                                contribution: c.name.clone(),
+                                missing: name.clone(),
+                            }
+                        })?)
                     }
+                    _ => None,
+                });
+            }
+            refs.push(r);
+        }
+        // Cycle detection: depth-first from each budget in file order, rows in order, without
+        // recursion. State 1: on the current path; 2: done.
+        let mut state = vec![0u8; self.budgets.len()];
+        let mut path: Vec<(usize, usize)> = Vec::new();
+        for root in 0..self.budgets.len() {
+            if state[root] != 0 {
+                continue;
+            }
+            state[root] = 1;
+            path.push((root, 0));
+            while let Some(top) = path.last_mut() {
+                let (b, row) = *top;
+                if row == refs[b].len() {
+                    state[b] = 2;
+                    path.pop();
+                    continue;
+                }
+                top.1 += 1;
+                let Some(sub) = refs[b][row] else { continue };
+                match state[sub] {
+                    0 => {
+                        state[sub] = 1;
+                        path.push((sub, 0));
+                    }
+                    1 => {
+                        let start = path.iter().position(|&(x, _)| x == sub).unwrap_or(0);
+                        let mut budgets: Vec<String> = path[start..]
+                            .iter()
+                            .map(|&(x, _)| self.budgets[x].name.clone())
+                            .collect();
+                        budgets.push(self.budgets[sub].name.clone());
+                        return Err(UncertaintyError::CyclicBudget {
+                            cycle: cycle_text(&budgets),
+                            budgets,
+                        });
+                    }
+                    _ => {}
                 }
             }
-            stack.pop();
-            state.insert(name, 2);
-            Ok(())
         }
-        let mut state = HashMap::new();
-        for b in &self.budgets {
-            visit(self, &b.name, &mut state, &mut Vec::new())?;
-        }
-        Ok(())
+        Ok(refs)
     }
 
-    /// Evaluates every budget in file order (nested references resolved first) at coverage p
-    /// (`None`: the set's coverage).
+    /// Evaluates every budget in file order (nested references resolved first, each budget once)
+    /// at coverage p (`None`: the set's coverage).
     ///
     /// # Errors
     /// As [`check_references`](Self::check_references), plus any invalid row, correlation or
-    /// coverage.
+    /// coverage, and [`UncertaintyError::NonFinite`] when a result overflows.
     pub fn evaluate_all(
         &self,
         coverage: Option<f64>,
     ) -> Result<Vec<BudgetResult>, UncertaintyError> {
-        self.check_references()?;
+        let refs = self.references()?;
         let p = check_coverage(coverage.unwrap_or(self.coverage))?;
-        let mut memo: HashMap<String, BudgetResult> = HashMap::new();
-        let mut out = Vec::with_capacity(self.budgets.len());
-        for b in &self.budgets {
-            out.push(self.eval_one(b, p, &mut memo)?);
+        let order = postorder(&refs, 0..self.budgets.len());
+        let exact = shared_u_c(self, &refs, &order)?;
+        let mut results: Vec<Option<BudgetResult>> = vec![None; self.budgets.len()];
+        for i in order {
+            results[i] = Some(self.eval_one(i, &refs[i], exact[i], p, &results)?);
         }
-        Ok(out)
+        Ok(results.into_iter().flatten().collect())
     }
 
-    /// Evaluates one budget (`None`: the last) at coverage p (`None`: the set's coverage).
+    /// Evaluates one budget (`None`: the last) at coverage p (`None`: the set's coverage), and the
+    /// budgets it refers to, each once.
     ///
     /// # Errors
     /// As [`evaluate_all`](Self::evaluate_all), plus [`UncertaintyError::NoSuchBudget`].
@@ -297,33 +396,105 @@ impl BudgetSet {
         name: Option<&str>,
         coverage: Option<f64>,
     ) -> Result<BudgetResult, UncertaintyError> {
-        self.check_references()?;
+        let refs = self.references()?;
         let p = check_coverage(coverage.unwrap_or(self.coverage))?;
-        let b = self.select(name)?;
-        self.eval_one(b, p, &mut HashMap::new())
+        let root = self.position(name)?;
+        let order = postorder(&refs, std::iter::once(root));
+        let exact = shared_u_c(self, &refs, &order)?;
+        let mut results: Vec<Option<BudgetResult>> = vec![None; self.budgets.len()];
+        for i in order {
+            results[i] = Some(self.eval_one(i, &refs[i], exact[i], p, &results)?);
+        }
+        results[root]
+            .take()
+            .ok_or_else(|| UncertaintyError::NoSuchBudget {
+                name: self.budgets[root].name.clone(),
+            })
     }
 
+    /// The budget `name` (`None`: the last) and every budget it refers to, directly or through
+    /// others, each once, breadth first (the budget itself first). References to missing budgets
+    /// are skipped.
+    ///
+    /// # Errors
+    /// [`UncertaintyError::NoSuchBudget`].
+    pub fn dependencies(&self, name: Option<&str>) -> Result<Vec<&str>, UncertaintyError> {
+        let root = self.position(name)?;
+        let index: HashMap<&str, usize> = self
+            .budgets
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (b.name.as_str(), i))
+            .collect();
+        let mut seen = vec![false; self.budgets.len()];
+        seen[root] = true;
+        let mut out = vec![root];
+        let mut k = 0;
+        while k < out.len() {
+            for c in &self.budgets[out[k]].contributions {
+                if let Source::Budget { name } = &c.source
+                    && let Some(&i) = index.get(name.as_str())
+                    && !seen[i]
+                {
+                    seen[i] = true;
+                    out.push(i);
+                }
+            }
+            k += 1;
+        }
+        Ok(out
+            .into_iter()
+            .map(|i| self.budgets[i].name.as_str())
+            .collect())
+    }
+
+    /// Evaluates budget `i` whose references are already in `results`; `exact_u_c`: its combined
+    /// standard uncertainty from the leaves when two of its rows share a nested budget.
     fn eval_one(
         &self,
-        b: &Budget,
+        i: usize,
+        refs: &[Option<usize>],
+        exact_u_c: Option<f64>,
         p: f64,
-        memo: &mut HashMap<String, BudgetResult>,
+        results: &[Option<BudgetResult>],
     ) -> Result<BudgetResult, UncertaintyError> {
-        if let Some(r) = memo.get(&b.name) {
-            return Ok(r.clone());
-        }
+        let b = &self.budgets[i];
+        let overflow = |row: Option<&str>, quantity: String| UncertaintyError::NonFinite {
+            budget: b.name.clone(),
+            contribution: row.map(str::to_string),
+            quantity,
+        };
         let mut rows = Vec::with_capacity(b.contributions.len());
         let mut terms = Vec::with_capacity(b.contributions.len());
-        for c in &b.contributions {
+        for (c, sub) in b.contributions.iter().zip(refs) {
             c.validate()?;
-            let (u, nu, value) = match &c.source {
-                Source::Budget { name } => {
-                    let sub = self.select(Some(name))?;
-                    let r = self.eval_one(sub, p, memo)?;
-                    (r.u_c, r.nu_eff, r.value)
+            let (u, nu, value) = match sub.map(|s| results[s].as_ref()) {
+                Some(Some(r)) => (r.u_c, r.nu_eff, r.value),
+                Some(None) => {
+                    return Err(UncertaintyError::MissingBudget {
+                        budget: b.name.clone(),
+                        contribution: c.name.clone(),
+                        missing: match &c.source {
+                            Source::Budget { name } => name.clone(),
+                            _ => String::new(),
+                        },
+                    });
                 }
-                _ => (c.u, c.nu, c.value),
+                None => (c.u, c.nu, c.value),
             };
+            let cu = (c.sensitivity * u).abs();
+            if !cu.is_finite() {
+                return Err(overflow(
+                    Some(&c.name),
+                    format!("|c·u| = |{:e} × {:e}|", c.sensitivity, u),
+                ));
+            }
+            if !(c.sensitivity * value).is_finite() {
+                return Err(overflow(
+                    Some(&c.name),
+                    format!("c·x = {:e} × {:e}", c.sensitivity, value),
+                ));
+            }
             terms.push(Term {
                 u,
                 c: c.sensitivity,
@@ -335,16 +506,21 @@ impl BudgetSet {
                 value,
                 u,
                 c: c.sensitivity,
-                cu: (c.sensitivity * u).abs(),
+                cu,
                 nu,
                 share: 0.0,
             });
         }
         let cors = b.correlation_indices()?;
-        let comb = combine(&terms, &cors, p).map_err(|e| match e {
+        let comb = match exact_u_c {
+            Some(u_c) => finish(&terms, u_c, p),
+            None => combine(&terms, &cors, p),
+        }
+        .map_err(|e| match e {
             UncertaintyError::NotPositiveDefinite { .. } => UncertaintyError::NotPositiveDefinite {
-                context: format!("budget '{}'", b.name),
+                context: format!("budget '{}'", short(&b.name)),
             },
+            UncertaintyError::NonFinite { quantity, .. } => overflow(None, quantity),
             e => e,
         })?;
         for r in &mut rows {
@@ -354,10 +530,26 @@ impl BudgetSet {
                 0.0
             };
         }
-        let result = BudgetResult {
+        let value: f64 = rows.iter().map(|r| r.c * r.value).sum();
+        if !value.is_finite() {
+            // Name the row at which the running sum leaves the floating-point range.
+            let mut y = 0.0;
+            let at = rows
+                .iter()
+                .find(|r| {
+                    y += r.c * r.value;
+                    !y.is_finite()
+                })
+                .map(|r| r.name.as_str());
+            return Err(overflow(
+                at,
+                "the estimate y = Σ c·x (summed up to this row)".into(),
+            ));
+        }
+        Ok(BudgetResult {
             name: b.name.clone(),
             unit: b.unit.clone(),
-            value: rows.iter().map(|r| r.c * r.value).sum(),
+            value,
             u_c: comb.u_c,
             nu_eff: comb.nu_eff,
             nu_eff_raw: comb.nu_eff_raw,
@@ -375,8 +567,57 @@ impl BudgetSet {
                     )
                 })
                 .collect(),
-        };
-        memo.insert(b.name.clone(), result.clone());
-        Ok(result)
+        })
     }
+}
+
+/// The budgets reachable from `roots` (in that order), each once, every budget after the budgets
+/// it refers to (depth-first post-order, rows in order, without recursion). `refs` must be
+/// acyclic ([`BudgetSet::references`]).
+pub(crate) fn postorder(refs: &References, roots: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut done = vec![false; refs.len()];
+    let mut out = Vec::with_capacity(refs.len());
+    let mut path: Vec<(usize, usize)> = Vec::new();
+    for root in roots {
+        if done[root] {
+            continue;
+        }
+        done[root] = true;
+        path.push((root, 0));
+        while let Some(top) = path.last_mut() {
+            let (b, row) = *top;
+            if row == refs[b].len() {
+                out.push(b);
+                path.pop();
+                continue;
+            }
+            top.1 += 1;
+            if let Some(sub) = refs[b][row]
+                && !done[sub]
+            {
+                done[sub] = true;
+                path.push((sub, 0));
+            }
+        }
+    }
+    out
+}
+
+/// `a -> b -> a` with shortened names; long cycles show their first budgets and the count.
+fn cycle_text(budgets: &[String]) -> String {
+    const SHOWN: usize = 6;
+    if budgets.len() <= SHOWN + 2 {
+        return budgets
+            .iter()
+            .map(|b| short(b))
+            .collect::<Vec<_>>()
+            .join(" -> ");
+    }
+    let head: Vec<String> = budgets[..SHOWN].iter().map(|b| short(b)).collect();
+    format!(
+        "{} -> … ({} more) -> {}",
+        head.join(" -> "),
+        budgets.len() - 1 - SHOWN,
+        short(&budgets[0])
+    )
 }
