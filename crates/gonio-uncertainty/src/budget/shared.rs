@@ -13,8 +13,8 @@
 //! where g_l is leaf l's coefficient summed over every path of references (each path the product
 //! of its sensitivity coefficients): the model that Monte Carlo draws. ν_eff is then
 //! Welch–Satterthwaite over the budget's rows, an approximation as with any correlation. Budgets
-//! whose rows share nothing keep the two-stage evaluation unchanged (the seed's Table 3 and JCGM
-//! 100 H.1 included).
+//! whose rows share nothing keep the two-stage evaluation unchanged (Table 3 of Hsieh et al.,
+//! 2022, and JCGM 100 H.1 included).
 //!
 //! The work is linear in the number of budgets when no budget is referred to twice (the usual
 //! case: nothing is done). Otherwise it is bounded by [`MAX_SHARED_ENTRIES`].
