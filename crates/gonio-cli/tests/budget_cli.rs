@@ -3,6 +3,10 @@
 //! that would echo a megabyte, a diamond of 60 nested budgets, a 1,000-row correlation chain and a
 //! Monte Carlo run beyond the work limit. Correctness only: speed is in the criterion benches.
 
+#[path = "../../gonio-uncertainty/tests/support/hostile_inputs.rs"]
+mod hostile_inputs;
+
+use hostile_inputs::{chain, diamond, rows};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -147,17 +151,7 @@ fn error_lines_stay_short() {
 #[test]
 fn diamond_of_sixty_budgets() {
     let d = tempfile::tempdir().unwrap();
-    let mut text = String::from(
-        "[[budget]]\nname = \"b0\"\n[[budget.contribution]]\nname = \"leaf\"\nu = 0.1\n",
-    );
-    for k in 1..=60 {
-        text += &format!(
-            "[[budget]]\nname = \"b{k}\"\n[[budget.contribution]]\nname = \"x\"\nfrom = \"b{}\"\n\
-             [[budget.contribution]]\nname = \"y\"\nfrom = \"b{}\"\nsensitivity = 0.5\n",
-            k - 1,
-            k - 1
-        );
-    }
+    let text = diamond(60);
     let json = d.path().join("out.json");
     let o = budget(
         d.path(),
@@ -192,16 +186,7 @@ fn diamond_of_sixty_budgets() {
 #[test]
 fn thousand_row_correlation_chain() {
     let d = tempfile::tempdir().unwrap();
-    let mut text = String::from("[[budget]]\nname = \"chain\"\n");
-    for i in 0..1000 {
-        text += &format!("[[budget.contribution]]\nname = \"r{i}\"\nu = 0.1\n");
-    }
-    for i in 0..999 {
-        text += &format!(
-            "[[budget.correlation]]\nbetween = [\"r{i}\", \"r{}\"]\nr = 0.3\n",
-            i + 1
-        );
-    }
+    let text = chain(1000, 0.3);
     let json = d.path().join("out.json");
     let o = budget(
         d.path(),
@@ -221,10 +206,7 @@ fn thousand_row_correlation_chain() {
 #[test]
 fn monte_carlo_work_limit() {
     let d = tempfile::tempdir().unwrap();
-    let mut text = String::from("[[budget]]\nname = \"b\"\n");
-    for i in 0..10_000 {
-        text += &format!("[[budget.contribution]]\nname = \"r{i}\"\nu = 0.1\n");
-    }
+    let text = rows("b", 10_000);
     let o = budget(
         d.path(),
         "rows.toml",

@@ -4,44 +4,16 @@
 //! encodings (BOM, non-UTF-8, UTF-16). Speed is measured by the `budget` criterion bench; these
 //! tests assert correctness only.
 
+#[path = "support/hostile_inputs.rs"]
+mod hostile_inputs;
+
 use gonio_uncertainty::instrument::InstrumentFile;
 use gonio_uncertainty::limits::{MAX_BUDGETS, MAX_CORRELATION_ENVELOPE, MAX_MESSAGE_CHARS};
 use gonio_uncertainty::{
     BudgetFile, InputDistribution, McConfig, McTrials, UncertaintyError, decode_text,
     monte_carlo_with_progress, parse_budget_file,
 };
-
-/// A diamond of `depth` levels over one leaf of u = 0.1: level k has two rows that both refer to
-/// level k − 1, with sensitivities 1 and 0.5.
-fn diamond(depth: usize) -> String {
-    let mut s = String::from(
-        "[[budget]]\nname = \"b0\"\n[[budget.contribution]]\nname = \"leaf\"\nu = 0.1\n",
-    );
-    for k in 1..=depth {
-        s += &format!(
-            "[[budget]]\nname = \"b{k}\"\n[[budget.contribution]]\nname = \"x\"\nfrom = \"b{}\"\n\
-             [[budget.contribution]]\nname = \"y\"\nfrom = \"b{}\"\nsensitivity = 0.5\n",
-            k - 1,
-            k - 1
-        );
-    }
-    s
-}
-
-/// A budget of `n` rows of u = 0.1 with correlation r between neighbours.
-fn chain(n: usize, r: f64) -> String {
-    let mut s = String::from("[[budget]]\nname = \"chain\"\n");
-    for i in 0..n {
-        s += &format!("[[budget.contribution]]\nname = \"r{i}\"\nu = 0.1\n");
-    }
-    for i in 0..n - 1 {
-        s += &format!(
-            "[[budget.correlation]]\nbetween = [\"r{i}\", \"r{}\"]\nr = {r}\n",
-            i + 1
-        );
-    }
-    s
-}
+use hostile_inputs::{chain, diamond, rows};
 
 /// Each level of the diamond is one quantity referred to twice: b_k = b_{k−1} + 0.5·b_{k−1}
 /// = 1.5·b_{k−1}, so u(b_k) = 1.5^k · 0.1 exactly (the two references are fully correlated). The
@@ -178,10 +150,7 @@ fn thousand_row_correlation_chain() {
 #[test]
 fn correlation_envelope_limit() {
     let n = 2100;
-    let mut s = String::from("[[budget]]\nname = \"wide\"\n");
-    for i in 0..n {
-        s += &format!("[[budget.contribution]]\nname = \"r{i}\"\nu = 0.1\n");
-    }
+    let mut s = rows("wide", n);
     for i in 1..n {
         s += &format!("[[budget.correlation]]\nbetween = [\"r0\", \"r{i}\"]\nr = 0.001\n");
     }
