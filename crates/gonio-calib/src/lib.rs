@@ -10,5 +10,6 @@
 
 pub mod certificate;
 pub mod compare;
+pub mod joint;
 pub mod selfcal;
 pub mod shift_angle;

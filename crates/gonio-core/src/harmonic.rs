@@ -39,7 +39,8 @@ pub enum HarmonicTerm {
 }
 
 impl HarmonicTerm {
-    fn basis(self, theta: f64) -> f64 {
+    /// The term's basis function at angle `theta` (radians): 1, cos kθ or sin kθ.
+    pub fn basis(self, theta: f64) -> f64 {
         match self {
             HarmonicTerm::Offset => 1.0,
             HarmonicTerm::Cos(k) => (k as f64 * theta).cos(),

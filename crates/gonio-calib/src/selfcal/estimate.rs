@@ -38,6 +38,82 @@ fn w_of(k: f64, phi_deg: f64) -> C64 {
     C64::new(c - 1.0, s)
 }
 
+/// The head weights `w_hk = e^{ikφ_h} − 1` of heads 2..M for orders k = 0..nbins−1, stored
+/// `w[k·(M−1) + (h − 2)]`.
+///
+/// e^{ikφ_h} comes from a recurrence (one complex product per head and order), re-anchored
+/// exactly every 64 orders so the rounding error stays below 1e-14.
+pub(crate) fn phasor_table(heads: &Heads, nbins: usize) -> Vec<C64> {
+    let phi = &heads.angles_deg()[1..];
+    let m1 = phi.len();
+    let mut w = vec![C64::new(0.0, 0.0); nbins * m1];
+    let step: Vec<C64> = phi.iter().map(|&p| w_of(1.0, p) + 1.0).collect();
+    let mut cur: Vec<C64> = vec![C64::new(1.0, 0.0); m1];
+    for k in 1..nbins {
+        let row_w = &mut w[k * m1..(k + 1) * m1];
+        if k % 64 == 0 {
+            for ((wc, c), &p) in row_w.iter_mut().zip(cur.iter_mut()).zip(phi) {
+                *wc = w_of(k as f64, p);
+                *c = *wc + 1.0;
+            }
+        } else {
+            for ((wc, c), z) in row_w.iter_mut().zip(cur.iter_mut()).zip(&step) {
+                *c *= z;
+                *wc = *c - 1.0;
+            }
+        }
+    }
+    w
+}
+
+/// The spectra of validated head differences: one forward real FFT per channel and turn.
+pub(crate) struct HeadSpectra {
+    /// Rotation positions per turn NS.
+    pub ns: usize,
+    /// The first rotation position θ_0, degrees.
+    pub theta0_deg: f64,
+    /// Bins 0..=NS/2.
+    pub nbins: usize,
+    /// The Nyquist bin NS/2 when NS is even.
+    pub nyquist: Option<usize>,
+    /// `turns[t][h − 2][k]` = Σ_m D_h(θ_m)·e^{−2πikm/NS} of turn t (unnormalised DFT).
+    pub turns: Vec<Vec<Vec<C64>>>,
+}
+
+/// Validates the turns against the heads and transforms every channel (realfft).
+///
+/// # Errors
+/// As [`calibrate`]'s input checks.
+pub(crate) fn head_spectra(heads: &Heads, turns: &[Turn]) -> Result<HeadSpectra, SelfcalError> {
+    let (ns, theta0_deg) = validate(heads, turns)?;
+    let mut planner = RealFftPlanner::<f64>::new();
+    let r2c = planner.plan_fft_forward(ns);
+    let mut scratch = r2c.make_scratch_vec();
+    let mut input = r2c.make_input_vec();
+    let spectra = turns
+        .iter()
+        .map(|turn| {
+            turn.differences_arcsec
+                .iter()
+                .map(|col| {
+                    let mut out = r2c.make_output_vec();
+                    input.copy_from_slice(col);
+                    r2c.process_with_scratch(&mut input, &mut out, &mut scratch)
+                        .expect("buffer sizes are the planner's");
+                    out
+                })
+                .collect()
+        })
+        .collect();
+    Ok(HeadSpectra {
+        ns,
+        theta0_deg,
+        nbins: ns / 2 + 1,
+        nyquist: (ns % 2 == 0).then_some(ns / 2),
+        turns: spectra,
+    })
+}
+
 /// The seed's equal-division average (Eq. 9) computed literally in the position domain, for one
 /// set of heads (0-based indices, containing 0): `μ_i = −(1/NH)·Σ_j D_j(θ_i)`, mean removed.
 ///
@@ -72,10 +148,9 @@ fn bin_table(
     nbins: usize,
     nyquist: Option<usize>,
 ) -> Result<(BinTable, &'static str), SelfcalError> {
-    let phi = &heads.angles_deg()[1..];
-    let m1 = phi.len();
+    let m1 = heads.len() - 1;
     let mut v = vec![C64::new(0.0, 0.0); nbins * m1];
-    let mut w = vec![C64::new(0.0, 0.0); nbins * m1];
+    let w = phasor_table(heads, nbins);
     let mut detectable = vec![false; nbins];
     let sets = heads.sets();
     let name = match method {
@@ -102,24 +177,8 @@ fn bin_table(
             nh * nh / (nh - 1.0)
         })
         .collect();
-    // e^{ikφ_h} by recurrence (one complex product per head and order), re-anchored exactly
-    // every 64 orders so the rounding error stays below 1e-14.
-    let step: Vec<C64> = phi.iter().map(|&p| w_of(1.0, p) + 1.0).collect();
-    let mut cur: Vec<C64> = vec![C64::new(1.0, 0.0); m1];
     for k in 1..nbins {
-        let kf = k as f64;
-        let row_w = &mut w[k * m1..(k + 1) * m1];
-        if k % 64 == 0 {
-            for ((wc, c), &p) in row_w.iter_mut().zip(cur.iter_mut()).zip(phi) {
-                *wc = w_of(kf, p);
-                *c = *wc + 1.0;
-            }
-        } else {
-            for ((wc, c), z) in row_w.iter_mut().zip(cur.iter_mut()).zip(&step) {
-                *c *= z;
-                *wc = *c - 1.0;
-            }
-        }
+        let row_w = &w[k * m1..(k + 1) * m1];
         if Some(k) == nyquist && !(method == Method::Eda && sets.len() == 1) {
             // Not estimated (v = 0): the sign of the order is ambiguous at NS/2. Plain EDA keeps
             // it, its coefficients being real (the seed's formula in the position domain).
@@ -207,7 +266,8 @@ pub fn calibrate(
     turns: &[Turn],
     options: &SelfcalOptions,
 ) -> Result<SelfcalResult, SelfcalError> {
-    let (ns, theta0) = validate(heads, turns)?;
+    let spectra = head_spectra(heads, turns)?;
+    let (ns, theta0) = (spectra.ns, spectra.theta0_deg);
     if options.reference_heads.is_empty() {
         return Err(SelfcalError::Reference {
             message: "expected at least one reference head".into(),
@@ -218,8 +278,7 @@ pub fn calibrate(
             message: format!("head {} does not exist ({} heads)", r + 1, heads.len()),
         });
     }
-    let nbins = ns / 2 + 1;
-    let nyquist = (ns % 2 == 0).then_some(ns / 2);
+    let (nbins, nyquist) = (spectra.nbins, spectra.nyquist);
     let (table, method_name) = bin_table(heads, options.method, nbins, nyquist)?;
     let m1 = table.m1;
     let nt = turns.len();
@@ -244,12 +303,8 @@ pub fn calibrate(
     };
 
     let mut planner = RealFftPlanner::<f64>::new();
-    let r2c = planner.plan_fft_forward(ns);
     let c2r = planner.plan_fft_inverse(ns);
-    let mut scratch_f = r2c.make_scratch_vec();
     let mut scratch_i = c2r.make_scratch_vec();
-    let mut input = r2c.make_input_vec();
-    let mut dhat: Vec<Vec<C64>> = (0..m1).map(|_| r2c.make_output_vec()).collect();
     let mut ahat = vec![C64::new(0.0, 0.0); nbins];
     let mut spec_tmp = c2r.make_input_vec();
     let mut time_tmp = c2r.make_output_vec();
@@ -260,17 +315,14 @@ pub fn calibrate(
     let mut rss_parseval = 0.0;
     let mut max_abs: f64 = 0.0;
 
-    for turn in turns {
-        for (c, col) in turn.differences_arcsec.iter().enumerate() {
-            input.copy_from_slice(col);
-            r2c.process_with_scratch(&mut input, &mut dhat[c], &mut scratch_f)
-                .expect("buffer sizes are the planner's");
-            offsets[c] += dhat[c][0].re / nsf / nt as f64;
+    for dhat in &spectra.turns {
+        for (c, d) in dhat.iter().enumerate() {
+            offsets[c] += d[0].re / nsf / nt as f64;
         }
         ahat[0] = C64::new(0.0, 0.0);
         for k in 1..nbins {
             let v = &table.v[k * m1..(k + 1) * m1];
-            ahat[k] = v.iter().zip(&dhat).map(|(vc, d)| vc * d[k]).sum();
+            ahat[k] = v.iter().zip(dhat).map(|(vc, d)| vc * d[k]).sum();
         }
         // Residuals: R_hk = D̂_hk − w_hk·Â_k (bin 0 absorbed by the offsets).
         for (c, d) in dhat.iter().enumerate() {

@@ -50,6 +50,7 @@ mod result;
 
 pub use data::{MIN_POSITIONS, Turn};
 pub use error::SelfcalError;
+pub(crate) use estimate::{HeadSpectra, head_spectra, phasor_table};
 pub use estimate::{MAX_NOISE_GAIN, calibrate, eda_direct, noise_gain};
 pub use heads::{EQUAL_DIVISION_TOL_DEG, Heads};
 pub use result::{ErrorPoint, HarmonicRow, Residuals, SelfcalResult, UncertaintyInfo};

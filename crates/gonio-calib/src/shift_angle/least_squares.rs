@@ -39,26 +39,31 @@ use nalgebra::{DMatrix, DVector};
 const PIVOT_TOL: f64 = 1e-10;
 
 /// Per-shift layout of the local unknowns.
-struct ShiftLayout {
+pub(crate) struct ShiftLayout {
     /// Start faces (0-based) measured at this shift, ascending.
-    runs: Vec<usize>,
+    pub(crate) runs: Vec<usize>,
     /// For each face j (0-based): local index of V_(s,j), None for the gauge run or no run.
-    v_index: Vec<Option<usize>>,
-    /// Number of local unknowns: N α's + runs − 1 V's.
-    len: usize,
+    pub(crate) v_index: Vec<Option<usize>>,
+    /// Number of local unknowns: N α's + the free V's.
+    pub(crate) len: usize,
 }
 
-fn layouts(set: &ReadingSet) -> Vec<ShiftLayout> {
+/// The local unknowns of every shift: α at its N steps, then one V per run. With
+/// `gauge_first_run` the first run's V is fixed at 0 (α absorbs the shift's constant, which the
+/// polygon alone cannot see); without it every run's V is free (for a solver that ties α to
+/// another instrument, which sees that constant).
+pub(crate) fn layouts(set: &ReadingSet, gauge_first_run: bool) -> Vec<ShiftLayout> {
     let n = set.faces();
+    let skip = usize::from(gauge_first_run);
     (0..set.shifts_deg().len())
         .map(|s| {
             let runs: Vec<usize> = set.runs(s).into_iter().map(|j| j - 1).collect();
             let mut v_index = vec![None; n];
-            for (r, &j) in runs.iter().enumerate().skip(1) {
-                v_index[j] = Some(n + r - 1);
+            for (r, &j) in runs.iter().enumerate().skip(skip) {
+                v_index[j] = Some(n + r - skip);
             }
             ShiftLayout {
-                len: n + runs.len() - 1,
+                len: n + runs.len() - skip,
                 runs,
                 v_index,
             }
@@ -68,25 +73,32 @@ fn layouts(set: &ReadingSet) -> Vec<ShiftLayout> {
 
 /// The γ index (0-based, in 0..N−1) of face `face1` (1-based), None for face N (γ_N = 0).
 #[inline]
-fn gamma_index(face1: usize, n: usize) -> Option<usize> {
+pub(crate) fn gamma_index(face1: usize, n: usize) -> Option<usize> {
     (face1 < n).then(|| face1 - 1)
 }
 
 /// B(m) from the γ vector: B(0) = B(N) = 0.
 #[inline]
-fn big_b(gamma: &DVector<f64>, m: usize, n: usize) -> f64 {
+pub(crate) fn big_b(gamma: &DVector<f64>, m: usize, n: usize) -> f64 {
     if m == 0 || m == n { 0.0 } else { gamma[m - 1] }
 }
 
-struct Normal {
-    a: Vec<DMatrix<f64>>,
-    b: Vec<DMatrix<f64>>,
-    rhs_local: Vec<DVector<f64>>,
-    d: DMatrix<f64>,
-    rhs_shared: DVector<f64>,
+/// The normal equations in block-arrow form (unit weight per reading).
+pub(crate) struct Normal {
+    /// Per shift: the local block A_s (α_s, V_s).
+    pub(crate) a: Vec<DMatrix<f64>>,
+    /// Per shift: the coupling B_s of the local unknowns to γ.
+    pub(crate) b: Vec<DMatrix<f64>>,
+    /// Per shift: the local right-hand side.
+    pub(crate) rhs_local: Vec<DVector<f64>>,
+    /// The γ block D.
+    pub(crate) d: DMatrix<f64>,
+    /// The γ right-hand side.
+    pub(crate) rhs_shared: DVector<f64>,
 }
 
-fn accumulate(set: &ReadingSet, lay: &[ShiftLayout]) -> Normal {
+/// Accumulates the normal equations of all readings for the given layouts.
+pub(crate) fn accumulate(set: &ReadingSet, lay: &[ShiftLayout]) -> Normal {
     let n = set.faces();
     let g = n - 1;
     let mut a: Vec<DMatrix<f64>> = lay.iter().map(|l| DMatrix::zeros(l.len, l.len)).collect();
@@ -126,7 +138,7 @@ fn accumulate(set: &ReadingSet, lay: &[ShiftLayout]) -> Normal {
 }
 
 /// Cholesky factorisation with a relative pivot check; `None` when (numerically) singular.
-fn cholesky(m: DMatrix<f64>) -> Option<nalgebra::Cholesky<f64, nalgebra::Dyn>> {
+pub(crate) fn cholesky(m: DMatrix<f64>) -> Option<nalgebra::Cholesky<f64, nalgebra::Dyn>> {
     let max_diag = m.diagonal().iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     let c = m.cholesky()?;
     let l = c.l_dirty();
@@ -139,7 +151,7 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
     let n = set.faces();
     let g = n - 1;
     let ns = set.shifts_deg().len();
-    let lay = layouts(set);
+    let lay = layouts(set, true);
     let ne = accumulate(set, &lay);
 
     // Per shift: A⁻¹, W = A⁻¹B, w = A⁻¹b; Schur complement on the shared unknowns.

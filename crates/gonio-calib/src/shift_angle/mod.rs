@@ -42,6 +42,7 @@ mod result;
 pub use check::{HarmonicCheck, ShiftCheck, harmonic_check};
 pub use data::{Reading, ReadingSet, ShiftKey};
 pub use error::ShiftAngleError;
+pub(crate) use result::residual_stats;
 pub use result::{
     Calibration, Chi2Check, FullCovariance, Residuals, SetupError, ShiftResult, undetectable_orders,
 };
