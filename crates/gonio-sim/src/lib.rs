@@ -5,6 +5,7 @@
 //!   closure), saved to and loaded from a JSON model file so every simulator calibrates the
 //!   same encoder.
 //! - [`selfcal`]: one scale read by several heads over full turns (seed 000 §2.3).
+//! - [`joint`]: one encoder on both rigs, for the joint calibration.
 //! - [`shift_angle`]: a polygon on the encoder's table read by an autocollimator at shifted start
 //!   angles (seed 000 §2.2).
 //!
@@ -15,6 +16,7 @@
 pub mod encoder;
 pub mod error;
 pub mod frames;
+pub mod joint;
 pub mod selfcal;
 pub mod shift_angle;
 pub mod station;

@@ -13,8 +13,28 @@
 //!
 //! (for `Σ̃ = I` this is the self-calibration's Fourier least squares). Each real coefficient of
 //! order k (cos and sin) then has variance `g_k·σ²` with `g_k = 2/(NS·turns·q_k)`, independent of
-//! every other order; k is invisible to the heads when `q_k` vanishes.
+//! every other order; k is invisible to the heads when `q_k` vanishes for the nominal angles.
+//!
+//! Head angles: with [`HeadAngles::Measured`] the phasors use φ_h + c_h, the nominal angle plus
+//! the head's mean difference to head 1 (which is its angular displacement when the heads read
+//! one graduation with a common zero, as differences of raw readings do). A displacement of a few
+//! arcseconds turns into a phase error k·δ that matters at high orders, where a random
+//! graduation error has as much content as at low ones.
+//!
+//! Between rotation positions: a head that does not sit on a sampled position reads the scale
+//! between two of them. With [`Interpolation::Linear`] the error varies linearly between
+//! neighbouring positions (as between the lines of gonio's encoder model when the positions are
+//! the lines), so for a head at φ = (j + f)·Δ
+//!
+//! ```text
+//! w_hk = (1 − f)·(e^{ikjΔ} − 1) + f·(e^{ik(j+1)Δ} − 1)
+//! ```
+//!
+//! exactly, for every order up to NS/2; [`Interpolation::Trigonometric`] takes the error as a
+//! band-limited series, `w_hk = e^{ikφ} − 1` (the self-calibration's model). The two agree to
+//! O((kΔ)²) and are identical for heads on positions.
 
+use super::{HeadAngles, Interpolation};
 use crate::selfcal::{
     HeadSpectra, Heads, MAX_NOISE_GAIN, NoiseModel, SelfcalError, Turn, head_spectra, phasor_table,
 };
@@ -54,6 +74,8 @@ impl HeadsBlock {
         heads: &Heads,
         turns: &[Turn],
         model: NoiseModel,
+        angles: HeadAngles,
+        interpolation: Interpolation,
     ) -> Result<HeadsBlock, SelfcalError> {
         let sp: HeadSpectra = head_spectra(heads, turns)?;
         let (ns, nbins) = (sp.ns, sp.nbins);
@@ -61,7 +83,33 @@ impl HeadsBlock {
         let heads_f = heads.len() as f64;
         let nt = sp.turns.len();
         let (nsf, ntf) = (ns as f64, nt as f64);
-        let w = phasor_table(heads, nbins);
+        let nominal = phasor_table(&heads.angles_deg()[1..], nbins);
+        let offsets: Vec<f64> = (0..m1)
+            .map(|c| sp.turns.iter().map(|t| t[c][0].re).sum::<f64>() / (nsf * ntf))
+            .collect();
+        let mut phi = heads.angles_deg()[1..].to_vec();
+        if angles == HeadAngles::Measured {
+            for (x, o) in phi.iter_mut().zip(&offsets) {
+                *x += o / 3600.0;
+            }
+        }
+        let w = match interpolation {
+            Interpolation::Trigonometric => phasor_table(&phi, nbins),
+            Interpolation::Linear => {
+                let step = 360.0 / nsf;
+                let pos: Vec<f64> = phi.iter().map(|p| p / step).collect();
+                let lo: Vec<f64> = pos.iter().map(|p| p.floor() * step).collect();
+                let hi: Vec<f64> = pos.iter().map(|p| (p.floor() + 1.0) * step).collect();
+                let frac: Vec<f64> = pos.iter().map(|p| p - p.floor()).collect();
+                let (wl, wh) = (phasor_table(&lo, nbins), phasor_table(&hi, nbins));
+                (0..nbins * m1)
+                    .map(|i| {
+                        let f = frac[i % m1];
+                        wl[i] * (1.0 - f) + wh[i] * f
+                    })
+                    .collect()
+            }
+        };
         let readings = model == NoiseModel::Readings;
         // |x|² in the metric Σ̃⁻¹.
         let norm2 = |x: &[C64]| -> f64 {
@@ -101,15 +149,14 @@ impl HeadsBlock {
             };
             if k == 0 {
                 // The offsets absorb the mean of every channel.
-                for (o, d) in offsets_arcsec.iter_mut().zip(&dbar) {
-                    *o = d.re / nsf;
-                }
+                offsets_arcsec.copy_from_slice(&offsets);
                 rss += weight * scatter;
                 continue;
             }
             let wk = &w[k * m1..(k + 1) * m1];
             let q = norm2(wk);
-            let resid = if Some(k) != sp.nyquist && q * MAX_NOISE_GAIN >= 1.0 {
+            let sees = norm2(&nominal[k * m1..(k + 1) * m1]) * MAX_NOISE_GAIN >= 1.0;
+            let resid = if Some(k) != sp.nyquist && sees {
                 let ws: C64 = wk.iter().sum();
                 let ds: C64 = dbar.iter().sum();
                 let mut inner: C64 = wk.iter().zip(&dbar).map(|(a, d)| a.conj() * d).sum();

@@ -104,6 +104,31 @@ use polygon_block::{PolygonGrid, PolygonSystem};
 use solve::{HeadsPrior, solve};
 use spectrum::{TableInputs, harmonic_table, select_blind};
 
+/// Which head angles the heads' model uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HeadAngles {
+    /// The nominal angles of the arrangement.
+    Nominal,
+    /// The nominal angles plus each head's mean difference to head 1 (its measured
+    /// displacement); which orders the heads cannot see is still decided by the nominal angles.
+    #[default]
+    Measured,
+}
+
+/// How the heads' model places the scale error between the sampled rotation positions (for
+/// heads that do not sit on them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolation {
+    /// Linear between neighbouring positions (gonio's encoder model between graduation lines,
+    /// when the positions are the lines).
+    #[default]
+    Linear,
+    /// A band-limited (trigonometric) series, the self-calibration's model.
+    Trigonometric,
+}
+
 /// Options of [`calibrate`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointOptions {
@@ -115,6 +140,10 @@ pub struct JointOptions {
     pub sigma_heads_arcsec: Option<f64>,
     /// How the heads' noise enters the differences.
     pub noise_model: NoiseModel,
+    /// Which head angles the heads' model uses.
+    pub head_angles: HeadAngles,
+    /// How the heads' model places the error between sampled positions.
+    pub interpolation: Interpolation,
     /// Largest order of the harmonic table and of the blind lists.
     pub max_order: u32,
     /// Highest heads-blind order the polygon is asked to resolve; default half the number of
@@ -130,6 +159,8 @@ impl Default for JointOptions {
             sigma_polygon_arcsec: None,
             sigma_heads_arcsec: None,
             noise_model: NoiseModel::Readings,
+            head_angles: HeadAngles::Measured,
+            interpolation: Interpolation::Linear,
             max_order: 360,
             blind_max_order: None,
             coverage: 0.95,
@@ -175,7 +206,13 @@ pub fn calibrate(
     let g = n - 1;
 
     // The heads alone: spectra, per-order fit, σ.
-    let hb = HeadsBlock::new(heads, turns, opts.noise_model)?;
+    let hb = HeadsBlock::new(
+        heads,
+        turns,
+        opts.noise_model,
+        opts.head_angles,
+        opts.interpolation,
+    )?;
     let sigma_heads = match opts.sigma_heads_arcsec {
         Some(s) => SigmaUsed {
             sigma_arcsec: s,

@@ -38,13 +38,12 @@ fn w_of(k: f64, phi_deg: f64) -> C64 {
     C64::new(c - 1.0, s)
 }
 
-/// The head weights `w_hk = e^{ikφ_h} − 1` of heads 2..M for orders k = 0..nbins−1, stored
-/// `w[k·(M−1) + (h − 2)]`.
+/// The head weights `w_hk = e^{ikφ_h} − 1` of the heads at `phi` (degrees; heads 2..M) for
+/// orders k = 0..nbins−1, stored `w[k·(M−1) + (h − 2)]`.
 ///
 /// e^{ikφ_h} comes from a recurrence (one complex product per head and order), re-anchored
 /// exactly every 64 orders so the rounding error stays below 1e-14.
-pub(crate) fn phasor_table(heads: &Heads, nbins: usize) -> Vec<C64> {
-    let phi = &heads.angles_deg()[1..];
+pub(crate) fn phasor_table(phi: &[f64], nbins: usize) -> Vec<C64> {
     let m1 = phi.len();
     let mut w = vec![C64::new(0.0, 0.0); nbins * m1];
     let step: Vec<C64> = phi.iter().map(|&p| w_of(1.0, p) + 1.0).collect();
@@ -150,7 +149,7 @@ fn bin_table(
 ) -> Result<(BinTable, &'static str), SelfcalError> {
     let m1 = heads.len() - 1;
     let mut v = vec![C64::new(0.0, 0.0); nbins * m1];
-    let w = phasor_table(heads, nbins);
+    let w = phasor_table(&heads.angles_deg()[1..], nbins);
     let mut detectable = vec![false; nbins];
     let sets = heads.sets();
     let name = match method {
