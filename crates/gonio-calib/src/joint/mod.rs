@@ -447,6 +447,8 @@ pub fn calibrate(
         positions: hb.ns,
         heads_deg: heads.angles_deg().to_vec(),
         noise_model: opts.noise_model,
+        head_angles: opts.head_angles,
+        interpolation: opts.interpolation,
         coverage: opts.coverage,
         alpha,
         covariance_alpha,

@@ -150,6 +150,10 @@ pub struct JointCalibration {
     pub heads_deg: Vec<f64>,
     /// The heads' noise model.
     pub noise_model: NoiseModel,
+    /// The head angles the heads' model used.
+    pub head_angles: super::HeadAngles,
+    /// How the heads' model placed the error between positions.
+    pub interpolation: super::Interpolation,
     /// Coverage probability of the expanded uncertainties.
     pub coverage: f64,
     /// α at every distinct polygon angle, ascending.

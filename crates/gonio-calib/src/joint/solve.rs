@@ -119,10 +119,25 @@ pub(crate) fn solve(
     };
     let x = ch.solve(&rhs);
     let cov = ch.inverse();
-    // Polygon part: cov·(H_polygon/σ_p²)·cov, diagonal only.
-    let z = cov.columns(0, nyg) * (&poly.h * ip);
-    let var_polygon = DVector::from_fn(n, |i, _| {
-        (0..nyg).map(|j| z[(i, j)] * cov[(j, i)]).sum::<f64>()
+    // Polygon part: diag(cov·(H_polygon/σ_p²)·cov), with H_polygon's nonzeros only (its α
+    // block is block-diagonal by shift when shifts read different angles).
+    let nonzeros: Vec<Vec<(usize, f64)>> = (0..nyg)
+        .map(|j| {
+            (0..nyg)
+                .filter_map(|i| {
+                    let v = poly.h[(i, j)];
+                    (v != 0.0).then_some((i, v * ip))
+                })
+                .collect()
+        })
+        .collect();
+    let var_polygon = DVector::from_fn(n, |r, _| {
+        let row = cov.row(r);
+        nonzeros
+            .iter()
+            .enumerate()
+            .map(|(j, col)| row[j] * col.iter().map(|&(i, v)| row[i] * v).sum::<f64>())
+            .sum::<f64>()
     });
     Ok(Solution {
         x,

@@ -199,7 +199,6 @@ pub(crate) fn harmonic_table(t: &TableInputs) -> Vec<super::JointHarmonic> {
     let p = cyy - &cross - cross.transpose() + design * cbb * design.transpose();
     let s2 = t.sigma_heads * t.sigma_heads;
     let w = &t.prior.w_krig;
-    let m = w * s2 - w * p * w;
     let last = t.max_order.min(t.heads.nbins.saturating_sub(1) as u32);
     let visible: Vec<u32> = (1..=last).filter(|&k| t.heads.sees(k as usize)).collect();
     let mut phi = DMatrix::zeros(nq, 2 * visible.len());
@@ -207,8 +206,12 @@ pub(crate) fn harmonic_table(t: &TableInputs) -> Vec<super::JointHarmonic> {
         phi.set_column(2 * e, &pattern(t.grid, HarmonicTerm::Cos(k)));
         phi.set_column(2 * e + 1, &pattern(t.grid, HarmonicTerm::Sin(k)));
     }
-    let mphi = &m * &phi;
+    // Φᵀ·(σ²·W − W·P·W)·Φ, column pair by column pair, through WΦ (no nq³ product).
+    let wphi = w * &phi;
+    let pwphi = &p * &wphi;
     let phir = phi.transpose() * &r;
+    let quad =
+        |i: usize| s2 * phi.column(i).dot(&wphi.column(i)) - wphi.column(i).dot(&pwphi.column(i));
     let mut rows = Vec::with_capacity(t.max_order as usize);
     let mut vi = 0usize;
     for k in 1..=t.max_order {
@@ -244,8 +247,8 @@ pub(crate) fn harmonic_table(t: &TableInputs) -> Vec<super::JointHarmonic> {
             let (ic, is) = (2 * vi, 2 * vi + 1);
             let c = c0 + g * phir[ic];
             let s = s0 + g * phir[is];
-            let vc = (s2 * g - g * g * phi.column(ic).dot(&mphi.column(ic))).max(0.0);
-            let vs = (s2 * g - g * g * phi.column(is).dot(&mphi.column(is))).max(0.0);
+            let vc = (s2 * g - g * g * quad(ic)).max(0.0);
+            let vs = (s2 * g - g * g * quad(is)).max(0.0);
             let share = if g > 0.0 {
                 (0.5 * (vc + vs) / (s2 * g)).clamp(0.0, 1.0)
             } else {
