@@ -230,3 +230,108 @@ fn json_round_trip_and_legacy_keys() {
     let e = serde_json::from_value::<Certificate>(v).unwrap_err();
     assert!(e.to_string().contains("faces"), "{e}");
 }
+
+/// An 8-face polygon at shifts 0°, 5°, …, 40° (a 5° grid) and 4 equally spaced heads at 360
+/// positions, one encoder α = 0.3·sin 2θ + 0.1·sin 4θ + 0.05·sin 8θ with white noise: the heads
+/// cannot see 4 and 8, the polygon cannot see 8.
+fn joint_lab(seed: u64) -> gonio_calib::joint::JointCalibration {
+    use gonio_calib::joint::{JointOptions, calibrate as joint};
+    let alpha = |t: f64| {
+        let r = t.to_radians();
+        0.3 * (2.0 * r).sin() + 0.1 * (4.0 * r).sin() + 0.05 * (8.0 * r + 0.4).sin()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let heads = Heads::preset("eda:4").unwrap();
+    let positions_deg: Vec<f64> = (0..360).map(f64::from).collect();
+    let differences_arcsec = heads.angles_deg()[1..]
+        .iter()
+        .map(|&p| {
+            positions_deg
+                .iter()
+                .map(|&t| alpha(t + p) - alpha(t) + noise.sample(&mut rng))
+                .collect()
+        })
+        .collect();
+    let turn = Turn {
+        positions_deg,
+        differences_arcsec,
+    };
+    let mut readings = Vec::new();
+    for s in 0..9 {
+        let shift = 5.0 * s as f64;
+        for j in 1..=8 {
+            for i in 1..=8 {
+                let theta = shift + (i - 1) as f64 * 45.0;
+                readings.push(Reading::new(
+                    shift,
+                    j,
+                    i,
+                    alpha(theta) + noise.sample(&mut rng),
+                ));
+            }
+        }
+    }
+    let set = ReadingSet::new(8, readings).unwrap();
+    let opts = JointOptions {
+        max_order: 36,
+        ..JointOptions::default()
+    };
+    joint(&set, &heads, &[turn], &opts).unwrap()
+}
+
+#[test]
+fn joint_certificate_carries_both_instruments_and_reads_back() {
+    let cal = joint_lab(5);
+    let inst = instrument();
+    let cert = Certificate::from_joint(&cal, &inst).unwrap();
+    assert_eq!(cert.procedure, Procedure::Joint);
+    assert_eq!(cert.points.len(), 72);
+    // U attached once: the joint random part (with its own ν) and the instrument terms.
+    for (p, a) in cert.points.iter().zip(&cal.alpha) {
+        assert_eq!(p.u_random_arcsec, a.u_arcsec);
+        let c = inst.terms.combine(a.u_arcsec, a.nu_eff).unwrap();
+        assert_eq!(p.expanded_arcsec, Some(c.expanded));
+    }
+    // Order 4 comes from the polygon alone; 8 is invisible to both and marked so.
+    assert!(cert.spectrum.lines[3].visible);
+    assert!(!cert.spectrum.lines[7].visible);
+    // 36 is the Nyquist order of the polygon's 5° grid: its sine vanishes at every angle.
+    assert_eq!(cert.undetectable_orders, vec![8, 16, 24, 32, 36]);
+    assert_eq!(
+        cal.harmonics[35].invisible,
+        Some(gonio_calib::joint::Invisible::Unresolved { alias_of: None })
+    );
+    let by: Vec<&str> = cert
+        .spectrum
+        .invisible
+        .iter()
+        .map(|i| i.by.as_str())
+        .collect();
+    assert_eq!(
+        by,
+        [
+            "8-face polygon",
+            "4 read heads",
+            "joint estimate (both instruments)"
+        ]
+    );
+    assert!(cert.spectrum.invisible[1].orders.contains(&4));
+    assert_eq!(cert.pitch_deviations().unwrap().len(), 8);
+    let text = serde_json::to_string(&cert).unwrap();
+    let back: Certificate = serde_json::from_str(&text).unwrap();
+    assert_eq!(serde_json::to_string(&back).unwrap(), text);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(v["encoder_errors"][0]["U_arcsec"].is_number());
+    assert_eq!(
+        v["joint"]["covariance_alpha_arcsec2"][71]
+            .as_array()
+            .unwrap()
+            .len(),
+        72
+    );
+    let mut v = v;
+    v.as_object_mut().unwrap().remove("joint");
+    let e = serde_json::from_value::<Certificate>(v).unwrap_err();
+    assert!(e.to_string().contains("joint"), "{e}");
+}

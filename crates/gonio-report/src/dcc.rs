@@ -398,7 +398,7 @@ fn body(x: &mut X, cert: &Certificate, m: &CertificateMeta, missing: &[String]) 
     x.leaf(
         "dcc:reference",
         match cert.procedure {
-            Procedure::ShiftAngle | Procedure::SelfCalibration => {
+            Procedure::ShiftAngle | Procedure::SelfCalibration | Procedure::Joint => {
                 "Hsieh, Watanabe, Hsu, Calibration of Rotary Encoders Using a Shift-Angle Method, Appl. Sci. 2022, 12(10), 5008"
             }
             _ => "gonio",
@@ -511,12 +511,12 @@ fn body(x: &mut X, cert: &Certificate, m: &CertificateMeta, missing: &[String]) 
     x.close("dcc:list")?;
     x.close("dcc:data")?;
     x.close("dcc:result")?;
-    if let Some(sa) = &cert.shift_angle {
+    if let Some(pitch) = cert.pitch_deviations() {
         x.open("dcc:result")?;
         x.text("dcc:name", "Pitch deviations β of the polygon")?;
         x.open("dcc:data")?;
         x.open("dcc:list")?;
-        for b in &sa.pitch_deviations {
+        for b in pitch {
             let unc = match (b.expanded_arcsec, b.k) {
                 (Some(u), Some(k)) if u.is_finite() => Some((u, k, cert.uncertainty.coverage)),
                 _ => None,

@@ -427,7 +427,7 @@ fn admin_table(b: &mut String, cert: &Certificate, m: &CertificateMeta) {
         "{}<br><span class=\"note\">{}</span>",
         esc(&cert.method_title()),
         esc(match cert.procedure {
-            Procedure::ShiftAngle | Procedure::SelfCalibration => HSIEH_2022,
+            Procedure::ShiftAngle | Procedure::SelfCalibration | Procedure::Joint => HSIEH_2022,
             _ => "",
         })
     );
@@ -538,6 +538,47 @@ fn results_summary(b: &mut String, cert: &Certificate) {
             esc(&shift_list(&sa.shifts_deg)),
             sa.readings
         );
+    }
+    if let Some(j) = &cert.joint {
+        let sigma = |s: &gonio_calib::joint::SigmaUsed| {
+            if s.stated {
+                format!("σ {} ″ (stated)", f(s.sigma_arcsec, 4))
+            } else {
+                format!("σ {} ″ (from its residuals)", f(s.sigma_arcsec, 4))
+            }
+        };
+        let _ = write!(
+            b,
+            "<tr><th>polygon</th><td>{} faces; shifts {}; {} readings; {}</td></tr>\
+             <tr><th>read heads</th><td>{} heads at {}°; {} positions; {}</td></tr>",
+            j.faces,
+            esc(&shift_list(&j.shifts_deg)),
+            j.readings,
+            sigma(&j.sigma_polygon),
+            j.heads_deg.len(),
+            esc(&j
+                .heads_deg
+                .iter()
+                .map(|h| format!("{h:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")),
+            j.positions,
+            sigma(&j.sigma_heads)
+        );
+        if let Some(c) = &j.consistency {
+            let _ = write!(
+                b,
+                "<tr><th>agreement</th><td>Δχ² = {} for {} degrees of freedom, P = {}: {}</td></tr>",
+                f(c.chi2, 1),
+                c.dof,
+                f(c.p_upper, 3),
+                if c.consistent {
+                    "the instruments agree"
+                } else {
+                    "the instruments disagree"
+                }
+            );
+        }
     }
     if let Some(sc) = &cert.selfcal {
         let _ = write!(

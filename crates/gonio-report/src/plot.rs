@@ -369,10 +369,9 @@ pub fn compensation(cert: &Certificate) -> Result<Figure, ReportError> {
 /// # Errors
 /// [`ReportError::Plot`] if drawing fails.
 pub fn pitch(cert: &Certificate) -> Result<Option<Figure>, ReportError> {
-    let Some(sa) = &cert.shift_angle else {
+    let Some(b) = cert.pitch_deviations() else {
         return Ok(None);
     };
-    let b = &sa.pitch_deviations;
     let bar = |p: &gonio_calib::certificate::PitchDeviation| {
         p.expanded_arcsec.unwrap_or(if p.u_arcsec.is_finite() {
             p.u_arcsec
@@ -747,8 +746,13 @@ pub fn spectrum(cert: &Certificate) -> Result<Option<Figure>, ReportError> {
         id: "spectrum".into(),
         title: "Harmonic amplitude spectrum of α".into(),
         caption: format!(
-            "Amplitude of each harmonic of α(θ) (log scale); {}. Those orders are absent from the result, whatever the encoder has there.",
-            blind.join("; ")
+            "Amplitude of each harmonic of α(θ) (log scale); {}. {}",
+            blind.join("; "),
+            if s.invisible.len() > 1 {
+                "The joint estimate holds every order one of the instruments sees; only the orders invisible to both are absent from the result, whatever the encoder has there."
+            } else {
+                "Those orders are absent from the result, whatever the encoder has there."
+            }
         ),
         svg,
     }))

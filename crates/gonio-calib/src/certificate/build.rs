@@ -1,11 +1,13 @@
 //! Building a certificate: one function per method, and the one place where the instrument terms
 //! are combined with an estimator's random part into u, ν_eff, k and U.
 
+use super::JointSection;
 use super::{
     AnglePoint, CERTIFICATE_FORMAT, Certificate, CertificateError, CompensationRow, InstrumentTerm,
     InvisibleOrders, PitchDeviation, Procedure, Residuals, SelfcalSection, ShiftAngleSection,
     Software, Spectrum, SpectrumLine, UncertaintySummary,
 };
+use crate::joint::JointCalibration;
 use crate::selfcal::{NoiseModel, SelfcalResult};
 use crate::shift_angle::{Calibration, ReadingSet, harmonic_check};
 use gonio_core::HarmonicFitSpec;
@@ -132,10 +134,20 @@ impl<'a> Attach<'a> {
 
     /// The budget table of the point with the largest U (or u when none has U).
     fn budget(&self, points: &[AnglePoint], nu_random: f64) -> Option<BudgetResult> {
-        let worst = points.iter().max_by(|a, b| {
+        self.budget_with(points, |_| nu_random)
+    }
+
+    /// As [`Attach::budget`], with the random part's ν of each point (by index).
+    fn budget_with(
+        &self,
+        points: &[AnglePoint],
+        nu_of: impl Fn(usize) -> f64,
+    ) -> Option<BudgetResult> {
+        let (index, worst) = points.iter().enumerate().max_by(|(_, a), (_, b)| {
             let key = |p: &AnglePoint| p.expanded_arcsec.unwrap_or(p.u_arcsec);
             key(a).total_cmp(&key(b))
         })?;
+        let nu_random = nu_of(index);
         if !worst.u_random_arcsec.is_finite() || nu_random.is_nan() || nu_random <= 0.0 {
             return None;
         }
@@ -337,6 +349,7 @@ impl Certificate {
                 reading_residuals_arcsec: cal.reading_residuals(set),
             }),
             selfcal: None,
+            joint: None,
             software: Software::default(),
             meta: None,
         })
@@ -427,6 +440,153 @@ impl Certificate {
                 harmonics: r.harmonics.clone(),
                 max_order: r.max_order,
                 head_offsets_arcsec: r.head_offsets_arcsec.clone(),
+            }),
+            joint: None,
+            software: Software::default(),
+            meta: None,
+        })
+    }
+
+    /// The certificate of a joint calibration (the polygon and the read heads in one least
+    /// squares, [`crate::joint`]).
+    ///
+    /// The random part of every α is the joint estimate's standard uncertainty with its
+    /// Welch–Satterthwaite degrees of freedom over the two instruments' σ (each stated, ν = ∞, or
+    /// estimated from its own residuals); the instrument terms are combined with it at the
+    /// instrument's coverage. The spectrum marks the orders each instrument cannot see and the
+    /// orders invisible to both.
+    ///
+    /// # Errors
+    /// [`CertificateError::Empty`] without calibrated angles;
+    /// [`CertificateError::Uncertainty`] for an invalid instrument term.
+    pub fn from_joint(
+        cal: &JointCalibration,
+        instrument: &Instrument,
+    ) -> Result<Certificate, CertificateError> {
+        if cal.alpha.is_empty() {
+            return Err(CertificateError::Empty);
+        }
+        let mut attach = Attach::new(instrument);
+        let mut points = Vec::with_capacity(cal.alpha.len());
+        for a in &cal.alpha {
+            points.push(attach.point(a.angle_deg, a.value_arcsec, a.u_arcsec, a.nu_eff)?);
+        }
+        let random_dof = cal
+            .alpha
+            .iter()
+            .map(|a| a.nu_eff)
+            .fold(f64::INFINITY, f64::min);
+        let sp = cal.sigma_polygon;
+        let k_beta = coverage_factor(instrument.terms.coverage, sp.dof);
+        let pitch_deviations = cal
+            .beta_arcsec
+            .iter()
+            .zip(&cal.u_beta_arcsec)
+            .enumerate()
+            .map(|(i, (&v, &u))| PitchDeviation {
+                face: i + 1,
+                value_arcsec: v,
+                u_arcsec: u,
+                expanded_arcsec: finite(k_beta * u),
+                k: finite(k_beta),
+            })
+            .collect();
+        let sigma_text = |s: &crate::joint::SigmaUsed| {
+            if s.stated {
+                "stated".to_string()
+            } else {
+                format!("from its residuals (ν = {})", s.dof)
+            }
+        };
+        let mut source = format!(
+            "joint least-squares covariance; polygon σ {}, heads σ {}; ν per angle by Welch–Satterthwaite",
+            sigma_text(&sp),
+            sigma_text(&cal.sigma_heads)
+        );
+        if !instrument.terms.contributions.is_empty() {
+            source = match &instrument.source {
+                Some(f) => format!("{source} + instrument terms ({f})"),
+                None => format!("{source} + instrument terms"),
+            };
+        }
+        let m = cal.heads_deg.len();
+        let spectrum = Spectrum {
+            lines: cal
+                .harmonics
+                .iter()
+                .map(|h| SpectrumLine {
+                    order: h.order,
+                    amplitude_arcsec: h.amplitude_arcsec,
+                    u_amplitude_arcsec: if h.estimated {
+                        (0.5 * (h.u_cos_arcsec.powi(2) + h.u_sin_arcsec.powi(2))).sqrt()
+                    } else {
+                        f64::NAN
+                    },
+                    phase_rad: h.phase_rad,
+                    visible: h.estimated,
+                })
+                .collect(),
+            invisible: vec![
+                InvisibleOrders {
+                    by: format!("{}-face polygon", cal.faces),
+                    orders: cal.blind.polygon.clone(),
+                },
+                InvisibleOrders {
+                    by: format!("{m} read heads"),
+                    orders: cal.blind.heads.clone(),
+                },
+                InvisibleOrders {
+                    by: "joint estimate (both instruments)".into(),
+                    orders: cal.blind.joint.clone(),
+                },
+            ],
+        };
+        let budget = attach.budget_with(&points, |i| cal.alpha[i].nu_eff);
+        Ok(Certificate {
+            format: CERTIFICATE_FORMAT.into(),
+            procedure: Procedure::Joint,
+            method: "joint-least-squares".into(),
+            budget,
+            compensation: compensation(&points),
+            residuals: Residuals {
+                rms_arcsec: cal.residuals_polygon.rms_arcsec,
+                max_abs_arcsec: cal.residuals_polygon.max_abs_arcsec,
+                dof: sp.dof,
+                count: Some(cal.residuals_polygon.count),
+                sigma_hat_arcsec: (!sp.stated).then_some(sp.sigma_arcsec),
+                sigma_arcsec: (!sp.stated).then_some(sp.sigma_arcsec),
+                chi2: None,
+            },
+            uncertainty: instrument.summary(source, random_dof),
+            undetectable_orders: cal.blind.joint.clone(),
+            spectrum,
+            points,
+            shift_angle: None,
+            selfcal: None,
+            joint: Some(JointSection {
+                faces: cal.faces,
+                readings: cal.polygon_readings,
+                shifts_deg: cal.shifts_deg.clone(),
+                pitch_deviations,
+                setup_errors: cal.setup.clone(),
+                heads_deg: cal.heads_deg.clone(),
+                positions: cal.positions,
+                noise_model: cal.noise_model,
+                head_angles: cal.head_angles,
+                interpolation: cal.interpolation,
+                head_offsets_arcsec: cal.head_offsets_arcsec.clone(),
+                sigma_polygon: cal.sigma_polygon,
+                sigma_heads: cal.sigma_heads,
+                residuals_heads_rms_arcsec: cal.residuals_heads_rms_arcsec,
+                random_part: cal.alpha.clone(),
+                covariance_alpha_arcsec2: cal
+                    .covariance_alpha
+                    .row_iter()
+                    .map(|r| r.iter().copied().collect())
+                    .collect(),
+                harmonics: cal.harmonics.clone(),
+                blind_orders: cal.blind.clone(),
+                consistency: cal.consistency,
             }),
             software: Software::default(),
             meta: None,

@@ -233,7 +233,7 @@ impl CertificateMeta {
     /// The reference standards a procedure needs, by role.
     pub fn required_standards(procedure: Procedure) -> &'static [&'static str] {
         match procedure {
-            Procedure::ShiftAngle => &["polygon", "autocollimator"],
+            Procedure::ShiftAngle | Procedure::Joint => &["polygon", "autocollimator"],
             _ => &[],
         }
     }

@@ -4,19 +4,23 @@
 //! A [`Certificate`] holds, whatever the method:
 //! - every calibrated angle ([`AnglePoint`]): α, u, the estimator's random part u_random, U, k,
 //!   ν_eff and the coverage probability p; U is attached here and nowhere else
-//!   ([`Certificate::from_shift_angle`], [`Certificate::from_selfcal`]);
+//!   ([`Certificate::from_shift_angle`], [`Certificate::from_selfcal`],
+//!   [`Certificate::from_joint`]);
 //! - the compensation table (correction = −α, to add to the encoder's reading);
 //! - the harmonic spectrum of α with the orders each method cannot see ([`Spectrum`]);
 //! - the GUM budget of the angle with the largest U ([`Certificate::budget`]);
 //! - the method's own section: the polygon's pitch deviations, setup errors, the harmonic check
-//!   and every reading's residual (shift-angle method, [`ShiftAngleSection`]), or the heads,
-//!   the harmonic table and the head offsets (self-calibration, [`SelfcalSection`]);
+//!   and every reading's residual (shift-angle method, [`ShiftAngleSection`]), the heads,
+//!   the harmonic table and the head offsets (self-calibration, [`SelfcalSection`]), or both
+//!   instruments' results with the split of every u between them, the full covariance of α and
+//!   the per-order split of the information (joint calibration, [`JointSection`]);
 //! - optionally the administrative data of ISO/IEC 17025 §7.8 ([`CertificateMeta`]).
 //!
 //! The JSON form carries the format tag [`CERTIFICATE_FORMAT`] and keeps every field name the
 //! `shift-angle` and `selfcal` commands wrote before certificates existed: the angles are
 //! `encoder_errors` for the shift-angle method and `errors` (each point with `position_deg` as
-//! well) for self-calibration; the invisible orders are written both as
+//! well) for self-calibration, `encoder_errors` for a joint calibration (whose own results are
+//! under the key `joint`); the invisible orders are written both as
 //! `undetectable_harmonics` and `undetectable_orders`. A new method adds a [`Procedure`], a
 //! builder function in [`build`](self) and, if it needs one, an optional section.
 //!
@@ -54,6 +58,9 @@ pub use meta::{
     ReferenceStandard,
 };
 
+use crate::joint::{
+    BlindOrders, Consistency, HeadAngles, Interpolation, JointAlpha, JointHarmonic, SigmaUsed,
+};
 use crate::selfcal::{HarmonicRow, NoiseModel};
 use crate::shift_angle::{HarmonicCheck, SetupError};
 use gonio_uncertainty::BudgetResult;
@@ -74,6 +81,8 @@ pub enum Procedure {
     ShiftAngle,
     /// Self-calibration with several read heads on the encoder's own scale.
     SelfCalibration,
+    /// Both of the above on one encoder, in one least-squares estimate.
+    Joint,
 }
 
 impl Procedure {
@@ -82,6 +91,7 @@ impl Procedure {
         match self {
             Procedure::ShiftAngle => "shift-angle",
             Procedure::SelfCalibration => "self-calibration",
+            Procedure::Joint => "joint",
         }
     }
 
@@ -92,6 +102,9 @@ impl Procedure {
             Procedure::SelfCalibration => {
                 "multi-head self-calibration (Hsieh et al., 2022, after the SelfA encoder)"
             }
+            Procedure::Joint => {
+                "joint calibration: the shift-angle method and multi-head self-calibration (Hsieh et al., 2022) in one least squares"
+            }
         }
     }
 
@@ -99,7 +112,7 @@ impl Procedure {
     pub(crate) fn points_key(self) -> &'static str {
         match self {
             Procedure::SelfCalibration => "errors",
-            Procedure::ShiftAngle => "encoder_errors",
+            Procedure::ShiftAngle | Procedure::Joint => "encoder_errors",
         }
     }
 }
@@ -304,6 +317,52 @@ pub struct SelfcalSection {
     pub head_offsets_arcsec: Vec<f64>,
 }
 
+/// What only the joint calibration has: both instruments' results, the split of every random
+/// part between them, the full covariance of α at the polygon angles, and the harmonic table with
+/// each instrument's share per order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JointSection {
+    /// Polygon faces N.
+    pub faces: usize,
+    /// Polygon readings used.
+    pub readings: usize,
+    /// Shift angles, degrees.
+    pub shifts_deg: Vec<f64>,
+    /// β per face.
+    pub pitch_deviations: Vec<PitchDeviation>,
+    /// Setup error U per run (the run's whole setup error: α has zero mean over the circle).
+    pub setup_errors: Vec<SetupError>,
+    /// Head angles, degrees (nominal).
+    pub heads_deg: Vec<f64>,
+    /// Rotation positions per turn of the heads (the encoder grid).
+    pub positions: usize,
+    /// The heads' noise model.
+    pub noise_model: NoiseModel,
+    /// The head angles the heads' model used.
+    pub head_angles: HeadAngles,
+    /// How the heads' model placed the error between positions.
+    pub interpolation: Interpolation,
+    /// Mounting offsets c_h of heads 2..M, arcsec.
+    pub head_offsets_arcsec: Vec<f64>,
+    /// σ of one polygon reading.
+    pub sigma_polygon: SigmaUsed,
+    /// σ of one head reading (or difference).
+    pub sigma_heads: SigmaUsed,
+    /// RMS of the head-difference residuals against the joint estimate, arcsec.
+    pub residuals_heads_rms_arcsec: f64,
+    /// The random part at every angle (same order as the points): its split between the
+    /// instruments and each instrument's own u.
+    pub random_part: Vec<JointAlpha>,
+    /// Full covariance of α (random part) at the points' angles, arcsec².
+    pub covariance_alpha_arcsec2: Vec<Vec<f64>>,
+    /// Harmonics 1..=max order with the per-order split of the information.
+    pub harmonics: Vec<JointHarmonic>,
+    /// Blind orders of each method and of the joint estimate.
+    pub blind_orders: BlindOrders,
+    /// The χ² agreement of the two instruments.
+    pub consistency: Option<Consistency>,
+}
+
 /// The program that computed the certificate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Software {
@@ -350,6 +409,8 @@ pub struct Certificate {
     pub shift_angle: Option<ShiftAngleSection>,
     /// Self-calibration's own results.
     pub selfcal: Option<SelfcalSection>,
+    /// The joint calibration's own results.
+    pub joint: Option<JointSection>,
     /// The program that computed it.
     pub software: Software,
     /// Administrative data (ISO/IEC 17025 §7.8), if given.
@@ -428,6 +489,15 @@ impl Certificate {
         }
     }
 
+    /// The polygon's pitch deviations, for a procedure that has a polygon (shift-angle, joint).
+    pub fn pitch_deviations(&self) -> Option<&[PitchDeviation]> {
+        match (&self.shift_angle, &self.joint) {
+            (Some(s), _) => Some(&s.pitch_deviations),
+            (None, Some(j)) => Some(&j.pitch_deviations),
+            (None, None) => None,
+        }
+    }
+
     /// Attaches (or replaces) the administrative data.
     pub fn with_meta(mut self, meta: CertificateMeta) -> Self {
         self.meta = Some(meta);
@@ -443,6 +513,7 @@ impl Certificate {
             "selfcal-fourier" => "Fourier least squares",
             "selfcal-eda" => "equal-division averaging",
             "selfcal-selfa" => "equal-division averaging on SelfA's 3-, 4- and 7-head sets",
+            "joint-least-squares" => "both instruments' readings, each weighted by its own σ",
             other => other,
         };
         format!("{}, {estimator}", self.procedure.title())

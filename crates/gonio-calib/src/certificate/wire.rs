@@ -2,8 +2,9 @@
 //! certificates existed, the method sections flattened to the top level.
 
 use super::{
-    AnglePoint, CERTIFICATE_FORMAT, Certificate, CertificateMeta, CompensationRow, Procedure,
-    Residuals, SelfcalSection, ShiftAngleSection, Software, Spectrum, UncertaintySummary,
+    AnglePoint, CERTIFICATE_FORMAT, Certificate, CertificateMeta, CompensationRow, JointSection,
+    Procedure, Residuals, SelfcalSection, ShiftAngleSection, Software, Spectrum,
+    UncertaintySummary,
 };
 use gonio_uncertainty::BudgetResult;
 use serde::de::Error as _;
@@ -38,6 +39,8 @@ struct Out<'a> {
     shift_angle: &'a Option<ShiftAngleSection>,
     #[serde(flatten)]
     selfcal: &'a Option<SelfcalSection>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    joint: &'a Option<JointSection>,
     software: &'a Software,
     #[serde(skip_serializing_if = "Option::is_none")]
     meta: &'a Option<CertificateMeta>,
@@ -70,6 +73,7 @@ impl Serialize for Certificate {
             compensation: &self.compensation,
             shift_angle: &self.shift_angle,
             selfcal: &self.selfcal,
+            joint: &self.joint,
             software: &self.software,
             meta: &self.meta,
         }
@@ -102,6 +106,8 @@ struct In {
     shift_angle: Option<ShiftAngleSection>,
     #[serde(flatten)]
     selfcal: Option<SelfcalSection>,
+    #[serde(default)]
+    joint: Option<JointSection>,
     #[serde(default)]
     software: Software,
     #[serde(default)]
@@ -141,6 +147,9 @@ impl<'de> Deserialize<'de> for Certificate {
                     "heads_deg, reference_heads, positions, turns, noise_model, harmonics, max_order, head_offsets_arcsec",
                 ));
             }
+            Procedure::Joint if w.joint.is_none() => {
+                return Err(section("joint", "joint (the joint calibration's section)"));
+            }
             _ => {}
         }
         Ok(Certificate {
@@ -164,6 +173,11 @@ impl<'de> Deserialize<'de> for Certificate {
             },
             selfcal: if w.procedure == Procedure::SelfCalibration {
                 w.selfcal
+            } else {
+                None
+            },
+            joint: if w.procedure == Procedure::Joint {
+                w.joint
             } else {
                 None
             },

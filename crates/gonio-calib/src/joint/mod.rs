@@ -105,7 +105,7 @@ use solve::{HeadsPrior, solve};
 use spectrum::{TableInputs, harmonic_table, select_blind};
 
 /// Which head angles the heads' model uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum HeadAngles {
     /// The nominal angles of the arrangement.
@@ -118,7 +118,7 @@ pub enum HeadAngles {
 
 /// How the heads' model places the scale error between the sampled rotation positions (for
 /// heads that do not sit on them).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Interpolation {
     /// Linear between neighbouring positions (gonio's encoder model between graduation lines,

@@ -3,11 +3,12 @@
 use super::spectrum::Invisible;
 use crate::selfcal::NoiseModel;
 use crate::shift_angle::SetupError;
+use gonio_uncertainty::budget::{deserialize_dof, serialize_dof};
 use nalgebra::DMatrix;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The encoder error at one distinct polygon angle.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct JointAlpha {
     /// Table angle, degrees in [0, 360).
     pub angle_deg: f64,
@@ -19,7 +20,9 @@ pub struct JointAlpha {
     pub u_heads_arcsec: f64,
     /// The part of u due to the polygon readings' noise, arcsec.
     pub u_polygon_arcsec: f64,
-    /// Welch–Satterthwaite degrees of freedom of u (truncated; ∞ when both σ are stated).
+    /// Welch–Satterthwaite degrees of freedom of u (truncated; ∞ when both σ are stated;
+    /// JSON: a number or `"inf"`).
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub nu_eff: f64,
     /// Coverage factor at the requested coverage.
     pub k: f64,
@@ -34,7 +37,7 @@ pub struct JointAlpha {
 }
 
 /// Which instrument can see a harmonic order on its own.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SeenBy {
     /// Both the polygon and the heads.
@@ -48,7 +51,7 @@ pub enum SeenBy {
 }
 
 /// One harmonic `cos·cos kθ + sin·sin kθ = amplitude·sin(kθ + phase)` of the joint estimate.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JointHarmonic {
     /// Order k.
     pub order: u32,
@@ -76,12 +79,12 @@ pub struct JointHarmonic {
     /// Share the polygon provides (1 − heads_share for an estimated order).
     pub polygon_share: f64,
     /// Why the order is not estimated.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub invisible: Option<Invisible>,
 }
 
 /// The blind orders of each method and of the joint estimate, up to `max_order`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BlindOrders {
     /// The largest order listed.
     pub max_order: u32,
@@ -98,13 +101,14 @@ pub struct BlindOrders {
 }
 
 /// The σ of one reading of an instrument, as used.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SigmaUsed {
     /// σ, arcsec (per head reading or per difference for the heads, per the noise model).
     pub sigma_arcsec: f64,
     /// Whether it was stated (true) or estimated from the instrument's own residuals.
     pub stated: bool,
-    /// Degrees of freedom of the estimate (∞ when stated).
+    /// Degrees of freedom of the estimate (∞ when stated; JSON: a number or `"inf"`).
+    #[serde(serialize_with = "serialize_dof", deserialize_with = "deserialize_dof")]
     pub dof: f64,
     /// Readings of the instrument.
     pub readings: usize,
@@ -112,7 +116,7 @@ pub struct SigmaUsed {
 
 /// Whether the two instruments agree: the increase of the weighted residual sum of squares
 /// from the two separate fits to the joint fit, against its χ² distribution.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Consistency {
     /// Δχ² = χ²(joint) − χ²(polygon alone) − χ²(heads alone).
     pub chi2: f64,
@@ -125,7 +129,7 @@ pub struct Consistency {
 }
 
 /// Residuals of the polygon readings against the joint estimate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PolygonResiduals {
     /// Readings compared.
     pub count: usize,

@@ -14,7 +14,7 @@ use gonio_core::harmonic::HarmonicTerm;
 use nalgebra::{DMatrix, DVector};
 
 /// Why an order the heads cannot see is absent from the joint estimate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case", tag = "reason")]
 pub enum Invisible {
     /// The polygon cannot see it either: constant on every shift's angles (a multiple of N).
@@ -146,6 +146,9 @@ pub(crate) fn select_blind(
 /// a noticeable part.
 fn alias(basis: &[DVector<f64>], owner: &[u32], n_const: usize, v: &DVector<f64>) -> Option<u32> {
     let vn = v.norm();
+    if vn <= 1e-9 * (v.len() as f64).sqrt() {
+        return None; // the pattern vanishes at every polygon angle
+    }
     basis[n_const..]
         .iter()
         .zip(owner)
