@@ -32,6 +32,11 @@ enum Command {
     ShiftAngle(cmd::shift_angle::Args),
     /// Self-calibrate an encoder from several read heads (EDA, SelfA, Fourier least squares).
     Selfcal(cmd::selfcal::Args),
+    /// Calibrate an encoder from polygon readings and read-head readings in one least squares.
+    Joint(cmd::joint::Args),
+    /// Import an instrument's log (an autocollimator's serial output) as a readings file.
+    #[command(subcommand)]
+    Import(cmd::import::Import),
     /// Compare two calibration certificates of one encoder at their common angles (differences, En).
     Compare(cmd::compare::Args),
     /// One self-contained HTML report with plots from certificates, comparisons and mounting batches.
@@ -56,6 +61,8 @@ fn main() {
         Command::Simulate(s) => cmd::simulate::run(s),
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),
         Command::Selfcal(a) => cmd::selfcal::run(a),
+        Command::Joint(a) => cmd::joint::run(a),
+        Command::Import(i) => cmd::import::run(i),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Report(a) => cmd::report::run(a),
         Command::Certificate(a) => cmd::certificate::run(a),

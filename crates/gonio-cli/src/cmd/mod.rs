@@ -6,6 +6,8 @@ pub mod compare;
 pub mod demo;
 pub mod detect;
 pub mod eccentricity;
+pub mod import;
+pub mod joint;
 pub mod mount;
 pub mod report;
 pub mod selfcal;

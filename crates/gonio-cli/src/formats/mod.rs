@@ -1,8 +1,10 @@
 //! File formats the commands read, each with errors that name the file, line and column.
 
 pub mod certificate;
+pub mod elcomat;
 pub mod instrument;
 pub mod meta;
+pub mod plan;
 pub mod report;
 
 use anyhow::anyhow;

@@ -1,5 +1,7 @@
 //! `gonio simulate shift-angle`: polygon + autocollimator readings with ground truth.
 
+use crate::formats::elcomat::{self, Mode};
+use crate::formats::plan::{Level, ModeRule, Plan, ShiftPlan};
 use crate::io;
 use anyhow::{Context, Result, bail};
 use gonio_sim::EncoderModel;
@@ -10,12 +12,14 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Writes DIR/readings.csv (shift_deg,start_face,step,reading_arcsec[,repeat]), DIR/truth.json
-(true α at every sampled angle after its shift's closure, β, U) and DIR/encoder.json (the model).
+(true α at every sampled angle after its shift's closure, β, U) and DIR/encoder.json (the model);
+with --elcomat-log, the same readings as an autocollimator log and DIR/plan.toml.
 
 Examples:
   gonio simulate shift-angle --faces 24 --shifts 0,5,10 --sigma 0.05 --seed 1 --out run1
   gonio simulate shift-angle --encoder enc.json --shifts 0:1:14 --rows seed --out seedlike
-  gonio simulate shift-angle --faces 12 --shifts 0,10 --rows full --repeats 3 --drop 0.1 --out sparse")]
+  gonio simulate shift-angle --faces 12 --shifts 0,10 --rows full --repeats 3 --drop 0.1 --out sparse
+  gonio simulate shift-angle --shifts 0:1:14 --out lab --elcomat-log lab/elcomat.log")]
 pub struct Args {
     /// Encoder model file (from `gonio simulate encoder`); default: the built-in model with
     /// graduation error from --seed.
@@ -55,6 +59,14 @@ pub struct Args {
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write the readings as an ELCOMAT-type autocollimator log (`4 003 X Y` lines, CR
+    /// ended) here, and the measuring plan it follows as DIR/plan.toml (for `gonio import
+    /// elcomat`).
+    #[arg(long)]
+    pub elcomat_log: Option<PathBuf>,
+    /// Readings of the log: `absolute` (`4 003`) or `relative` (`2 103`).
+    #[arg(long, default_value = "absolute", requires = "elcomat_log")]
+    pub elcomat_mode: String,
 }
 
 /// Parses `0,5,10` or `0:1:14` (inclusive end).
@@ -143,6 +155,9 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     io::write_atomic(&args.out.join("readings.csv"), csv.as_bytes())?;
+    if let Some(log) = &args.elcomat_log {
+        write_elcomat(&args, &cfg, &sim.readings, log)?;
+    }
     io::write_json(&args.out.join("truth.json"), &sim.truth)?;
     io::write_atomic(&args.out.join("encoder.json"), encoder.to_json().as_bytes())?;
     eprintln!(
@@ -152,5 +167,72 @@ pub fn run(args: Args) -> Result<()> {
         cfg.shifts_deg.len(),
         args.out.display()
     );
+    Ok(())
+}
+
+/// Writes the readings as an autocollimator log and the plan it follows (DIR/plan.toml).
+fn write_elcomat(
+    args: &Args,
+    cfg: &ShiftAngleConfig,
+    readings: &[gonio_calib::shift_angle::Reading],
+    log: &std::path::Path,
+) -> Result<()> {
+    let mode = match args.elcomat_mode.as_str() {
+        "absolute" => Mode::Absolute,
+        "relative" => Mode::Relative,
+        m => bail!("--elcomat-mode {m:?}: expected absolute or relative"),
+    };
+    if cfg.drop_fraction > 0.0 {
+        bail!(
+            "--elcomat-log: a measuring plan cannot say which readings --drop left out; use --drop 0"
+        );
+    }
+    let all: Vec<usize> = (1..=cfg.faces).collect();
+    let shifts = cfg
+        .shifts_deg
+        .iter()
+        .enumerate()
+        .map(|(i, &shift_deg)| ShiftPlan {
+            shift_deg,
+            start_faces: match cfg.rows {
+                Rows::Full => all.clone(),
+                Rows::Seed if i == 0 => all.clone(),
+                Rows::One | Rows::Seed => vec![1],
+            },
+            steps: all.clone(),
+            repeats: cfg.repeats,
+        })
+        .collect();
+    let plan = Plan {
+        faces: cfg.faces,
+        shifts,
+        order: [Level::Shift, Level::StartFace, Level::Step, Level::Repeat],
+        closure: false,
+        x_sign: 1.0,
+        mode: match mode {
+            Mode::Absolute => ModeRule::Absolute,
+            Mode::Relative => ModeRule::Relative,
+        },
+    };
+    let decimals = if args.resolution > 0.0 {
+        (-args.resolution.log10()).ceil().clamp(0.0, 12.0) as usize
+    } else {
+        6
+    };
+    // The simulator's readings are in measuring order; the autocollimator has no Y here.
+    let xy: Vec<(f64, f64)> = readings.iter().map(|r| (r.value_arcsec, 0.0)).collect();
+    io::write_atomic(log, elcomat::write(&xy, mode, decimals).as_bytes())?;
+    let plan_path = args.out.join("plan.toml");
+    let comment = format!(
+        "Measuring plan of {} (gonio simulate shift-angle --faces {} --shifts {} --rows {} --repeats {} --seed {})",
+        log.display(),
+        args.faces,
+        args.shifts,
+        args.rows,
+        args.repeats,
+        args.seed
+    );
+    io::write_atomic(&plan_path, plan.to_toml(&comment).as_bytes())?;
+    eprintln!("wrote {} and {}", log.display(), plan_path.display());
     Ok(())
 }

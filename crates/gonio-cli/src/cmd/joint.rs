@@ -1,0 +1,318 @@
+//! `gonio joint`: calibrate an encoder from polygon readings and read-head readings together.
+
+use crate::cmd::selfcal::{load_heads, locate, read_readings as read_heads};
+use crate::cmd::shift_angle::read_readings as read_polygon;
+use crate::formats;
+use crate::io::{self, CsvTable};
+use anyhow::{Context, Result, anyhow, bail};
+use gonio_calib::certificate::{Certificate, JointSection};
+use gonio_calib::joint::{
+    HeadAngles, Interpolation, JointError, JointHarmonic, JointOptions, SigmaUsed, calibrate,
+};
+use gonio_calib::selfcal::NoiseModel;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `gonio joint`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Inputs (the same encoder, read both ways):
+  READINGS.csv  polygon + autocollimator readings, as for `gonio shift-angle`:
+                shift_deg,start_face,step,reading_arcsec[,repeat]
+  HEADS.csv     head differences, as for `gonio selfcal`: position_deg,head_2,…,head_M (arcsec;
+                with --raw, position_deg,head_1,…,head_M in degrees); optional `turn` column.
+Every polygon angle must be one of the head readings' rotation positions.
+
+Each instrument is weighted by its own σ: --sigma-polygon/--sigma-heads, or estimated from its
+own residuals (the polygon's shift-angle least squares, the heads' per-harmonic fit).
+--json writes a gonio.certificate/1 (procedure `joint`, see docs/joint-calibration.md): α at every
+distinct polygon angle with u, ν_eff, k and U; under `joint` the split of every u between the
+instruments, the full covariance of α there, β and U, the harmonic table with each instrument's
+share per order and the orders neither instrument sees. `gonio report` draws its spectrum with each
+method's blind orders marked.
+
+Examples:
+  gonio simulate shift-angle --rows full --shifts 0:1:14 --seed 1 --out poly
+  gonio simulate selfcal --heads selfa12 --seed 1 --out heads
+  gonio joint poly/readings.csv heads/readings.csv --faces 24 --heads selfa12 --json joint.json")]
+pub struct Args {
+    /// Polygon readings CSV.
+    pub readings: PathBuf,
+    /// Head readings CSV.
+    pub heads_readings: PathBuf,
+    /// Polygon faces N.
+    #[arg(long)]
+    pub faces: usize,
+    /// Head arrangement: `selfa12`, `eda:N`, or a TOML/JSON heads file.
+    #[arg(long)]
+    pub heads: String,
+    /// The head CSV holds raw head readings in degrees (`head_1..head_M`).
+    #[arg(long)]
+    pub raw: bool,
+    /// σ of one polygon reading, arcsec (default: from the polygon's own residuals).
+    #[arg(long)]
+    pub sigma_polygon: Option<f64>,
+    /// σ of one head reading (or difference, per --noise-model), arcsec (default: from the
+    /// heads' own residuals).
+    #[arg(long)]
+    pub sigma_heads: Option<f64>,
+    /// Heads' noise: `readings` (each head reading has its own noise) or `differences`.
+    #[arg(long, default_value = "readings")]
+    pub noise_model: String,
+    /// Head angles in the heads' model: `measured` (nominal + each head's mean difference) or
+    /// `nominal`.
+    #[arg(long, default_value = "measured")]
+    pub head_angles: String,
+    /// The scale error between rotation positions: `linear` (as between graduation lines) or
+    /// `trigonometric` (band-limited).
+    #[arg(long, default_value = "linear")]
+    pub interpolation: String,
+    /// Largest order of the harmonic table and the blind lists.
+    #[arg(long, default_value_t = 360)]
+    pub max_order: u32,
+    /// Highest heads-blind order the polygon is asked to resolve (default: half the number of
+    /// distinct polygon angles).
+    #[arg(long)]
+    pub blind_max_order: Option<u32>,
+    /// Instrument terms (TOML, see examples/instrument-shift-angle.toml) combined with the
+    /// random part into u, ν_eff, k and U of every angle.
+    #[arg(long)]
+    pub instrument: Option<PathBuf>,
+    /// Coverage probability of U (default: the instrument file's, else 0.95).
+    #[arg(long)]
+    pub coverage: Option<f64>,
+    /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Certificate metadata (TOML, ISO/IEC 17025 §7.8), carried in the certificate. See
+    /// examples/certificate-meta.toml.
+    #[arg(long)]
+    pub meta: Option<PathBuf>,
+    /// Write the compensation table `angle_deg,correction_arcsec` (correction = −α).
+    #[arg(long)]
+    pub compensation: Option<PathBuf>,
+}
+
+fn parse_choice<T: Copy>(flag: &str, value: &str, choices: &[(&str, T)]) -> Result<T> {
+    choices
+        .iter()
+        .find(|(name, _)| *name == value)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            let names: Vec<&str> = choices.iter().map(|(n, _)| *n).collect();
+            anyhow!("--{flag} {value:?}: expected {}", names.join(" or "))
+        })
+}
+
+/// Runs `gonio joint`.
+pub fn run(args: Args) -> Result<()> {
+    let opts = JointOptions {
+        sigma_polygon_arcsec: args.sigma_polygon,
+        sigma_heads_arcsec: args.sigma_heads,
+        noise_model: parse_choice(
+            "noise-model",
+            &args.noise_model,
+            &[
+                ("readings", NoiseModel::Readings),
+                ("differences", NoiseModel::Differences),
+            ],
+        )?,
+        head_angles: parse_choice(
+            "head-angles",
+            &args.head_angles,
+            &[
+                ("measured", HeadAngles::Measured),
+                ("nominal", HeadAngles::Nominal),
+            ],
+        )?,
+        interpolation: parse_choice(
+            "interpolation",
+            &args.interpolation,
+            &[
+                ("linear", Interpolation::Linear),
+                ("trigonometric", Interpolation::Trigonometric),
+            ],
+        )?,
+        max_order: args.max_order,
+        blind_max_order: args.blind_max_order,
+        coverage: 0.95,
+    };
+    if args.faces < 3 {
+        bail!(
+            "--faces {}: expected a polygon with at least 3 faces",
+            args.faces
+        );
+    }
+    let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
+    let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
+    let opts = JointOptions {
+        coverage: instrument.terms.coverage,
+        ..opts
+    };
+    let set = read_polygon(&args.readings, Some(args.faces))?;
+    let (heads, _) = load_heads(&args.heads)?;
+    let table = CsvTable::read(&args.heads_readings)?;
+    let rt = read_heads(&table, &heads, args.raw)?;
+    let cal = calibrate(&set, &heads, &rt.turns, &opts).map_err(|e| match e {
+        JointError::Heads(h) => locate(h, &table, &rt.lines),
+        JointError::Polygon(p) => anyhow!("{}: {p}", args.readings.display()),
+        e @ JointError::OffGrid { .. } => anyhow!(
+            "{} and {}: {e}",
+            args.readings.display(),
+            args.heads_readings.display()
+        ),
+        e => anyhow!("{e}"),
+    })?;
+    let mut cert = Certificate::from_joint(&cal, &instrument)?;
+    if let Some(m) = meta {
+        cert = cert.with_meta(m);
+    }
+    let to_stdout = args.json.as_deref() == Some(Path::new("-"));
+    if let Some(p) = &args.json {
+        io::write_json(p, &cert).context("writing the certificate")?;
+    }
+    if let Some(p) = &args.compensation {
+        let rows: Vec<Vec<String>> = cert
+            .compensation
+            .iter()
+            .map(|c| {
+                vec![
+                    format!("{}", c.angle_deg),
+                    format!("{:.6}", c.correction_arcsec),
+                ]
+            })
+            .collect();
+        io::write_csv(p, &["angle_deg", "correction_arcsec"], &rows)?;
+    }
+    if !to_stdout {
+        io::emit(&summary(&cert));
+        for p in [&args.json, &args.compensation].into_iter().flatten() {
+            eprintln!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+fn list(orders: &[u32]) -> String {
+    if orders.is_empty() {
+        "none".into()
+    } else if orders.len() > 10 {
+        format!("{:?}… ({} orders)", &orders[..10], orders.len())
+    } else {
+        format!("{orders:?}")
+    }
+}
+
+fn summary(cert: &Certificate) -> String {
+    let mut out = String::new();
+    let Some(j) = &cert.joint else {
+        return out;
+    };
+    let sigma = |s: &SigmaUsed| {
+        if s.stated {
+            format!("{:.4}″ (stated)", s.sigma_arcsec)
+        } else {
+            format!(
+                "{:.4}″ (residuals, ν = {})",
+                s.sigma_arcsec,
+                crate::table::dof_text(s.dof)
+            )
+        }
+    };
+    let _ = writeln!(out, "{}", cert.procedure.title());
+    let _ = writeln!(
+        out,
+        "  polygon            {} faces, {} shifts, {} readings; σ {}",
+        j.faces,
+        j.shifts_deg.len(),
+        j.readings,
+        sigma(&j.sigma_polygon)
+    );
+    let _ = writeln!(
+        out,
+        "  heads              {} heads × {} positions; σ {}",
+        j.heads_deg.len(),
+        j.positions,
+        sigma(&j.sigma_heads)
+    );
+    worst_angle(&mut out, cert, j);
+    let b = &j.blind_orders;
+    let _ = writeln!(
+        out,
+        "  blind, up to {:<5} polygon {}; heads {}",
+        b.max_order,
+        list(&b.polygon),
+        list(&b.heads)
+    );
+    let _ = writeln!(
+        out,
+        "  joint              sees {} from the polygon alone; still invisible: {}",
+        list(&b.from_polygon),
+        list(&b.joint)
+    );
+    let mut top: Vec<&JointHarmonic> = j.harmonics.iter().filter(|h| h.estimated).collect();
+    top.sort_by(|a, b| b.amplitude_arcsec.total_cmp(&a.amplitude_arcsec));
+    let _ = writeln!(
+        out,
+        "  largest harmonics  (order: amplitude ± u, heads' share of the information)"
+    );
+    for h in top.iter().take(6) {
+        let _ = writeln!(
+            out,
+            "    {:>5}: {:.5}″ ± {:.5}″, heads {:>5.1} %",
+            h.order,
+            h.amplitude_arcsec,
+            0.5 * (h.u_cos_arcsec + h.u_sin_arcsec),
+            100.0 * h.heads_share
+        );
+    }
+    if let Some(c) = &j.consistency {
+        let _ = writeln!(
+            out,
+            "  agreement          Δχ² = {:.1} for {} dof, P = {:.3}: {}",
+            c.chi2,
+            c.dof,
+            c.p_upper,
+            if c.consistent {
+                "the instruments agree"
+            } else {
+                "the instruments DISAGREE (check the set-up, the heads' angles, σ)"
+            }
+        );
+    }
+    out
+}
+
+/// The angle with the largest u: its value range, its u split and each method's own u.
+fn worst_angle(out: &mut String, cert: &Certificate, j: &JointSection) {
+    let Some((i, w)) = cert
+        .points
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.u_arcsec.total_cmp(&b.1.u_arcsec))
+    else {
+        return;
+    };
+    let r = &j.random_part[i];
+    let _ = writeln!(
+        out,
+        "  encoder error α    {} angles, largest |α| {:.4}″; largest u {:.4}″ (heads {:.4}″, polygon {:.4}″){}",
+        cert.points.len(),
+        cert.max_abs_error_arcsec(),
+        w.u_arcsec,
+        r.u_heads_arcsec,
+        r.u_polygon_arcsec,
+        w.expanded_arcsec.map_or(String::new(), |x| format!(
+            ", U {x:.4}″ (k = {:.3})",
+            w.k.unwrap_or(f64::NAN)
+        ))
+    );
+    let _ = writeln!(
+        out,
+        "  each alone         heads {:.4}″, polygon {} at {}°",
+        r.u_heads_alone_arcsec,
+        r.u_polygon_alone_arcsec
+            .map_or("–".into(), |u| format!("{u:.4}″")),
+        w.angle_deg
+    );
+}
