@@ -14,7 +14,7 @@
 //! let sim = simulate(&enc, &cfg).unwrap();
 //! assert_eq!(sim.polygon.readings.len(), 15 * 24 * 24);
 //! let (c, s) = true_coefficients(&sim.heads.truth, 2);
-//! assert!((c.hypot(s) - 1.0314).abs() < 0.01); // the seed's 2nd harmonic (plus graduation noise)
+//! assert!((c.hypot(s) - 1.0314).abs() < 0.01); // the 2nd harmonic of Hsieh et al., 2022 (plus graduation noise)
 //! ```
 
 use crate::selfcal::{SelfcalSim, SelfcalSimConfig, SelfcalTruth};

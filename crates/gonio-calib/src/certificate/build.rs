@@ -49,6 +49,17 @@ impl Instrument {
         Ok(self)
     }
 
+    /// `source`, followed by the instrument terms' origin when there are terms.
+    fn with_terms(&self, source: String) -> String {
+        if self.terms.contributions.is_empty() {
+            return source;
+        }
+        match &self.source {
+            Some(f) => format!("{source} + instrument terms ({f})"),
+            None => format!("{source} + instrument terms"),
+        }
+    }
+
     fn summary(&self, source: String, random_dof: f64) -> UncertaintySummary {
         UncertaintySummary {
             source,
@@ -180,6 +191,21 @@ fn compensation(points: &[AnglePoint]) -> Vec<CompensationRow> {
         .collect()
 }
 
+/// The pitch deviations β with their u and U = k·u (random part only).
+fn pitch_rows(beta: &[f64], u_beta: &[f64], k: f64) -> Vec<PitchDeviation> {
+    beta.iter()
+        .zip(u_beta)
+        .enumerate()
+        .map(|(i, (&v, &u))| PitchDeviation {
+            face: i + 1,
+            value_arcsec: v,
+            u_arcsec: u,
+            expanded_arcsec: finite(k * u),
+            k: finite(k),
+        })
+        .collect()
+}
+
 fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
@@ -285,21 +311,11 @@ impl Certificate {
             p.step = Some(m.step);
             points.push(p);
         }
-        let p = instrument.terms.coverage;
-        let k_beta = coverage_factor(p, random_dof);
-        let pitch_deviations = cal
-            .beta_arcsec
-            .iter()
-            .zip(&cal.u_beta_arcsec)
-            .enumerate()
-            .map(|(i, (&v, &u))| PitchDeviation {
-                face: i + 1,
-                value_arcsec: v,
-                u_arcsec: u,
-                expanded_arcsec: finite(k_beta * u),
-                k: finite(k_beta),
-            })
-            .collect();
+        let pitch_deviations = pitch_rows(
+            &cal.beta_arcsec,
+            &cal.u_beta_arcsec,
+            coverage_factor(instrument.terms.coverage, random_dof),
+        );
         let sigma_source = if sigma_stated { "stated" } else { "residuals" };
         let source = format!(
             "{} covariance, σ {}",
@@ -378,13 +394,7 @@ impl Certificate {
         }
         points.sort_by(|a, b| a.angle_deg.total_cmp(&b.angle_deg));
         let random_dof = r.errors[0].nu_eff;
-        let mut source = r.uncertainty.source.clone();
-        if !instrument.terms.contributions.is_empty() {
-            source = match &instrument.source {
-                Some(f) => format!("{source} + instrument terms ({f})"),
-                None => format!("{source} + instrument terms"),
-            };
-        }
+        let source = instrument.with_terms(r.uncertainty.source.clone());
         let mut uncertainty = instrument.summary(source, random_dof);
         uncertainty.u_residuals_arcsec = Some(r.uncertainty.u_residuals_arcsec);
         uncertainty.u_turns_arcsec = r.uncertainty.u_turns_arcsec;
@@ -477,20 +487,11 @@ impl Certificate {
             .map(|a| a.nu_eff)
             .fold(f64::INFINITY, f64::min);
         let sp = cal.sigma_polygon;
-        let k_beta = coverage_factor(instrument.terms.coverage, sp.dof);
-        let pitch_deviations = cal
-            .beta_arcsec
-            .iter()
-            .zip(&cal.u_beta_arcsec)
-            .enumerate()
-            .map(|(i, (&v, &u))| PitchDeviation {
-                face: i + 1,
-                value_arcsec: v,
-                u_arcsec: u,
-                expanded_arcsec: finite(k_beta * u),
-                k: finite(k_beta),
-            })
-            .collect();
+        let pitch_deviations = pitch_rows(
+            &cal.beta_arcsec,
+            &cal.u_beta_arcsec,
+            coverage_factor(instrument.terms.coverage, sp.dof),
+        );
         let sigma_text = |s: &crate::joint::SigmaUsed| {
             if s.stated {
                 "stated".to_string()
@@ -498,17 +499,11 @@ impl Certificate {
                 format!("from its residuals (ν = {})", s.dof)
             }
         };
-        let mut source = format!(
+        let source = instrument.with_terms(format!(
             "joint least-squares covariance; polygon σ {}, heads σ {}; ν per angle by Welch–Satterthwaite",
             sigma_text(&sp),
             sigma_text(&cal.sigma_heads)
-        );
-        if !instrument.terms.contributions.is_empty() {
-            source = match &instrument.source {
-                Some(f) => format!("{source} + instrument terms ({f})"),
-                None => format!("{source} + instrument terms"),
-            };
-        }
+        ));
         let m = cal.heads_deg.len();
         let spectrum = Spectrum {
             lines: cal
