@@ -132,6 +132,22 @@ fn joint_result_matches_the_truth_and_lists_the_blind_orders() {
     ] {
         assert!(html.contains(mark), "{mark}");
     }
+    // The joint certificate exports as a Digital Calibration Certificate that validates.
+    let repo = |f: &str| format!("{}/../../{f}", env!("CARGO_MANIFEST_DIR"));
+    let xml = p("joint.xml");
+    let meta = repo("examples/certificate-meta.toml");
+    let o = gonio(&["certificate", &json, "--meta", &meta, "--dcc", &xml]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = Command::new("xmllint")
+        .args([
+            "--noout",
+            "--schema",
+            &repo("schemas/dcc/dcc-3.1.2.xsd"),
+            &xml,
+        ])
+        .output()
+        .expect("xmllint runs (Debian package libxml2-utils; .ci/run installs it)");
+    assert!(v.status.success(), "{}", String::from_utf8_lossy(&v.stderr));
 }
 
 #[test]

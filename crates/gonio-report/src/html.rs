@@ -711,6 +711,13 @@ fn values_table(b: &mut String, cert: &Certificate) {
     b.push_str("</tbody></table></details>");
 }
 
+/// The text with its first letter in upper case.
+fn capitalise(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map_or(String::new(), |f| f.to_uppercase().chain(c).collect())
+}
+
 fn statements(b: &mut String, cert: &Certificate, m: &CertificateMeta) {
     b.push_str("<h2>Statements</h2><ul class=\"statements\">");
     let p = cert.uncertainty.coverage * 100.0;
@@ -733,7 +740,26 @@ fn statements(b: &mut String, cert: &Certificate, m: &CertificateMeta) {
             )
         })
         .collect();
-    if !blind.is_empty() {
+    if cert.procedure == Procedure::Joint {
+        let k: Vec<String> = cert
+            .undetectable_orders
+            .iter()
+            .take(6)
+            .map(|k| k.to_string())
+            .collect();
+        let _ = write!(
+            b,
+            "<li>{}. The joint estimate holds every harmonic one of the instruments sees; only those neither sees are absent from the result whatever their size: order {}{}.</li>",
+            esc(&capitalise(&blind.join("; "))),
+            k.join(", "),
+            if cert.undetectable_orders.len() > 6 {
+                ", …"
+            } else {
+                ""
+            }
+        );
+        b.push_str("<li>α has zero mean over the circle; the correction is −α, to be added to the encoder's reading.</li>");
+    } else if !blind.is_empty() {
         let _ = write!(
             b,
             "<li>Harmonics of α that the method cannot see are absent from the result whatever their size: {}.</li>",
