@@ -106,6 +106,17 @@ pub fn read_bytes(path: &Path, limit: usize) -> Result<Vec<u8>> {
     Ok(data)
 }
 
+/// Parses TOML text into `T`; errors read `NAME:LINE:COLUMN: what was wrong`.
+pub fn parse_toml<T: serde::de::DeserializeOwned>(name: &str, text: &str) -> Result<T> {
+    toml::from_str(text).map_err(|e| crate::formats::toml_error(Path::new(name), text, &e))
+}
+
+/// Reads a TOML file (or `-`) into `T`; errors name the file, line and column.
+pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let text = read_text(path)?;
+    parse_toml(&path.display().to_string(), &text)
+}
+
 /// A CSV file read whole, with the line number of every record, for precise error messages.
 #[derive(Debug)]
 pub struct CsvTable {

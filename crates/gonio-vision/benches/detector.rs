@@ -2,7 +2,7 @@
 //! (the per-stage split), and the renderer.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use gonio_sim::frames::{GratingRenderer, GratingScene};
+use gonio_sim::frames::{GratingRenderer, GratingScene, ScenePreset};
 use gonio_vision::fill::EdgeFill;
 use gonio_vision::gaussian::Gaussian5;
 use gonio_vision::gradient::{GradRow, Sobel};
@@ -27,6 +27,20 @@ fn bench(c: &mut Criterion) {
     let mut det = Detector::new(&optics).unwrap();
     c.bench_function("detector 1440x540", |b| {
         b.iter(|| det.detect(black_box(&f)).unwrap())
+    });
+    // The dense scene: track-border groups, incremental lines and code bars close to the ring,
+    // 150 dust specks, a scratch, noise 5: several hundred components a frame.
+    let dense = {
+        let r = GratingRenderer::new(&optics, GratingScene::preset(ScenePreset::Dense)).unwrap();
+        let mut f = vec![0u8; r.frame_len()];
+        r.render(33.0, 150.0, 20.0, 0.0, 1, &mut f).unwrap();
+        f
+    };
+    let r = det.detect(&dense).unwrap();
+    assert!(r.valid, "dense scene: {:?}", r.reason);
+    eprintln!("dense scene: {} components", r.components);
+    c.bench_function("detector 1440x540 dense", |b| {
+        b.iter(|| det.detect(black_box(&dense)).unwrap())
     });
 
     // Stage inputs from a dump.
@@ -110,6 +124,7 @@ fn bench(c: &mut Criterion) {
                 class: e.class[y * w..(y + 1) * w].to_vec(),
                 dir: e.dir[y * w..(y + 1) * w].to_vec(),
                 sub: e.sub[y * w..(y + 1) * w].to_vec(),
+                mag: e.mag[y * w..(y + 1) * w].to_vec(),
             })
             .collect::<Vec<_>>()
     };
@@ -125,7 +140,7 @@ fn bench(c: &mut Criterion) {
         })
     });
     let filled = edge_rows(&d.filled);
-    let mut la = Labeller::new(w, p.height, false);
+    let mut la = Labeller::new(w, p.height, false).min_rows(p.min_fragment_rows);
     g.bench_function("labelling + features", |b| {
         b.iter(|| {
             la.reset();
@@ -133,7 +148,7 @@ fn bench(c: &mut Criterion) {
                 la.push_row(r);
             }
             la.finish();
-            black_box(la.best().len())
+            black_box(la.candidates().len())
         })
     });
     g.finish();

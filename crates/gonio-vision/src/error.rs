@@ -46,4 +46,23 @@ pub enum VisionError {
         /// Window height.
         height: usize,
     },
+    /// A frame is neither the optics' window nor its sensor in size.
+    #[error(
+        "frame is {width}×{height}: expected the window {window_width}×{window_height} or the \
+         sensor {sensor_width}×{sensor_height} (see the optics)"
+    )]
+    FrameShape {
+        /// Width of the frame given, px.
+        width: usize,
+        /// Height of the frame given, px.
+        height: usize,
+        /// The optics' window width, px.
+        window_width: usize,
+        /// The optics' window height, px.
+        window_height: usize,
+        /// The optics' sensor width, px.
+        sensor_width: usize,
+        /// The optics' sensor height, px.
+        sensor_height: usize,
+    },
 }

@@ -1,5 +1,6 @@
-//! Baseline features (seed §4, baseline-feature computation): the ring's two edges from the
-//! largest components, their lines, the validity checks, c, and why a frame is invalid.
+//! Baseline features (seed §4, baseline-feature computation): the ring's two edges as chosen
+//! by the ring's model ([`crate::select`]), their lines, the validity checks, c, the score and
+//! margin of the choice, and why a frame is invalid.
 //!
 //! Each edge's column is fitted as a function of row (least squares on the sub-pixel edge
 //! positions: a line for the reported slope, a parabola for c). c is the mean of the two edges'
@@ -7,8 +8,9 @@
 //! seed's centroid column (the fit's residuals sum to zero), and it stays unbiased when a few
 //! rows are missing from a slanted or curved edge. The plain centroid is reported too.
 
-use crate::label::Component;
+use crate::label::{Component, EdgeList};
 use crate::optics::Params;
+use crate::select::{curve, moments, select, window_mean};
 use serde::Serialize;
 
 /// Why a frame gave no valid c.
@@ -28,6 +30,8 @@ pub enum InvalidReason {
     OutOfFocus,
     /// Two long edges, but not a ring's: wrong gradient signs, separation or tilt.
     InconsistentEdges,
+    /// Two ring candidates score too close to call (see [`FrameResult::margin`]).
+    Ambiguous,
 }
 
 /// One edge of the ring: its fitted line `column(row) = column_px + slope·(row − row_px)`.
@@ -51,6 +55,10 @@ pub struct EdgeLine {
     pub rows: (u32, u32),
     /// Fitted column averaged over all the window's rows (parabola), px.
     pub window_mean_column_px: f64,
+    /// RMS distance of the edge's pixels from its fitted curve, px.
+    pub fit_rms_px: f64,
+    /// Mean gradient magnitude along the edge (Sobel L1 units).
+    pub mean_gradient: f64,
 }
 
 /// The detector's output for one frame.
@@ -74,91 +82,35 @@ pub struct FrameResult {
     pub mean_gradient: f64,
     /// Pixels at 255.
     pub saturated_px: u64,
-    /// The ring's edges (left first) when two were paired; else the longest candidates.
+    /// The ring's edges (left first) when two were paired; else the longest edges.
     pub edges: Vec<EdgeLine>,
     /// Connected edge components in the frame.
     pub components: usize,
-}
-
-fn moments_u(c: &Component, h: i128) -> ([f64; 5], [f64; 3]) {
-    // u = 2·row − (H − 1): centred, integer. Exact expansion in i128.
-    let n = c.pos_n as i128;
-    let (s1, s2, s3, s4) = (
-        c.sum_row as i128,
-        c.sum_row2 as i128,
-        c.sum_row3 as i128,
-        c.sum_row4 as i128,
-    );
-    let u0 = n;
-    let u1 = 2 * s1 - h * n;
-    let u2 = 4 * s2 - 4 * h * s1 + h * h * n;
-    let u3 = 8 * s3 - 12 * h * s2 + 6 * h * h * s1 - h * h * h * n;
-    let u4 = 16 * s4 - 32 * h * s3 + 24 * h * h * s2 - 8 * h * h * h * s1 + h * h * h * h * n;
-    let (c0, c1, c2) = (
-        c.sum_col32 as i128,
-        c.sum_row_col32 as i128,
-        c.sum_row2_col32 as i128,
-    );
-    let v0 = c0;
-    let v1 = 2 * c1 - h * c0;
-    let v2 = 4 * c2 - 4 * h * c1 + h * h * c0;
-    (
-        [u0 as f64, u1 as f64, u2 as f64, u3 as f64, u4 as f64],
-        [v0 as f64 / 32.0, v1 as f64 / 32.0, v2 as f64 / 32.0],
-    )
-}
-
-fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(a);
-    let scale = a[0][0] * a[1][1] * a[2][2];
-    if d.is_nan() || d.abs() <= 1e-9 * scale.abs() {
-        return None;
-    }
-    let mut x = [0.0; 3];
-    for (i, xi) in x.iter_mut().enumerate() {
-        let mut m = a;
-        for r in 0..3 {
-            m[r][i] = b[r];
-        }
-        *xi = det(m) / d;
-    }
-    Some(x)
+    /// Score of the best ring candidate, 0 … 1 (`None`: no candidate).
+    pub score: Option<f64>,
+    /// How far the best candidate's score is ahead of the runner-up's, as a fraction of the
+    /// best's: 1 with no runner-up (`None`: no candidate).
+    pub margin: Option<f64>,
+    /// Standard uncertainty of c from the edges' fit, px (the pixels' scatter about the fitted
+    /// curves propagated through the fit; `None` without a ring).
+    pub c_sigma_px: Option<f64>,
+    /// How much the ring's width changes over the window, px (see
+    /// [`PairFit::width_change_px`](crate::select::PairFit::width_change_px)).
+    pub width_change_px: Option<f64>,
 }
 
 /// The fitted line and window-mean column of one component (`None` if it has no positioned
 /// pixel).
 pub fn edge_line(c: &Component, height: usize) -> Option<EdgeLine> {
-    if c.pos_n == 0 {
-        return None;
-    }
-    let h = height as i128 - 1;
-    let (u, v) = moments_u(c, h);
-    let n = u[0];
-    let column_px = v[0] / n;
+    let cv = curve(c, height)?;
+    let n = c.pos_n as f64;
+    let column_px = c.sum_col32 as f64 / 32.0 / n;
     let row_px = c.sum_row as f64 / n;
-    // Line in u: slope per u; u = 2 row − h, so d col/d row = 2·slope_u.
+    // The least-squares line's slope per row (u = 2·row − (H − 1)).
+    let (u, v, _) = moments(c, height);
     let suu = u[2] - u[1] * u[1] / n;
     let suv = v[1] - u[1] * v[0] / n;
     let slope = if suu > 0.0 { 2.0 * suv / suu } else { 0.0 };
-    let mean_u2 = ((height * height) as f64 - 1.0) / 3.0;
-    let span = (c.max_row - c.min_row) as f64;
-    let window_mean = if span >= height as f64 / 4.0 {
-        match solve3(
-            [[u[0], u[1], u[2]], [u[1], u[2], u[3]], [u[2], u[3], u[4]]],
-            [v[0], v[1], v[2]],
-        ) {
-            Some([a, _b, q]) => a + q * mean_u2,
-            None => column_px + slope / 2.0 * (0.0 - u[1] / n),
-        }
-    } else {
-        // Line evaluated at the window's middle row (u = 0).
-        column_px - slope / 2.0 * (u[1] / n)
-    };
     let dev = c.sum_dev as f64 / c.pixels as f64 * 360.0 / 256.0;
     let direction_deg = if 2 * c.gx_pos >= c.pixels {
         dev
@@ -174,8 +126,41 @@ pub fn edge_line(c: &Component, height: usize) -> Option<EdgeLine> {
         weak: c.weak,
         direction_deg,
         rows: (c.min_row, c.max_row),
-        window_mean_column_px: window_mean,
+        window_mean_column_px: window_mean(&cv, height),
+        fit_rms_px: cv.rms_px,
+        mean_gradient: c.sum_mag as f64 / c.pos_n.max(1) as f64,
     })
+}
+
+/// A run of saturated pixels (value 255) in one row of the raw frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SaturatedRun {
+    /// Row.
+    pub row: u32,
+    /// First column.
+    pub first: u32,
+    /// Last column.
+    pub last: u32,
+}
+
+/// The saturated runs of one raw row, appended to `out`.
+pub fn saturated_runs(row: &[u8], y: usize, out: &mut Vec<SaturatedRun>) {
+    let mut x = 0;
+    while x < row.len() {
+        if row[x] == 255 {
+            let a = x;
+            while x < row.len() && row[x] == 255 {
+                x += 1;
+            }
+            out.push(SaturatedRun {
+                row: y as u32,
+                first: a as u32,
+                last: x as u32 - 1,
+            });
+        } else {
+            x += 1;
+        }
+    }
 }
 
 /// Per-frame statistics gathered from the raw rows.
@@ -193,117 +178,86 @@ fn touches_side(c: &Component, p: &Params) -> bool {
     c.min_col <= 1 || c.max_col as usize >= p.width - 2
 }
 
-fn near_side(c: &Component, p: &Params) -> bool {
-    let m = 2 * p.baseline_width_px as u32;
-    c.min_col <= m || c.max_col as usize + m as usize >= p.width - 1
-}
-
-fn pair_problem(
-    a: &Component,
-    b: &Component,
-    la: &EdgeLine,
-    lb: &EdgeLine,
-    p: &Params,
-) -> Option<InvalidReason> {
-    if touches_side(a, p) || touches_side(b, p) {
-        return Some(InvalidReason::RingOutsideWindow);
-    }
-    let (lc, rc, ll, rl) = if la.column_px <= lb.column_px {
-        (a, b, la, lb)
-    } else {
-        (b, a, lb, la)
-    };
-    // In the top-hat the ring is bright: its left edge has Gx > 0, its right edge Gx < 0.
-    let left_pos = 2 * lc.gx_pos > lc.pixels;
-    let right_neg = 2 * rc.gx_pos < rc.pixels;
-    let sep = rl.column_px - ll.column_px;
-    let tan_tol = p.tan_tolerance_q10 as f64 / 1024.0;
-    if !left_pos
-        || !right_neg
-        || sep < p.separation_px.0
-        || sep > p.separation_px.1
-        || la.slope.abs() > tan_tol
-        || lb.slope.abs() > tan_tol
-    {
-        return Some(InvalidReason::InconsistentEdges);
-    }
-    None
-}
-
-/// Computes the frame's result from the largest components (best first) and the raw statistics.
+/// Computes the frame's result from its candidate components (any order), its edge pixels, its
+/// saturated runs (in row order) and the raw statistics.
+///
+/// Rows where a saturated pixel lies on a ring candidate or within 3 px of its edges are left
+/// out of the edges' fits (a clipped profile moves the edge); with fewer than
+/// `min_edge_fraction` of the rows left, the candidate is dropped and, when no other remains,
+/// the frame is [`InvalidReason::Saturated`].
 pub fn baseline_features(
-    best: &[Component],
+    cands: &[Component],
     components: usize,
+    edges: &mut EdgeList,
+    saturated: &[SaturatedRun],
     stats: RawStats,
     p: &Params,
 ) -> FrameResult {
-    let long: Vec<(&Component, EdgeLine)> = best
-        .iter()
-        .filter(|c| c.pixels as usize >= p.min_edge_pixels)
-        .filter_map(|c| edge_line(c, p.height).map(|l| (c, l)))
-        .collect();
+    let sel = select(cands, edges, saturated, p);
+    let h = p.height;
     let mut res = FrameResult {
         c_px: None,
         c_centroid_px: None,
         valid: false,
-        reason: None,
+        reason: sel.reason,
         focus: stats.focus,
         mean_gradient: stats.mean_gradient,
         saturated_px: stats.saturated_px,
-        edges: long.iter().take(2).map(|(_, l)| *l).collect(),
+        edges: Vec::new(),
         components,
+        score: sel.best.as_ref().map(|b| b.score),
+        margin: sel.margin,
+        c_sigma_px: sel.best.as_ref().map(|b| b.fit.c_sigma_px),
+        width_change_px: sel.best.as_ref().map(|b| b.fit.width_change_px),
     };
-    let mut reason = None;
-    let mut pair = None;
-    if long.is_empty() {
-        reason = Some(if stats.focus < p.min_focus {
-            InvalidReason::OutOfFocus
-        } else {
-            InvalidReason::NoRing
-        });
-    } else if long.len() == 1 {
-        reason = Some(if near_side(long[0].0, p) {
-            InvalidReason::RingOutsideWindow
-        } else if stats.focus < p.min_focus {
-            InvalidReason::OutOfFocus
-        } else {
-            InvalidReason::OneEdge
-        });
-    } else {
-        'search: for i in 0..long.len() {
-            for j in i + 1..long.len() {
-                let (a, la) = &long[i];
-                let (b, lb) = &long[j];
-                match pair_problem(a, b, la, lb, p) {
-                    None => {
-                        pair = Some((*la, *lb));
-                        break 'search;
-                    }
-                    Some(r) => {
-                        if reason.is_none() {
-                            reason = Some(r);
-                        }
-                    }
-                }
-            }
+    let Some(best) = sel.best else {
+        // The longest edges, for the user to see what the frame holds.
+        let mut t: Vec<&crate::select::Track> = sel.tracks.iter().collect();
+        t.sort_by_key(|t| (std::cmp::Reverse(t.coverage), t.comp.first_index));
+        res.edges = t
+            .iter()
+            .take(2)
+            .filter_map(|t| edge_line(&t.comp, h))
+            .collect();
+        if matches!(
+            res.reason,
+            Some(InvalidReason::NoRing | InvalidReason::OneEdge)
+        ) && stats.focus < p.min_focus
+        {
+            res.reason = Some(InvalidReason::OutOfFocus);
         }
+        if stats.saturated_px as usize > p.max_saturated_pixels {
+            res.reason = Some(InvalidReason::Saturated);
+        }
+        return res;
+    };
+    let (lc, rc) = (&best.fit.left, &best.fit.right);
+    let (Some(mut l), Some(mut r)) = (edge_line(lc, h), edge_line(rc, h)) else {
+        res.reason = Some(InvalidReason::InconsistentEdges);
+        return res;
+    };
+    // The edges' window means from the joint fit: c is their mean.
+    (l.window_mean_column_px, r.window_mean_column_px) = best.fit.window_means(h);
+    res.c_centroid_px = Some((l.column_px + r.column_px) / 2.0);
+    res.edges = vec![l, r];
+    let mut reason = sel.reason;
+    if reason.is_none() && (touches_side(lc, p) || touches_side(rc, p)) {
+        reason = Some(InvalidReason::RingOutsideWindow);
     }
-    if let Some((la, lb)) = pair {
-        let (l, r) = if la.column_px <= lb.column_px {
-            (la, lb)
-        } else {
-            (lb, la)
-        };
-        res.c_px = Some((l.window_mean_column_px + r.window_mean_column_px) / 2.0);
-        res.c_centroid_px = Some((l.column_px + r.column_px) / 2.0);
-        res.edges = vec![l, r];
+    // An edge whose pixels scatter about their curve more than a clean edge's can has taken in
+    // something else: its position is not the ring's.
+    if reason.is_none() && l.fit_rms_px.max(r.fit_rms_px) > p.max_edge_rms_px {
+        reason = Some(InvalidReason::InconsistentEdges);
+    }
+    // A ring is equally wide everywhere. When its width changes along the window, something
+    // runs along an edge or into the ring (a scratch nearly parallel to it) and moves that edge
+    // where the refit could not tell: c could be off by a fair part of the change.
+    if reason.is_none() && best.fit.width_change_px > p.max_width_change_px {
+        reason = Some(InvalidReason::InconsistentEdges);
+    }
+    if reason.is_none() {
+        res.c_px = Some(best.fit.c_px(h));
         res.valid = true;
-        reason = None;
-    }
-    if stats.saturated_px as usize > p.max_saturated_pixels {
-        res.valid = false;
-        res.c_px = None;
-        reason = Some(InvalidReason::Saturated);
     }
     res.reason = reason;
     res

@@ -22,7 +22,7 @@
 //! }
 //! l.finish();
 //! assert_eq!(l.component_count(), 2);
-//! assert_eq!(l.best()[0].pixels, 3);
+//! assert_eq!(l.candidates()[0].pixels, 3);
 //! ```
 
 use crate::segment::{EdgeRow, FILLED, NONE, STRONG, axial_deviation};
@@ -53,6 +53,10 @@ pub struct Component {
     pub sum_row_col32: i64,
     /// Σ row²·column (1/32 px).
     pub sum_row2_col32: i64,
+    /// Σ column² (1/1024 px²), for the scatter of the pixels about their fitted curve.
+    pub sum_col32_sq: i128,
+    /// Σ gradient magnitude |Gx| + |Gy| (positioned pixels).
+    pub sum_mag: u64,
     /// Σ direction deviation from the horizontal axis (binary angle units, all pixels).
     pub sum_dev: i64,
     /// Pixels whose gradient points to +x (|direction| < 90°).
@@ -70,7 +74,7 @@ pub struct Component {
 }
 
 impl Component {
-    fn empty() -> Self {
+    pub(crate) fn empty() -> Self {
         Component {
             min_col: u32::MAX,
             min_row: u32::MAX,
@@ -81,7 +85,17 @@ impl Component {
 
     /// Adds one pixel.
     #[inline]
-    pub fn add_pixel(&mut self, row: u32, col: u32, width: usize, class: u8, dir: u8, sub: i8) {
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_pixel(
+        &mut self,
+        row: u32,
+        col: u32,
+        width: usize,
+        class: u8,
+        dir: u8,
+        sub: i8,
+        mag: u16,
+    ) {
         self.pixels += 1;
         if class == STRONG {
             self.strong += 1;
@@ -103,6 +117,8 @@ impl Component {
             self.sum_col32 += c;
             self.sum_row_col32 += r * c;
             self.sum_row2_col32 += r * r * c;
+            self.sum_col32_sq += (c * c) as i128;
+            self.sum_mag += mag as u64;
         }
         self.min_col = self.min_col.min(col);
         self.max_col = self.max_col.max(col);
@@ -124,6 +140,8 @@ impl Component {
         self.sum_col32 += o.sum_col32;
         self.sum_row_col32 += o.sum_row_col32;
         self.sum_row2_col32 += o.sum_row2_col32;
+        self.sum_col32_sq += o.sum_col32_sq;
+        self.sum_mag += o.sum_mag;
         self.sum_dev += o.sum_dev;
         self.gx_pos += o.gx_pos;
         self.min_col = self.min_col.min(o.min_col);
@@ -137,16 +155,224 @@ impl Component {
     pub fn rank_key(&self) -> (std::cmp::Reverse<u64>, u64) {
         (std::cmp::Reverse(self.pixels), self.first_index)
     }
+
+    /// Rows from the first to the last, inclusive.
+    pub fn row_span(&self) -> u32 {
+        self.max_row.saturating_sub(self.min_row) + 1
+    }
+
+    /// A ring-edge candidate: a strong pixel (hysteresis) and at least `min_rows` rows.
+    pub fn is_candidate(&self, min_rows: u32) -> bool {
+        self.strong > 0 && self.row_span() >= min_rows
+    }
 }
 
-/// How many of the largest components are kept for the baseline features.
-pub const KEEP: usize = 4;
+/// One positioned edge pixel as the labeller saw it, with its component.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EdgePixel {
+    /// Row.
+    pub row: u16,
+    /// Column.
+    pub col: u16,
+    /// [`WEAK`](crate::segment::WEAK) or [`STRONG`].
+    pub class: u8,
+    /// Gradient direction (binary angle).
+    pub dir: u8,
+    /// Sub-pixel x offset, 1/32 px.
+    pub sub: i8,
+    /// Gradient magnitude.
+    pub mag: u16,
+    /// The component's `first_index` once resolved (a provisional label before).
+    pub comp: u64,
+}
+
+impl EdgePixel {
+    /// Column with its sub-pixel offset, 1/32 px.
+    pub fn col32(&self) -> i64 {
+        self.col as i64 * 32 + self.sub as i64
+    }
+    /// True for a rising edge (gradient toward +x).
+    pub fn rising(&self) -> bool {
+        self.dir.wrapping_add(64) < 128
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Event {
+    /// Label `from` merged into `to` during row `row`.
+    Merge { from: u32, to: u32, row: u32 },
+    /// Root `root` completed at row `row` as the component with this first index.
+    Complete {
+        root: u32,
+        row: u32,
+        first_index: u64,
+    },
+}
+
+impl Event {
+    fn row(&self) -> u32 {
+        match *self {
+            Event::Merge { row, .. } | Event::Complete { row, .. } => row,
+        }
+    }
+}
+
+/// Every positioned edge pixel of a frame in raster order, each with the `first_index` of its
+/// component, and where each row's pixels start. Kept by the labeller for the ring selection's
+/// robust steps (splitting an edge that took in a scratch, re-fitting the chosen edges); the
+/// components are resolved from a log of merges and completions only when first asked for.
+#[derive(Debug, Clone, Default)]
+pub struct EdgeList {
+    pixels: Vec<EdgePixel>,
+    row_start: Vec<u32>,
+    events: Vec<Event>,
+    resolved: bool,
+    overflow: bool,
+    cap: usize,
+    labels: usize,
+    fin: Vec<u64>,
+}
+
+impl EdgeList {
+    /// An empty list holding at most `cap` pixels (more: the list is marked incomplete), for a
+    /// labeller with `labels` labels.
+    fn with_capacity(cap: usize, labels: usize) -> Self {
+        EdgeList {
+            cap,
+            labels,
+            ..Default::default()
+        }
+    }
+
+    /// An incomplete list: no pixels (the selection then uses the components' sums only).
+    pub fn none() -> Self {
+        EdgeList {
+            resolved: true,
+            overflow: true,
+            ..Default::default()
+        }
+    }
+
+    /// A list from pixels already resolved to their components, in raster order (the
+    /// reference's; more than `cap` pixels: incomplete).
+    pub fn from_resolved(pixels: Vec<EdgePixel>, height: usize, cap: usize) -> Self {
+        let overflow = pixels.len() > cap;
+        let pixels = if overflow { Vec::new() } else { pixels };
+        let mut row_start = Vec::with_capacity(height + 1);
+        let mut k = 0;
+        for y in 0..=height {
+            while k < pixels.len() && (pixels[k].row as usize) < y {
+                k += 1;
+            }
+            row_start.push(k as u32);
+        }
+        EdgeList {
+            pixels,
+            row_start,
+            events: Vec::new(),
+            resolved: true,
+            overflow,
+            cap,
+            labels: 0,
+            fin: Vec::new(),
+        }
+    }
+
+    fn reset(&mut self) {
+        self.pixels.clear();
+        self.row_start.clear();
+        self.events.clear();
+        self.resolved = false;
+        self.overflow = false;
+    }
+
+    /// Resolves every pixel's component (once per frame).
+    fn resolve(&mut self) {
+        if self.resolved {
+            return;
+        }
+        self.fin.clear();
+        self.fin.resize(self.labels, u64::MAX);
+        let mut e = self.events.len();
+        // Backwards in time: a pixel recorded at row y carries its root at the end of row y;
+        // the merges and completions after that row decide its component.
+        for k in (0..self.pixels.len()).rev() {
+            let row = self.pixels[k].row as u32;
+            while e > 0 && self.events[e - 1].row() > row {
+                e -= 1;
+                match self.events[e] {
+                    Event::Merge { from, to, .. } => {
+                        self.fin[from as usize] = self.fin[to as usize]
+                    }
+                    Event::Complete {
+                        root, first_index, ..
+                    } => self.fin[root as usize] = first_index,
+                }
+            }
+            let l = self.pixels[k].comp as usize;
+            self.pixels[k].comp = self.fin[l];
+        }
+        self.resolved = true;
+    }
+
+    /// The pixels (resolved), or `None` when the frame had more than the list holds.
+    pub fn pixels(&mut self) -> Option<&[EdgePixel]> {
+        self.resolve();
+        (!self.overflow).then_some(&self.pixels[..])
+    }
+
+    /// The pixels of row `y`, sorted by column (empty when the list is incomplete or `y` is
+    /// outside the frame).
+    pub fn row(&mut self, y: usize) -> &[EdgePixel] {
+        self.resolve();
+        if self.overflow || y + 1 >= self.row_start.len() {
+            return &[];
+        }
+        &self.pixels[self.row_start[y] as usize..self.row_start[y + 1] as usize]
+    }
+
+    /// The pixels of the component with this `first_index` within rows `first ..= last`, in
+    /// raster order (empty when the list is incomplete).
+    pub fn component(&mut self, first_index: u64, first: u32, last: u32) -> Vec<EdgePixel> {
+        self.resolve();
+        if self.overflow || self.row_start.is_empty() {
+            return Vec::new();
+        }
+        let n = self.row_start.len() - 1;
+        let a = self.row_start[(first as usize).min(n)] as usize;
+        let b = self.row_start[(last as usize + 1).min(n)] as usize;
+        self.pixels[a..b]
+            .iter()
+            .filter(|p| p.comp == first_index)
+            .copied()
+            .collect()
+    }
+}
+
+/// A component's sums from its pixels.
+pub fn component_of(pixels: &[EdgePixel], width: usize) -> Component {
+    let mut c = Component::empty();
+    for p in pixels {
+        c.add_pixel(
+            p.row as u32,
+            p.col as u32,
+            width,
+            p.class,
+            p.dir,
+            p.sub,
+            p.mag,
+        );
+    }
+    c
+}
 
 #[derive(Debug, Clone, Copy)]
 struct Run {
     start: u32,
     end: u32,
     label: u32,
+    /// Range of this run's pixels in the edge list.
+    rec: (u32, u32),
 }
 
 /// Streaming labeller; see the module documentation.
@@ -160,17 +386,20 @@ pub struct Labeller {
     last_row: Vec<u32>,
     free: Vec<u32>,
     merged: Vec<u32>,
-    best: Vec<Component>,
+    candidates: Vec<Component>,
+    min_rows: u32,
     count: usize,
     record_all: bool,
     all: Vec<Component>,
+    edges: Option<EdgeList>,
     row: u32,
 }
 
 impl Labeller {
     /// A labeller for rows of `width` pixels; `height_hint` sizes the record of all components
-    /// when `record_all` is set (for tests and stage dumps; otherwise only the [`KEEP`] largest
-    /// components with a strong pixel are kept).
+    /// when `record_all` is set (for tests and stage dumps). Otherwise only the candidates are
+    /// kept: the components with a strong pixel (hysteresis) spanning at least
+    /// [`Labeller::min_rows`] rows (1 unless set).
     pub fn new(width: usize, height_hint: usize, record_all: bool) -> Self {
         let pool = width + 4;
         let mut l = Labeller {
@@ -182,14 +411,42 @@ impl Labeller {
             last_row: vec![0; pool],
             free: Vec::with_capacity(pool),
             merged: Vec::with_capacity(pool),
-            best: Vec::with_capacity(KEEP + 1),
+            candidates: Vec::with_capacity(256),
+            min_rows: 1,
             count: 0,
             record_all,
             all: Vec::with_capacity(if record_all { height_hint * 4 } else { 0 }),
+            edges: None,
             row: 0,
         };
         l.reset();
         l
+    }
+
+    /// Also keeps every positioned edge pixel with its component ([`EdgeList`]), at most `cap`
+    /// of them a frame (rows up to 65,535).
+    pub fn keep_pixels(mut self, cap: usize) -> Self {
+        self.edges = Some(EdgeList::with_capacity(cap, self.parent.len()));
+        self
+    }
+
+    /// The frame's edge pixels with their components (after [`Labeller::finish`]; `None`
+    /// unless kept with [`Labeller::keep_pixels`]). Resolved on the first access.
+    pub fn edge_list(&mut self) -> Option<&mut EdgeList> {
+        self.edges.as_mut()
+    }
+
+    /// The candidates and the edge list (an incomplete one when pixels are not kept), for the
+    /// baseline features.
+    pub fn candidates_and_edges(&mut self) -> (&[Component], &mut EdgeList) {
+        let e = self.edges.get_or_insert_with(EdgeList::none);
+        (&self.candidates, e)
+    }
+
+    /// Keeps as candidates only components spanning at least `rows` rows (first to last).
+    pub fn min_rows(mut self, rows: u32) -> Self {
+        self.min_rows = rows.max(1);
+        self
     }
 
     /// Starts a new frame.
@@ -199,7 +456,10 @@ impl Labeller {
         self.free.clear();
         self.free.extend((0..self.parent.len() as u32).rev());
         self.merged.clear();
-        self.best.clear();
+        self.candidates.clear();
+        if let Some(e) = self.edges.as_mut() {
+            e.reset();
+        }
         self.all.clear();
         self.count = 0;
         self.row = 0;
@@ -228,20 +488,19 @@ impl Labeller {
 
     fn complete(&mut self, root: u32) {
         let c = self.comps[root as usize];
+        if let Some(e) = self.edges.as_mut() {
+            e.events.push(Event::Complete {
+                root,
+                row: self.row,
+                first_index: c.first_index,
+            });
+        }
         self.count += 1;
         if self.record_all {
             self.all.push(c);
         }
-        if c.strong > 0 {
-            let pos = self
-                .best
-                .iter()
-                .position(|b| c.rank_key() < b.rank_key())
-                .unwrap_or(self.best.len());
-            if pos < KEEP {
-                self.best.insert(pos, c);
-                self.best.truncate(KEEP);
-            }
+        if c.is_candidate(self.min_rows) {
+            self.candidates.push(c);
         }
         self.free.push(root);
     }
@@ -253,6 +512,12 @@ impl Labeller {
         let y = self.row;
         self.cur.clear();
         self.merged.clear();
+        if let Some(e) = self.edges.as_mut() {
+            e.row_start.push(e.pixels.len() as u32);
+            if y > u16::MAX as u32 {
+                e.overflow = true;
+            }
+        }
         let class = &edges.class;
         let mut j = 0usize;
         let mut x = 0usize;
@@ -286,6 +551,13 @@ impl Labeller {
                         self.comps[l as usize].merge(&o);
                         self.parent[root as usize] = l;
                         self.merged.push(root);
+                        if let Some(e) = self.edges.as_mut() {
+                            e.events.push(Event::Merge {
+                                from: root,
+                                to: l,
+                                row: y,
+                            });
+                        }
                     }
                     _ => {}
                 }
@@ -297,13 +569,46 @@ impl Labeller {
             };
             let comp = &mut self.comps[l as usize];
             for xx in a..=b {
-                comp.add_pixel(y, xx as u32, w, class[xx], edges.dir[xx], edges.sub[xx]);
+                comp.add_pixel(
+                    y,
+                    xx as u32,
+                    w,
+                    class[xx],
+                    edges.dir[xx],
+                    edges.sub[xx],
+                    edges.mag[xx],
+                );
             }
+            let rec = match self.edges.as_mut() {
+                Some(e) if !e.overflow => {
+                    let r0 = e.pixels.len() as u32;
+                    for xx in a..=b {
+                        if edges.sub[xx] != FILLED {
+                            e.pixels.push(EdgePixel {
+                                row: y as u16,
+                                col: xx as u16,
+                                class: class[xx],
+                                dir: edges.dir[xx],
+                                sub: edges.sub[xx],
+                                mag: edges.mag[xx],
+                                comp: l as u64,
+                            });
+                        }
+                    }
+                    if e.pixels.len() > e.cap {
+                        e.overflow = true;
+                        e.pixels.clear();
+                    }
+                    (r0, e.pixels.len() as u32)
+                }
+                _ => (0, 0),
+            };
             self.last_row[l as usize] = y;
             self.cur.push(Run {
                 start: a as u32,
                 end: b as u32,
                 label: l,
+                rec,
             });
         }
         for i in 0..self.cur.len() {
@@ -311,6 +616,12 @@ impl Labeller {
             self.cur[i].label = r;
             // A merge later in the row may have moved the row mark to another root.
             self.last_row[r as usize] = y;
+            if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
+                let (r0, r1) = self.cur[i].rec;
+                for px in &mut e.pixels[r0 as usize..r1 as usize] {
+                    px.comp = r as u64;
+                }
+            }
         }
         // Components of the previous row that did not continue are complete.
         for i in 0..self.prev.len() {
@@ -331,6 +642,9 @@ impl Labeller {
     /// Ends the frame: every component still open is complete.
     pub fn finish(&mut self) {
         let y = self.row;
+        if let Some(e) = self.edges.as_mut() {
+            e.row_start.push(e.pixels.len() as u32);
+        }
         for i in 0..self.prev.len() {
             let r = self.find(self.prev[i].label);
             if self.last_row[r as usize] != y {
@@ -346,10 +660,10 @@ impl Labeller {
         self.count
     }
 
-    /// The largest components with at least one strong pixel (hysteresis), best first, at most
-    /// [`KEEP`].
-    pub fn best(&self) -> &[Component] {
-        &self.best
+    /// The candidates of the frame (components with a strong pixel spanning at least
+    /// `min_rows` rows), in completion order.
+    pub fn candidates(&self) -> &[Component] {
+        &self.candidates
     }
 
     /// Every component of the frame, in completion order (only when built with `record_all`).

@@ -10,11 +10,16 @@
 //! 2. [`gradient`]: Sobel; [`segment`]: NMS, dual threshold, baseline filter;
 //! 3. [`fill`]: edge filling; [`label`]: single-pass 8-connected labelling with per-component
 //!    sums;
-//! 4. [`features`]: the two edges, validity checks and reasons, c, each edge's fitted line;
+//! 4. [`select`]: the ring's two edges chosen by the ring's model (polarity, separation from
+//!    the optics, parallel, shared rows, a flat inside), with a score and a margin over the
+//!    runner-up; [`features`]: validity checks and reasons, c, each edge's fitted line;
 //! 5. the focus measure, in the same pass ([`pipeline`]).
 //!
-//! [`Detector`] chains them; [`Optics`] derives every parameter; [`reference`] holds the
-//! whole-frame implementations the streaming ones equal bit for bit.
+//! [`Detector`] chains them; [`Optics`] derives every parameter and cuts the window out of a
+//! sensor frame; [`source`] brings frames in ([`FrameSource`]: files, raw standard input, the
+//! renderer, a camera) and [`SourceDetector`] runs them through the detector, the one path from
+//! a frame to its result; [`reference`] holds the whole-frame implementations the streaming ones
+//! equal bit for bit.
 //!
 //! ```
 //! use gonio_vision::{Detector, Optics};
@@ -37,9 +42,15 @@ pub mod pipeline;
 pub mod reference;
 pub mod rows;
 pub mod segment;
+pub mod select;
 pub mod simd;
+pub mod source;
 
 pub use error::VisionError;
 pub use features::{EdgeLine, FrameResult, InvalidReason};
 pub use optics::{Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
+pub use source::{
+    Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError, SourceDetector,
+    SourceError,
+};

@@ -62,7 +62,15 @@ pub struct Optics {
     pub direction_tolerance_deg: Option<f64>,
     /// An edge must cover at least this fraction of the window's rows (0.5).
     pub min_edge_fraction: f64,
-    /// A frame with more than this fraction of pixels at 255 is saturated (0.01).
+    /// How much the imaged ring's width may differ from `ring_width_um`, as a fraction (0.35:
+    /// a nominal 11 px ring is accepted 7.2 … 14.9 px wide).
+    pub ring_width_tolerance: f64,
+    /// The best ring candidate must score this fraction above the runner-up (a different ring
+    /// hypothesis), else the frame is ambiguous (0.3).
+    pub min_margin: f64,
+    /// A frame without a ring and with more than this fraction of pixels at 255 is saturated
+    /// (0.01). With a ring, rows where saturation reaches the ring are left out of its fit, and
+    /// the frame is saturated when fewer than `min_edge_fraction` of the rows remain.
     pub max_saturated_fraction: f64,
     /// Below this focus measure (mean raw gradient energy, grey²/px², see
     /// `FrameResult::focus`) a frame whose ring is not found is reported out of focus rather than
@@ -88,6 +96,8 @@ impl Default for Optics {
             grad_high: None,
             direction_tolerance_deg: None,
             min_edge_fraction: 0.5,
+            ring_width_tolerance: 0.35,
+            min_margin: 0.3,
             max_saturated_fraction: 0.01,
             min_focus: 15.0,
         }
@@ -119,9 +129,40 @@ pub struct Params {
     pub tan_tolerance_q10: u32,
     /// Minimum pixels of an edge (min_edge_fraction × height).
     pub min_edge_pixels: usize,
-    /// Allowed distance between the two edges' columns, px (0.5 d … 1.5 d).
+    /// Allowed distance between the two edges' columns, px: d·(1 ± `ring_width_tolerance`),
+    /// and at least the opening's diameter + 2 px (what the opening leaves of a thin line is
+    /// narrower than that).
     pub separation_px: (f64, f64),
-    /// More saturated pixels than this make the frame invalid.
+    /// Tolerance of the separation band's width fit: `ring_width_tolerance`.
+    pub width_tolerance: f64,
+    /// Largest change of the separation over the shared rows of two parallel edges, px:
+    /// max(1.5, 0.15 d).
+    pub parallel_px: f64,
+    /// The ring's radius in pixels (its curvature in the window is 1/radius).
+    pub ring_radius_px: f64,
+    /// Shortest component considered a fragment of an edge, rows: ¾ d, at least 4.
+    pub min_fragment_rows: u32,
+    /// A track between a candidate's edges, parallel to them, blocks the candidate when its
+    /// gradient is at least this fraction of the candidate's weaker edge (0.6: the inner edges
+    /// of two neighbouring lines are as strong as their outer ones; what a scratch or a speck
+    /// inside the ring leaves after the opening is weaker).
+    pub interior_fraction: f64,
+    /// See [`Optics::min_margin`].
+    pub min_margin: f64,
+    /// Largest RMS scatter of a component's pixels about its fitted curve for it to count as
+    /// one clean edge, px (0.4: a clean edge's sub-pixel positions scatter ≈ 0.1–0.3 px); a
+    /// component scattering more is split into its straight pieces.
+    pub max_fragment_rms_px: f64,
+    /// Largest RMS scatter of the chosen edges about their curves, px (0.5).
+    pub max_edge_rms_px: f64,
+    /// Largest change of the ring's width along the window, px (0.5: clean rings change by
+    /// ≤ 0.35 px in 99 % of frames, from noise; an edge displaced by half a pixel over part of the
+    /// window can move c by a tenth of a pixel).
+    pub max_width_change_px: f64,
+    /// Most edge pixels a frame keeps for the selection's robust steps (an eighth of the
+    /// window's pixels).
+    pub max_edge_pixels: usize,
+    /// More saturated pixels than this in the whole window make a ring-less frame saturated.
     pub max_saturated_pixels: usize,
     /// Focus threshold (see [`Optics::min_focus`]).
     pub min_focus: f64,
@@ -138,6 +179,67 @@ fn bad(name: &'static str, found: impl ToString, expected: &str) -> VisionError 
 }
 
 impl Optics {
+    /// Cuts the processing window out of a frame (row-major, 8-bit): a frame of the window's
+    /// size is returned as it is; a frame of the sensor's size gives its centred window, copied
+    /// into `scratch` (which keeps its allocation from frame to frame).
+    ///
+    /// # Errors
+    /// [`VisionError::FrameSize`] if `frame` is not `width × height` bytes,
+    /// [`VisionError::FrameShape`] if the frame is neither the window nor the sensor in size.
+    ///
+    /// ```
+    /// use gonio_vision::Optics;
+    /// let o = Optics { sensor_width_px: 8, sensor_height_px: 4, window_width_px: 4,
+    ///                  window_height_px: 2, ..Optics::default() };
+    /// let sensor: Vec<u8> = (0..32).collect();
+    /// let mut scratch = Vec::new();
+    /// assert_eq!(o.crop_window(8, 4, &sensor, &mut scratch).unwrap(), &[10, 11, 12, 13, 18, 19, 20, 21]);
+    /// assert!(o.crop_window(5, 5, &[0; 25], &mut scratch).is_err());
+    /// ```
+    pub fn crop_window<'a>(
+        &self,
+        width: usize,
+        height: usize,
+        frame: &'a [u8],
+        scratch: &'a mut Vec<u8>,
+    ) -> Result<&'a [u8], VisionError> {
+        if frame.len() != width * height {
+            return Err(VisionError::FrameSize {
+                expected: width * height,
+                found: frame.len(),
+                width,
+                height,
+            });
+        }
+        let (ww, wh) = (
+            self.window_width_px as usize,
+            self.window_height_px as usize,
+        );
+        let (sw, sh) = (
+            self.sensor_width_px as usize,
+            self.sensor_height_px as usize,
+        );
+        if (width, height) == (ww, wh) {
+            return Ok(frame);
+        }
+        if (width, height) == (sw, sh) && ww <= sw && wh <= sh {
+            let (x0, y0) = ((sw - ww) / 2, (sh - wh) / 2);
+            scratch.clear();
+            for row in frame.chunks_exact(sw).skip(y0).take(wh) {
+                scratch.extend_from_slice(&row[x0..x0 + ww]);
+            }
+            return Ok(scratch);
+        }
+        Err(VisionError::FrameShape {
+            width,
+            height,
+            window_width: ww,
+            window_height: wh,
+            sensor_width: sw,
+            sensor_height: sh,
+        })
+    }
+
     /// Derives the detector parameters.
     ///
     /// # Errors
@@ -187,10 +289,18 @@ impl Optics {
         for (name, v) in [
             ("min_edge_fraction", self.min_edge_fraction),
             ("max_saturated_fraction", self.max_saturated_fraction),
+            ("min_margin", self.min_margin),
         ] {
             if !(0.0..=1.0).contains(&v) {
                 return Err(bad(name, v, "a fraction 0 … 1"));
             }
+        }
+        if !(self.ring_width_tolerance > 0.0 && self.ring_width_tolerance < 0.9) {
+            return Err(bad(
+                "ring_width_tolerance",
+                self.ring_width_tolerance,
+                "a fraction > 0 and < 0.9",
+            ));
         }
         if !(self.min_focus.is_finite() && self.min_focus >= 0.0) {
             return Err(bad("min_focus", self.min_focus, "a finite number ≥ 0"));
@@ -245,7 +355,21 @@ impl Optics {
             direction_tolerance_deg: tol,
             tan_tolerance_q10: (tol.to_radians().tan() * 1024.0).round() as u32,
             min_edge_pixels: (self.min_edge_fraction * height as f64).ceil() as usize,
-            separation_px: (0.5 * d as f64, 1.5 * d as f64),
+            separation_px: {
+                let (df, t) = (d as f64, self.ring_width_tolerance);
+                let open_d = (2 * (d / 4).max(1) + 1) as f64;
+                ((df * (1.0 - t)).max(open_d + 2.0), df * (1.0 + t))
+            },
+            width_tolerance: self.ring_width_tolerance,
+            parallel_px: (0.15 * d as f64).max(1.5),
+            ring_radius_px: self.ring_radius_um / um_per_px,
+            min_fragment_rows: (3 * d as u32 / 4).max(4),
+            interior_fraction: 0.6,
+            min_margin: self.min_margin,
+            max_fragment_rms_px: 0.4,
+            max_edge_rms_px: 0.5,
+            max_width_change_px: 0.5,
+            max_edge_pixels: width * height / 8,
             max_saturated_pixels: (self.max_saturated_fraction * (width * height) as f64) as usize,
             min_focus: self.min_focus,
             invert: self.polarity == Polarity::Bright,

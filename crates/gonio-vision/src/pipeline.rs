@@ -21,7 +21,7 @@
 //! ```
 
 use crate::VisionError;
-use crate::features::{FrameResult, RawStats, baseline_features};
+use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, saturated_runs};
 use crate::fill::EdgeFill;
 use crate::gaussian::Gaussian5;
 use crate::gradient::{GradRow, Sobel};
@@ -68,6 +68,8 @@ pub struct EdgeRowsImage {
     pub dir: Vec<u8>,
     /// Sub-pixel offset per pixel.
     pub sub: Vec<i8>,
+    /// Gradient magnitude of edge pixels (0 elsewhere and for filled pixels).
+    pub mag: Vec<u16>,
 }
 
 impl EdgeRowsImage {
@@ -75,6 +77,7 @@ impl EdgeRowsImage {
         self.class.extend_from_slice(&r.class);
         self.dir.extend_from_slice(&r.dir);
         self.sub.extend_from_slice(&r.sub);
+        self.mag.extend_from_slice(&r.mag);
     }
 }
 
@@ -100,6 +103,8 @@ pub struct Detector {
     raw_prev: [Vec<u8>; 2],
     rows: usize,
     saturated: u64,
+    /// Runs of saturated pixels, row by row.
+    sat_runs: Vec<SaturatedRun>,
     focus_sum: u64,
     grad_sum: u64,
     dump: Option<Box<StageImages>>,
@@ -129,7 +134,9 @@ impl Detector {
             sobel: Sobel::new(w),
             seg: Segmenter::new(w, seg),
             fill: EdgeFill::new(w),
-            label: Labeller::new(w, p.height, false),
+            label: Labeller::new(w, p.height, false)
+                .min_rows(p.min_fragment_rows)
+                .keep_pixels(p.max_edge_pixels),
             b_in: vec![0; w],
             b_top: vec![0; w],
             b_open: vec![0; w],
@@ -140,6 +147,7 @@ impl Detector {
             raw_prev: [vec![0; w], vec![0; w]],
             rows: 0,
             saturated: 0,
+            sat_runs: Vec::with_capacity(64),
             focus_sum: 0,
             grad_sum: 0,
             dump: None,
@@ -164,13 +172,13 @@ impl Detector {
 
     /// Keeps every stage's output of the following frames (for test vectors); allocates.
     pub fn set_dump(&mut self, on: bool) {
-        if on {
-            self.label = Labeller::new(self.p.width, self.p.height, true);
-            self.dump = Some(Box::default());
-        } else {
-            self.label = Labeller::new(self.p.width, self.p.height, false);
-            self.dump = None;
+        if on == self.dump.is_some() {
+            return;
         }
+        self.label = Labeller::new(self.p.width, self.p.height, on)
+            .min_rows(self.p.min_fragment_rows)
+            .keep_pixels(self.p.max_edge_pixels);
+        self.dump = if on { Some(Box::default()) } else { None };
     }
 
     /// The stage images of the last finished frame (with [`Detector::set_dump`]).
@@ -188,6 +196,7 @@ impl Detector {
         self.fill.reset();
         self.label.reset();
         self.rows = 0;
+        self.sat_runs.clear();
         self.saturated = 0;
         self.focus_sum = 0;
         self.grad_sum = 0;
@@ -249,7 +258,11 @@ impl Detector {
     #[inline(always)]
     fn raw_stats(&mut self, row: &[u8]) {
         let w = self.p.width;
-        self.saturated += row.iter().map(|&v| (v == 255) as u32).sum::<u32>() as u64;
+        let sat = row.iter().map(|&v| (v == 255) as u32).sum::<u32>();
+        if sat > 0 {
+            self.saturated += sat as u64;
+            saturated_runs(row, self.rows, &mut self.sat_runs);
+        }
         // Focus at row y − 1 needs rows y − 2 and y.
         if self.rows >= 2 {
             let (a, b) = (
@@ -295,12 +308,9 @@ impl Detector {
         if let Some(d) = self.dump.as_deref_mut() {
             d.components = self.label.all().to_vec();
         }
-        let res = baseline_features(
-            self.label.best(),
-            self.label.component_count(),
-            stats,
-            &self.p,
-        );
+        let count = self.label.component_count();
+        let (cands, edges) = self.label.candidates_and_edges();
+        let res = baseline_features(cands, count, edges, &self.sat_runs, stats, &self.p);
         self.rows = 0;
         Ok(res)
     }

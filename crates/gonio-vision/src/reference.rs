@@ -17,12 +17,12 @@
 // Index loops over kernels and neighbourhoods are the readable form here.
 #![allow(clippy::needless_range_loop)]
 
-use crate::features::{FrameResult, RawStats, baseline_features};
+use crate::features::{FrameResult, RawStats, baseline_features, saturated_runs};
 use crate::fill::fill_pixel;
-use crate::label::Component;
+use crate::label::{Component, EdgeList, EdgePixel};
 use crate::morphology::Disk;
 use crate::optics::Params;
-use crate::segment::{EdgeRow, NONE, SegmentParams, segment_pixel};
+use crate::segment::{EdgeRow, FILLED, NONE, SegmentParams, segment_pixel};
 
 /// A row-major image.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -230,10 +230,11 @@ pub fn fill(e: &Edges) -> Edges {
     out
 }
 
-/// 8-connected components by flood fill (a stack), with their sums; returned sorted by
-/// `first_index`. Also returns the label image (0 = background, components numbered 1… in
-/// raster order of their first pixel).
-pub fn label(e: &Edges) -> (Vec<Component>, Image<u32>) {
+/// 8-connected components by flood fill (a stack), with their sums (gradient magnitudes from
+/// `mag`, counted for pixels with a position of their own); returned sorted by `first_index`.
+/// Also returns the label image (0 = background, components numbered 1… in raster order of
+/// their first pixel).
+pub fn label(e: &Edges, mag: &Image<u16>) -> (Vec<Component>, Image<u32>) {
     let (class, dir, sub) = e;
     let (w, h) = (class.width, class.height);
     let mut lab = Image::new(w, h, 0u32);
@@ -254,13 +255,15 @@ pub fn label(e: &Edges) -> (Vec<Component>, Image<u32>) {
             lab.set(x0, y0, id);
             stack.push((x0, y0));
             while let Some((x, y)) = stack.pop() {
+                let s = sub.get(x, y);
                 c.add_pixel(
                     y as u32,
                     x as u32,
                     w,
                     class.get(x, y),
                     dir.get(x, y),
-                    sub.get(x, y),
+                    s,
+                    if s == FILLED { 0 } else { mag.get(x, y) },
                 );
                 for dy in -1..=1isize {
                     for dx in -1..=1isize {
@@ -278,6 +281,38 @@ pub fn label(e: &Edges) -> (Vec<Component>, Image<u32>) {
     }
     comps.sort_by_key(|c| c.first_index);
     (comps, lab)
+}
+
+/// Every positioned edge pixel in raster order with its component's first index (`components`
+/// sorted by first index and `labels` as [`label`] returns them).
+pub fn edge_list(
+    filled: &Edges,
+    mag: &Image<u16>,
+    components: &[Component],
+    labels: &Image<u32>,
+    p: &Params,
+) -> EdgeList {
+    let (fc, fd, fs) = filled;
+    let (w, h) = (fc.width, fc.height);
+    let mut pixels = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let s = fs.get(x, y);
+            if fc.get(x, y) == NONE || s == FILLED {
+                continue;
+            }
+            pixels.push(EdgePixel {
+                row: y as u16,
+                col: x as u16,
+                class: fc.get(x, y),
+                dir: fd.get(x, y),
+                sub: s,
+                mag: mag.get(x, y),
+                comp: components[labels.get(x, y) as usize - 1].first_index,
+            });
+        }
+    }
+    EdgeList::from_resolved(pixels, h, p.max_edge_pixels)
 }
 
 /// The reference detector's stage images and result.
@@ -331,10 +366,14 @@ pub fn run(frame: &Image<u8>, p: &Params) -> ReferenceRun {
     };
     let edges = segment(&gx, &gy, &mag, sp);
     let filled = fill(&edges);
-    let (components, labels) = label(&filled);
+    let (components, labels) = label(&filled, &mag);
     // Raw statistics.
     let (w, h) = (frame.width, frame.height);
     let saturated_px = frame.data.iter().filter(|&&v| v == 255).count() as u64;
+    let mut saturated = Vec::new();
+    for (y, row) in frame.data.chunks_exact(w).enumerate() {
+        saturated_runs(row, y, &mut saturated);
+    }
     let (mut g1, mut g2) = (0u64, 0u64);
     for y in 1..h - 1 {
         for x in 1..w - 1 {
@@ -350,14 +389,20 @@ pub fn run(frame: &Image<u8>, p: &Params) -> ReferenceRun {
         focus: g2 as f64 / n / 4.0,
         mean_gradient: g1 as f64 / n / 2.0,
     };
-    let mut best: Vec<Component> = components
+    let cands: Vec<Component> = components
         .iter()
         .copied()
-        .filter(|c| c.strong > 0)
+        .filter(|c| c.is_candidate(p.min_fragment_rows))
         .collect();
-    best.sort_by_key(|c| c.rank_key());
-    best.truncate(crate::label::KEEP);
-    let result = baseline_features(&best, components.len(), stats, p);
+    let mut edge_list = edge_list(&filled, &mag, &components, &labels, p);
+    let result = baseline_features(
+        &cands,
+        components.len(),
+        &mut edge_list,
+        &saturated,
+        stats,
+        p,
+    );
     ReferenceRun {
         input,
         tophat,

@@ -77,6 +77,8 @@ pub struct EdgeRow {
     pub dir: Vec<u8>,
     /// Sub-pixel x offset of the edge in 1/32 px (−16 … 16), [`FILLED`] for filled pixels.
     pub sub: Vec<i8>,
+    /// Gradient magnitude |Gx| + |Gy| of edge pixels, 0 elsewhere and for filled pixels.
+    pub mag: Vec<u16>,
 }
 
 impl EdgeRow {
@@ -86,6 +88,7 @@ impl EdgeRow {
             class: vec![0; width],
             dir: vec![0; width],
             sub: vec![0; width],
+            mag: vec![0; width],
         }
     }
     /// Copies another row into this one.
@@ -93,12 +96,14 @@ impl EdgeRow {
         self.class.copy_from_slice(&o.class);
         self.dir.copy_from_slice(&o.dir);
         self.sub.copy_from_slice(&o.sub);
+        self.mag.copy_from_slice(&o.mag);
     }
     /// Clears the row.
     pub fn clear(&mut self) {
         self.class.fill(0);
         self.dir.fill(0);
         self.sub.fill(0);
+        self.mag.fill(0);
     }
 }
 
@@ -260,6 +265,7 @@ impl Segmenter {
                     out.class[x] = c;
                     out.dir[x] = d;
                     out.sub[x] = s;
+                    out.mag[x] = if c != NONE { cur.mag[x] } else { 0 };
                 }
             }
             x0 = x1;

@@ -73,6 +73,14 @@ fn check_frame(optics: &Optics, frame: &[u8]) {
     assert_eq!(d.edges.class, r.edges.0.data, "edge class");
     assert_eq!(d.edges.dir, r.edges.1.data, "edge dir");
     assert_eq!(d.edges.sub, r.edges.2.data, "edge sub");
+    let edge_mag: Vec<u16> = r
+        .mag
+        .data
+        .iter()
+        .zip(&r.edges.0.data)
+        .map(|(&m, &c)| if c != 0 { m } else { 0 })
+        .collect();
+    assert_eq!(d.edges.mag, edge_mag, "edge magnitudes");
     assert_eq!(d.filled.class, r.filled.0.data, "filled class");
     assert_eq!(d.filled.dir, r.filled.1.data, "filled dir");
     assert_eq!(d.filled.sub, r.filled.2.data, "filled sub");
@@ -143,14 +151,24 @@ fn random_edges(w: usize, h: usize, density: f64, seed: u64) -> Vec<EdgeRow> {
                     r.class[x] = if rng.random_bool(0.5) { STRONG } else { WEAK };
                     r.dir[x] = rng.random();
                     r.sub[x] = rng.random_range(-16..=16);
+                    r.mag[x] = rng.random_range(1..2000);
                     if rng.random_bool(0.1) {
                         r.sub[x] = gonio_vision::segment::FILLED;
+                        r.mag[x] = 0;
                     }
                 }
             }
             r
         })
         .collect()
+}
+
+fn mags(rows: &[EdgeRow], w: usize) -> Image<u16> {
+    Image::from_vec(
+        w,
+        rows.len(),
+        rows.iter().flat_map(|r| r.mag.clone()).collect(),
+    )
 }
 
 fn stream_label(rows: &[EdgeRow], w: usize) -> Vec<Component> {
@@ -171,7 +189,7 @@ proptest! {
     fn labelling_equals_flood_fill(w in 1usize..40, h in 1usize..30, density in 0.05f64..0.7, seed in any::<u64>()) {
         let rows = random_edges(w, h, density, seed);
         let got = stream_label(&rows, w);
-        let (want, _) = reference::label(&edges_from_rows(&rows, w));
+        let (want, _) = reference::label(&edges_from_rows(&rows, w), &mags(&rows, w));
         prop_assert_eq!(got, want);
     }
 }
@@ -202,7 +220,7 @@ fn labelling_handles_spirals_and_u_shapes() {
         })
         .collect();
     let got = stream_label(&rows, w);
-    let (want, _) = reference::label(&edges_from_rows(&rows, w));
+    let (want, _) = reference::label(&edges_from_rows(&rows, w), &mags(&rows, w));
     assert_eq!(got, want);
     // U, inverted U (with its hook), comb, the zig-zag, and the pair at the bottom right.
     assert_eq!(got.len(), want.len());

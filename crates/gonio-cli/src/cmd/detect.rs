@@ -1,12 +1,13 @@
 //! `gonio detect`: run the streaming ring detector on image files or raw frames from standard
 //! input, one JSON line per frame.
 
+use crate::formats::frames::{FileFrames, list_frames, load_optics};
 use crate::io;
 use anyhow::{Context, Result, anyhow, bail};
 use gonio_vision::reference::{Image, label};
-use gonio_vision::{Detector, FrameResult, Optics};
+use gonio_vision::{Detector, FrameResult, FrameSource, RawFrames, SourceDetector, SourceError};
 use serde::Serialize;
-use std::io::{BufWriter, Read, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gonio detect`.
@@ -72,28 +73,6 @@ struct Line<'a> {
     c_um: Option<f64>,
     #[serde(flatten)]
     result: &'a FrameResult,
-}
-
-/// Loads an optics TOML file (or the default).
-pub fn load_optics(path: Option<&Path>) -> Result<Optics> {
-    let Some(p) = path else {
-        return Ok(Optics::default());
-    };
-    let text = io::read_text(p)?;
-    let o: Optics = toml::from_str(&text).map_err(|e| {
-        let (line, col) = e
-            .span()
-            .map(|s| {
-                let before = &text[..s.start.min(text.len())];
-                let line = before.matches('\n').count() + 1;
-                let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-                (line, col)
-            })
-            .unwrap_or((1, 1));
-        anyhow!("{}:{line}:{col}: {}", p.display(), e.message())
-    })?;
-    o.params().with_context(|| p.display().to_string())?;
-    Ok(o)
 }
 
 enum Angles {
@@ -162,76 +141,6 @@ fn load_angles(a: &Args) -> Result<Angles> {
         });
     }
     Ok(Angles::None)
-}
-
-/// Lists the frame files: files as given, directories expanded to their PNG/TIFF files in name
-/// order.
-pub fn list_frames(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for p in inputs {
-        if p.is_dir() {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
-                .with_context(|| format!("cannot read directory {}", p.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|f| {
-                    f.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                        matches!(e.to_ascii_lowercase().as_str(), "png" | "tif" | "tiff")
-                    })
-                })
-                .collect();
-            v.sort();
-            if v.is_empty() {
-                bail!("{}: no PNG or TIFF files in this directory", p.display());
-            }
-            out.extend(v);
-        } else {
-            out.push(p.clone());
-        }
-    }
-    Ok(out)
-}
-
-/// Reads one 8-bit grey image; 16-bit and float images are refused.
-pub fn read_grey8(path: &Path) -> Result<(usize, usize, Vec<u8>)> {
-    use image::DynamicImage as D;
-    let img = image::ImageReader::open(path)
-        .with_context(|| format!("cannot open {}", path.display()))?
-        .with_guessed_format()
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .decode()
-        .map_err(|e| anyhow!("{}: not a readable PNG/TIFF image: {e}", path.display()))?;
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    let data = match img {
-        D::ImageLuma8(g) => g.into_raw(),
-        D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => img.to_luma8().into_raw(),
-        other => bail!(
-            "{}: {:?} image: expected 8-bit grey (16-bit and float frames are not accepted; convert \
-             with e.g. `convert in.png -depth 8 out.png`)",
-            path.display(),
-            other.color()
-        ),
-    };
-    Ok((w, h, data))
-}
-
-/// Cuts the processing window out of a frame of window or sensor size.
-fn to_window(o: &Optics, name: &str, w: usize, h: usize, data: Vec<u8>) -> Result<Vec<u8>> {
-    let (ww, wh) = (o.window_width_px as usize, o.window_height_px as usize);
-    let (sw, sh) = (o.sensor_width_px as usize, o.sensor_height_px as usize);
-    if (w, h) == (ww, wh) {
-        return Ok(data);
-    }
-    if (w, h) == (sw, sh) {
-        let (x0, y0) = ((sw - ww) / 2, (sh - wh) / 2);
-        let mut out = Vec::with_capacity(ww * wh);
-        for y in y0..y0 + wh {
-            out.extend_from_slice(&data[y * sw + x0..y * sw + x0 + ww]);
-        }
-        return Ok(out);
-    }
-    bail!(
-        "{name}: frame is {w}×{h}: expected the window {ww}×{wh} or the sensor {sw}×{sh} (see --optics)"
-    )
 }
 
 fn parse_size(s: &str) -> Result<(usize, usize)> {
@@ -305,43 +214,10 @@ impl Sink {
 /// Runs `gonio detect`.
 pub fn run(a: Args) -> Result<()> {
     let optics = load_optics(a.optics.as_deref())?;
-    let mut det = Detector::new(&optics)?;
     let angles = load_angles(&a)?;
-    let um_per_px = det.params().um_per_px;
     let mut sink = Sink::new(a.json_lines.as_deref())?;
     let started = std::time::Instant::now();
-    let mut n = 0usize;
-    let mut valid = 0usize;
-    let mut dumped = false;
-    let mut emit = |k: usize,
-                    file: Option<String>,
-                    frame: &[u8],
-                    det: &mut Detector,
-                    sink: &mut Sink|
-     -> Result<()> {
-        let (theta, time) = angles.at(k)?;
-        let want_dump = a.dump_stages.is_some() && k == a.frame;
-        det.set_dump(want_dump);
-        let res = det.detect(frame)?;
-        if want_dump {
-            write_dump(
-                a.dump_stages.as_deref().unwrap_or(Path::new(".")),
-                det,
-                &res,
-            )?;
-            dumped = true;
-        }
-        valid += res.valid as usize;
-        sink.line(&Line {
-            frame: k,
-            file,
-            theta_deg: theta,
-            time_s: time,
-            c_um: res.c_px.map(|c| c * um_per_px),
-            result: &res,
-        })
-    };
-    if let Some(size) = &a.raw {
+    let done = if let Some(size) = &a.raw {
         let (w, h) = parse_size(size)?;
         let (ww, wh) = (
             optics.window_width_px as usize,
@@ -360,36 +236,16 @@ pub fn run(a: Args) -> Result<()> {
         // room for a whole frame (best effort: not a pipe, or over the system's limit, is fine).
         #[cfg(target_os = "linux")]
         let _ = rustix::pipe::fcntl_setpipe_size(std::io::stdin(), (w * h).next_power_of_two());
-        let mut input = std::io::stdin().lock();
-        let mut buf = vec![0u8; w * h];
-        loop {
-            let mut got = 0;
-            while got < buf.len() {
-                match input.read(&mut buf[got..]) {
-                    Ok(0) => break,
-                    Ok(m) => got += m,
-                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                    Err(e) => return Err(e).context("cannot read standard input"),
-                }
-            }
-            if got == 0 {
-                break;
-            }
-            if got < buf.len() {
-                sink.close()?;
-                bail!(
-                    "standard input: truncated frame: {n} whole {w}x{h} frames read, then {got} of {} bytes",
-                    buf.len()
-                );
-            }
-            let frame = if (w, h) == (ww, wh) {
-                std::borrow::Cow::Borrowed(&buf[..])
-            } else {
-                std::borrow::Cow::Owned(to_window(&optics, "standard input", w, h, buf.clone())?)
-            };
-            emit(n, None, &frame, &mut det, &mut sink)?;
-            n += 1;
-        }
+        let src = RawFrames::new(std::io::stdin().lock(), w, h);
+        let mut det = SourceDetector::new(src, &optics)?;
+        detect_all(
+            &a,
+            &angles,
+            &mut det,
+            &mut sink,
+            |_, _| None,
+            "standard input",
+        )?
     } else {
         let files = list_frames(&a.frames)?;
         if let Angles::Table(name, v) = &angles {
@@ -401,29 +257,95 @@ pub fn run(a: Args) -> Result<()> {
                 );
             }
         }
-        for (k, f) in files.iter().enumerate() {
-            let (w, h, data) = read_grey8(f)?;
-            let frame = to_window(&optics, &f.display().to_string(), w, h, data)?;
-            emit(
-                k,
-                Some(f.display().to_string()),
-                &frame,
-                &mut det,
-                &mut sink,
-            )?;
-            n += 1;
-        }
-    }
+        let mut det = SourceDetector::new(FileFrames::new(files), &optics)?;
+        detect_all(
+            &a,
+            &angles,
+            &mut det,
+            &mut sink,
+            |s: &FileFrames, k| s.path(k).map(|p| p.display().to_string()),
+            "frame",
+        )?
+    };
     sink.close()?;
-    if a.dump_stages.is_some() && !dumped {
-        bail!("--frame {}: only {n} frames were read", a.frame);
+    if let Some(e) = done.stream_error {
+        return Err(e);
     }
+    let (n, valid) = (done.frames, done.valid);
     let dt = started.elapsed().as_secs_f64();
     eprintln!(
         "{n} frames, {valid} valid, {:.0} frames/s",
         if dt > 0.0 { n as f64 / dt } else { 0.0 }
     );
     Ok(())
+}
+
+/// Every frame of the source through the detector, one JSON line each.
+fn detect_all<S: FrameSource>(
+    a: &Args,
+    angles: &Angles,
+    det: &mut SourceDetector<S>,
+    sink: &mut Sink,
+    file_of: impl Fn(&S, u64) -> Option<String>,
+    what: &str,
+) -> Result<Detected> {
+    let um_per_px = det.detector().params().um_per_px;
+    let (mut n, mut valid) = (0usize, 0usize);
+    let mut dumped = false;
+    let mut stream_error = None;
+    loop {
+        let want_dump = a.dump_stages.is_some() && n == a.frame;
+        det.detector_mut().set_dump(want_dump);
+        let d = match det.detect_next() {
+            Ok(Some(d)) => d,
+            Ok(None) => break,
+            Err(SourceError::Frame { index, error }) => {
+                let name = file_of(det.source(), index).unwrap_or_else(|| what.to_string());
+                return Err(anyhow!("{name}: {error}"));
+            }
+            Err(e) => {
+                // The whole frames already detected stay in the output.
+                stream_error = Some(anyhow!("{what}: {e}"));
+                break;
+            }
+        };
+        let k = d.stamp.index;
+        let (theta, time) = angles.at(k as usize)?;
+        if want_dump {
+            write_dump(
+                a.dump_stages.as_deref().unwrap_or(Path::new(".")),
+                det.detector(),
+                &d.result,
+            )?;
+            dumped = true;
+        }
+        valid += d.result.valid as usize;
+        sink.line(&Line {
+            frame: k as usize,
+            file: file_of(det.source(), k),
+            theta_deg: theta,
+            time_s: time,
+            c_um: d.result.c_px.map(|c| c * um_per_px),
+            result: &d.result,
+        })?;
+        n += 1;
+    }
+    if stream_error.is_none() && a.dump_stages.is_some() && !dumped {
+        bail!("--frame {}: only {n} frames were read", a.frame);
+    }
+    Ok(Detected {
+        frames: n,
+        valid,
+        stream_error,
+    })
+}
+
+/// What [`detect_all`] did.
+struct Detected {
+    frames: usize,
+    valid: usize,
+    /// The source failed after `frames` whole frames (reported after the output is closed).
+    stream_error: Option<anyhow::Error>,
 }
 
 fn save_png(dir: &Path, name: &str, w: usize, h: usize, data: Vec<u8>) -> Result<()> {
@@ -487,7 +409,7 @@ fn write_dump(dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
         Image::from_vec(w, h, d.filled.dir.clone()),
         Image::from_vec(w, h, d.filled.sub.clone()),
     );
-    let (_, labels) = label(&edges);
+    let (_, labels) = label(&edges, &Image::from_vec(w, h, d.filled.mag.clone()));
     save_png16(
         dir,
         "12_labels.png",

@@ -79,13 +79,6 @@ struct HeadsFile {
     sets: Option<Vec<Vec<usize>>>,
 }
 
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |s| s.chars().count()) + 1;
-    (line, col)
-}
-
 /// Loads a head arrangement (`selfa12`, `eda:N` or a TOML/JSON file) and the file's optional
 /// mounting offsets (arcsec, one per head; used by the simulator).
 pub fn load_heads(spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
@@ -107,10 +100,7 @@ pub fn load_heads(spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
         serde_json::from_str(&text)
             .map_err(|e| anyhow!("{spec}:{}:{}: {e}", e.line(), e.column()))?
     } else {
-        toml::from_str(&text).map_err(|e| {
-            let (l, c) = e.span().map_or((1, 1), |s| line_col(&text, s.start));
-            anyhow!("{spec}:{l}:{c}: {}", e.message())
-        })?
+        io::parse_toml(spec, &text)?
     };
     let mut heads = Heads::new(f.angles_deg).map_err(|e| anyhow!("{spec}: angles_deg: {e}"))?;
     if let Some(sets) = f.sets {

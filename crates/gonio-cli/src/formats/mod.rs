@@ -2,6 +2,7 @@
 
 pub mod certificate;
 pub mod elcomat;
+pub mod frames;
 pub mod instrument;
 pub mod meta;
 pub mod plan;

@@ -1,57 +1,95 @@
 //! `gonio simulate frames`: rendered camera frames of a rotating, eccentric grating, with truth.
 
-use crate::cmd::detect::load_optics;
+use crate::formats::frames::{load_optics, load_scene};
 use crate::io;
 use anyhow::{Result, bail};
-use gonio_sim::frames::{FrameTruth, GratingRenderer, GratingScene};
+use gonio_sim::frames::{
+    FrameTruth, GratingScene, RenderedFrames, SceneChoice, SceneDraw, SceneFamily, ScenePreset,
+    Turn,
+};
+use gonio_vision::FrameSource;
 use serde::Serialize;
 use std::path::PathBuf;
+
+/// The named scenes on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneArg {
+    /// The ring alone: noise and blur only.
+    Clean,
+    /// A typical grating near its ring: track-border groups, incremental lines, code bars,
+    /// dust, vignetting (default).
+    Realistic,
+    /// Everything at once, close to the ring (several hundred edge components a frame).
+    Dense,
+    /// A new scene drawn from the whole family for every frame (docs/scenes.md).
+    Random,
+}
 
 /// Arguments of `gonio simulate frames`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Writes DIR/frame_00000.png … (8-bit grey, the optics' window), DIR/angles.csv
 (frame,theta_deg,time_s; for `gonio detect --angles`) and DIR/truth.json (per frame θ, the ring
-centre line's mean column c_true_px over the window's rows, the focus position; the optics and
-scene used).
+centre line's mean column c_true_px over the window's rows, the ring's width and visible contrast,
+the focus position; the optics and scene used; with --scene random, each frame's drawn scene).
+
+Scenes (docs/scenes.md describes the features and the ranges of the random family):
+  clean      the ring alone
+  realistic  track-border circles on both sides, incremental lines, code bars, dust, vignetting
+  dense      everything at once and close to the ring
+  random     every parameter drawn from the family, a new scene per frame
+--scene-file SCENE.toml gives every field yourself (a truth.json's \"scene\" is a valid start).
 
 Examples:
   gonio simulate frames --count 200 --eccentricity-um 120 --seed 1 --out frames
-  gonio simulate frames --count 20 --defocus 60 --noise 4 --dust 40 --seed 2 --out blurry
-  gonio simulate frames --count 5 --no-ring --seed 3 --out empty")]
+  gonio simulate frames --scene dense --count 20 --defocus 60 --noise 4 --seed 2 --out dense
+  gonio simulate frames --scene random --count 500 --seed 3 --out family
+  gonio simulate frames --scene-file my-grating.toml --count 50 --seed 4 --out mine
+  gonio simulate frames --count 5 --no-ring --seed 5 --out empty")]
 pub struct Args {
     /// Number of frames.
     #[arg(long)]
     pub count: usize,
+    /// The scene.
+    #[arg(
+        long,
+        value_enum,
+        default_value = "realistic",
+        conflicts_with = "scene_file"
+    )]
+    pub scene: SceneArg,
+    /// A scene TOML file (every feature as data; see docs/scenes.md).
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene_file: Option<PathBuf>,
     /// Eccentricity of the grating on the shaft, µm.
     #[arg(long, default_value_t = 100.0)]
     pub eccentricity_um: f64,
     /// Eccentricity angle in the grating's frame, degrees.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
     pub ecc_angle_deg: f64,
-    /// Read noise, grey levels RMS (shot noise is added on top; 0 with --no-shot-noise).
-    #[arg(long, default_value_t = 2.0)]
-    pub noise: f64,
+    /// Read noise, grey levels RMS (default: the scene's; shot noise is added on top).
+    #[arg(long)]
+    pub noise: Option<f64>,
     /// No shot noise.
     #[arg(long)]
     pub no_shot_noise: bool,
-    /// Dust specks per frame.
-    #[arg(long, default_value_t = 12)]
-    pub dust: usize,
+    /// Dust specks per frame (default: the scene's).
+    #[arg(long)]
+    pub dust: Option<usize>,
     /// Focus position relative to best focus, µm (blur σ = √(σ₀² + (NA·Δz/2)²)).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub defocus: f64,
-    /// Exposure factor (above ≈ 1.3 the background saturates).
-    #[arg(long, default_value_t = 1.0)]
-    pub exposure: f64,
+    /// Exposure factor (above ≈ 1.3 the background saturates; default: the scene's).
+    #[arg(long)]
+    pub exposure: Option<f64>,
     /// No alignment ring (a frame the detector must call ring-less).
     #[arg(long)]
     pub no_ring: bool,
-    /// No code tracks.
+    /// No code tracks and no track borders.
     #[arg(long)]
     pub no_tracks: bool,
     /// Table speed, degrees per second.
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, default_value_t = 180.0, allow_hyphen_values = true)]
     pub speed_deg_s: f64,
     /// Frame rate, frames per second.
     #[arg(long, default_value_t = 100.0)]
@@ -62,7 +100,7 @@ pub struct Args {
     /// Optics TOML (as for `gonio detect --optics`).
     #[arg(long, value_name = "OPTICS.toml")]
     pub optics: Option<PathBuf>,
-    /// Seed of noise and dust.
+    /// Seed of noise, dust and (with --scene random) the scenes.
     #[arg(long)]
     pub seed: u64,
     /// Output directory.
@@ -77,6 +115,55 @@ struct TruthFrame {
     time_s: f64,
     #[serde(flatten)]
     truth: FrameTruth,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    scene: Option<GratingScene>,
+}
+
+impl Args {
+    /// The scene with the command line's overrides applied.
+    fn scene(&self) -> Result<SceneChoice> {
+        let overrides = self.noise.is_some()
+            || self.no_shot_noise
+            || self.dust.is_some()
+            || self.exposure.is_some()
+            || self.no_ring
+            || self.no_tracks;
+        let mut s = match (&self.scene_file, self.scene) {
+            (Some(p), _) => load_scene(p)?,
+            (None, SceneArg::Random) => {
+                if overrides {
+                    bail!(
+                        "--scene random draws every parameter from the family: --noise, --dust, \
+                         --exposure, --no-ring, --no-shot-noise and --no-tracks do not apply"
+                    );
+                }
+                return Ok(SceneChoice::Random(Box::default()));
+            }
+            (None, SceneArg::Clean) => GratingScene::preset(ScenePreset::Clean),
+            (None, SceneArg::Realistic) => GratingScene::preset(ScenePreset::Realistic),
+            (None, SceneArg::Dense) => GratingScene::preset(ScenePreset::Dense),
+        };
+        if let Some(n) = self.noise {
+            s.read_noise_grey = n;
+        }
+        if self.no_shot_noise {
+            s.electrons_per_grey = 0.0;
+        }
+        if let Some(d) = self.dust {
+            s.dust_per_frame = d;
+        }
+        if let Some(x) = self.exposure {
+            s.exposure = x;
+        }
+        if self.no_ring {
+            s.ring_present = false;
+        }
+        if self.no_tracks {
+            s.code_tracks = false;
+            s.track_borders.clear();
+        }
+        Ok(SceneChoice::Scene(Box::new(s)))
+    }
 }
 
 /// Runs `gonio simulate frames`.
@@ -92,56 +179,49 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let optics = load_optics(a.optics.as_deref())?;
-    let scene = GratingScene {
-        ring_present: !a.no_ring,
-        code_tracks: !a.no_tracks,
-        dust_per_frame: a.dust,
-        read_noise_grey: a.noise,
-        electrons_per_grey: if a.no_shot_noise {
-            0.0
-        } else {
-            GratingScene::default().electrons_per_grey
-        },
-        exposure: a.exposure,
-        ..GratingScene::default()
+    let choice = a.scene()?;
+    let random = matches!(choice, SceneChoice::Random(_));
+    let turn = Turn {
+        start_deg: a.start_deg,
+        speed_deg_s: a.speed_deg_s,
+        fps: a.fps,
+        eccentricity_um: a.eccentricity_um,
+        ecc_angle_deg: a.ecc_angle_deg,
+        focus_um: a.defocus,
+        ..Turn::default()
     };
-    let r = GratingRenderer::new(&optics, scene)?;
+    let mut src = RenderedFrames::new(&optics, choice, turn, a.count as u64, a.seed)?;
     io::ensure_dir(&a.out)?;
-    let (w, h) = r.size();
-    let mut buf = vec![0u8; r.frame_len()];
+    let mut buf = Vec::new();
     let mut truths = Vec::with_capacity(a.count);
     let mut csv = Vec::with_capacity(a.count);
+    let (mut w, mut h) = (0, 0);
     let bar = indicatif::ProgressBar::new(a.count as u64);
-    for k in 0..a.count {
+    while let Some(hdr) = src.next_frame(&mut buf)? {
+        let k = hdr.stamp.index as usize;
+        (w, h) = (hdr.width, hdr.height);
         let t = k as f64 / a.fps;
-        let theta = a.start_deg + a.speed_deg_s * t;
-        let seed = a
-            .seed
-            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            .wrapping_add(k as u64);
-        let truth = r.render(
-            theta,
-            a.eccentricity_um,
-            a.ecc_angle_deg,
-            a.defocus,
-            seed,
-            &mut buf,
-        )?;
+        let theta = hdr.stamp.theta_deg.unwrap_or(f64::NAN);
         let name = format!("frame_{k:05}.png");
-        let img = image::GrayImage::from_raw(w as u32, h as u32, buf.clone())
+        let img = image::GrayImage::from_raw(w as u32, h as u32, std::mem::take(&mut buf))
             .ok_or_else(|| anyhow::anyhow!("frame buffer size"))?;
         let mut bytes = Vec::new();
         img.write_to(
             &mut std::io::Cursor::new(&mut bytes),
             image::ImageFormat::Png,
         )?;
+        buf = img.into_raw();
         io::write_atomic(&a.out.join(&name), &bytes)?;
         csv.push(vec![k.to_string(), format!("{theta}"), format!("{t}")]);
+        let truth = *src
+            .last_truth()
+            .ok_or_else(|| anyhow::anyhow!("renderer gave no truth"))?;
         truths.push(TruthFrame {
             frame: k,
             file: name,
             time_s: t,
             truth,
+            scene: src.last_draw().map(|d: &SceneDraw| d.scene.clone()),
         });
         bar.inc(1);
     }
@@ -151,16 +231,21 @@ pub fn run(a: Args) -> Result<()> {
         &["frame", "theta_deg", "time_s"],
         &csv,
     )?;
+    let scene = if random {
+        serde_json::json!({"random": SceneFamily::default()})
+    } else {
+        serde_json::to_value(src.renderer().scene())?
+    };
     io::write_json(
         &a.out.join("truth.json"),
         &serde_json::json!({
             "format": "gonio-frames-truth",
-            "version": 1,
+            "version": 2,
             "width_px": w,
             "height_px": h,
             "seed": a.seed,
-            "optics": r.optics(),
-            "scene": r.scene(),
+            "optics": optics,
+            "scene": scene,
             "frames": truths,
         }),
     )?;

@@ -1,20 +1,25 @@
 //! The grating-frame renderer: synthetic 8-bit camera frames of a rotating, eccentric grating
-//! seen through the station's optics, with their ground truth.
+//! seen through the station's optics, with their ground truth; the scenes it draws
+//! ([`scene`]: named presets and every feature as data, [`family`]: the `random` family) and a
+//! [`FrameSource`](gonio_vision::FrameSource) over rendered frames ([`source`]).
 //!
 //! # Geometry
 //! Stage coordinates in µm: X radial (toward the camera), Y along the sensor's rows (down). The
 //! shaft is at the origin; the camera window is centred on (X₀, 0) with X₀ = the ring's radius, so
 //! a centred grating puts the ring in the middle column. A grating with eccentricity e at angle ψ
-//! (in the grating's own frame) turned by θ has its centre at G = e·(cos(θ+ψ), sin(θ+ψ)). A stage
-//! point P sees the grating point at radius ρ = |P − G| and grating angle φ = arg(P − G) − θ.
+//! (in the grating's own frame) turned by θ has its centre at G = e·(cos(θ+ψ), sin(θ+ψ)): the
+//! ring moves in x and in y as the table turns. A stage point P sees the grating point at radius
+//! ρ = |P − G| and grating angle φ = arg(P − G) − θ.
 //!
 //! # What is drawn
-//! - the alignment ring: a dark band of the optics' ring width at radius R(φ) = R₀ + Σ A_k cos(kφ +
-//!   φ_k) (roundness harmonics);
-//! - code tracks concentric with it: wide radial bars (wider than 2d) outside the ring and thin
-//!   radial lines (narrower than d/2) inside, each at the right orientation for its radius;
-//! - dust specks (small dark blobs at random places in each frame);
-//! - an illumination gradient across the window;
+//! - the alignment ring: a dark band (the optics' width, or the scene's) at radius
+//!   R(φ) = R₀ + Σ A_k cos(kφ + φ_k) (roundness harmonics), missing over the scene's ring gaps;
+//! - track-border circles: thin dark lines concentric with the grating, in groups;
+//! - radial tracks: marks (code bars, incremental lines) in annuli concentric with the ring,
+//!   each at the right orientation for its radius;
+//! - scratches (straight dark or bright lines at any angle), saturated patches;
+//! - dust specks (small dark blobs at random places in each frame, some on the ring);
+//! - an illumination gradient across the window and vignetting;
 //! - defocus: every edge is blurred by a Gaussian of σ² = σ₀² + (NA·Δz/2)² + pixel²/12, Δz the
 //!   focus position's distance from best focus (edge profiles are drawn analytically with the
 //!   normal CDF, bars as separable rectangles in (ρ, arc length));
@@ -26,15 +31,16 @@
 //! threads.
 //!
 //! # Speed
-//! Per row, the column ranges where the ring and the code tracks can darken a pixel are found
-//! from the geometry (ρ grows along a row when the window is on the +X side of the grating
-//! centre, as always here); only those columns evaluate ρ and the edge profiles. Every pixel
-//! then gets illumination and noise in one cheap pass.
+//! Per row, the column ranges where the ring, the borders, the tracks and the scratches can
+//! darken a pixel are found from the geometry (ρ grows along a row when the window is on the +X
+//! side of the grating centre, as always here); only those columns evaluate ρ and the edge
+//! profiles. Every pixel then gets illumination and noise in one cheap pass.
 //!
 //! # Ground truth
 //! [`FrameTruth::c_true_px`] is the ring centre line's mean column over the window's rows (the
 //! column of the ring's centre line solved per row, roundness included), the quantity the
-//! detector's c estimates.
+//! detector's c estimates. The truth also gives the ring's drawn width, its visible contrast
+//! and how close a saturated patch comes to it.
 //!
 //! ```
 //! use gonio_sim::frames::{GratingRenderer, GratingScene};
@@ -47,94 +53,24 @@
 //! assert!((res.c_px.unwrap() - truth.c_true_px).abs() < 0.1);
 //! ```
 
+pub mod family;
+pub mod scene;
+pub mod source;
+
+pub use family::{SceneDraw, SceneFamily};
+pub use scene::{
+    GratingScene, RadialTrack, RingGap, Roundness, SaturatedPatch, ScenePreset, Scratch,
+    TrackBorder, psf_sigma_um_for,
+};
+pub use source::{RenderedFrames, SceneChoice, Turn, frame_seed};
+
 use crate::SimError;
 use gonio_vision::{Optics, Params};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-
-/// One roundness harmonic of the ring: `amplitude_um·cos(order·φ + phase_rad)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Roundness {
-    /// Order (cycles per turn).
-    pub order: u32,
-    /// Amplitude, µm.
-    pub amplitude_um: f64,
-    /// Phase, rad.
-    pub phase_rad: f64,
-}
-
-/// What the grating and the imaging look like (everything but the optics and the pose).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct GratingScene {
-    /// Draw the alignment ring (false: a frame with no ring).
-    pub ring_present: bool,
-    /// Background (clear grating) grey level at exposure 1.
-    pub background_grey: f64,
-    /// Ring grey level at exposure 1.
-    pub ring_grey: f64,
-    /// Grey level of code bars and lines.
-    pub bar_grey: f64,
-    /// Roundness harmonics of the ring (default: orders 2–4, 0.375 µm = 0.5 px each).
-    pub roundness: Vec<Roundness>,
-    /// Draw the code tracks.
-    pub code_tracks: bool,
-    /// Dust specks per frame.
-    pub dust_per_frame: usize,
-    /// Relative illumination change across the window's width (0.15: +15 % right to left).
-    pub illumination_gradient: f64,
-    /// Read noise, grey levels RMS.
-    pub read_noise_grey: f64,
-    /// Electrons per grey level for shot noise (0: no shot noise).
-    pub electrons_per_grey: f64,
-    /// Exposure factor multiplying every grey level (saturation above ≈ 1.3).
-    pub exposure: f64,
-    /// Focus position of best focus, µm.
-    pub best_focus_um: f64,
-    /// Numerical aperture of the lens (defocus blur σ = NA·|Δz|/2).
-    pub numerical_aperture: f64,
-    /// In-focus blur σ₀ (lens PSF), µm.
-    pub psf_sigma_um: f64,
-}
-
-impl Default for GratingScene {
-    fn default() -> Self {
-        GratingScene {
-            ring_present: true,
-            background_grey: 185.0,
-            ring_grey: 55.0,
-            bar_grey: 60.0,
-            roundness: vec![
-                Roundness {
-                    order: 2,
-                    amplitude_um: 0.375,
-                    phase_rad: 0.4,
-                },
-                Roundness {
-                    order: 3,
-                    amplitude_um: 0.375,
-                    phase_rad: 2.1,
-                },
-                Roundness {
-                    order: 4,
-                    amplitude_um: 0.375,
-                    phase_rad: 4.0,
-                },
-            ],
-            code_tracks: true,
-            dust_per_frame: 12,
-            illumination_gradient: 0.15,
-            read_noise_grey: 2.0,
-            electrons_per_grey: 40.0,
-            exposure: 1.0,
-            best_focus_um: 0.0,
-            numerical_aperture: 0.1,
-            psf_sigma_um: 0.5,
-        }
-    }
-}
+use std::sync::Arc;
 
 /// The ground truth of one rendered frame.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -156,6 +92,17 @@ pub struct FrameTruth {
     pub blur_sigma_px: f64,
     /// True when the ring is drawn and fully inside the window (its whole width, every row).
     pub ring_in_window: bool,
+    /// Width of the drawn ring, px.
+    pub ring_width_px: f64,
+    /// The ring's visible contrast: the smallest difference between background and ring grey
+    /// levels over the rows where the ring is drawn, after illumination, vignetting, exposure
+    /// and clipping at 255, grey levels (0 without a ring).
+    pub ring_contrast_grey: f64,
+    /// Rows where the ring is missing (ring gaps), of the window's.
+    pub ring_gap_rows: u32,
+    /// Distance from the nearest saturated patch to the ring's band, px (negative: the patch
+    /// covers part of the ring; infinite: no patch or no ring).
+    pub patch_distance_px: f64,
 }
 
 const CDF_STEPS: f64 = 64.0;
@@ -167,9 +114,9 @@ pub struct GratingRenderer {
     optics: Optics,
     p: Params,
     scene: GratingScene,
-    cdf: Vec<f32>,
+    cdf: Arc<[f32]>,
     /// Standard normal quantiles at (i + ½)/4096: 12 random bits → one normal deviate.
-    normal: Vec<f32>,
+    normal: Arc<[f32]>,
 }
 
 /// Bits per normal deviate drawn from the table (five per 64-bit random word).
@@ -225,46 +172,146 @@ fn norm_cdf(x: f64) -> f64 {
     }
 }
 
-/// Track layout relative to the ring radius (µm): (inner, outer, period, mark width).
-const WIDE_BARS: (f64, f64, f64, f64) = (120.0, 330.0, 60.0, 30.0);
-const THIN_LINES: (f64, f64, f64, f64) = (-330.0, -120.0, 12.0, 2.0);
+/// Brightness added inside a saturated patch (before exposure), grey levels: far above 255.
+const PATCH_GREY: f64 = 400.0;
+
+fn check_finite(name: &str, v: f64) -> Result<(), SimError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SimError::parameter(name, v, "a finite number"))
+    }
+}
+
+fn check_positive(name: &str, v: f64) -> Result<(), SimError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(SimError::parameter(name, v, "a finite number > 0"))
+    }
+}
+
+fn check_range(name: &str, r: [f64; 2], lo: f64) -> Result<(), SimError> {
+    if r[0].is_finite() && r[1].is_finite() && r[0] >= lo && r[1] >= r[0] {
+        Ok(())
+    } else {
+        Err(SimError::parameter(
+            name,
+            format!("[{}, {}]", r[0], r[1]),
+            &format!("[low, high] with {lo} ≤ low ≤ high"),
+        ))
+    }
+}
+
+/// Checks every value of a scene (names as in the scene TOML).
+fn validate(scene: &GratingScene) -> Result<(), SimError> {
+    let sc = scene;
+    check_positive("psf_sigma_um", sc.psf_sigma_um)?;
+    check_positive("exposure", sc.exposure)?;
+    for (name, v) in [
+        ("read_noise_grey", sc.read_noise_grey),
+        ("electrons_per_grey", sc.electrons_per_grey),
+        ("numerical_aperture", sc.numerical_aperture),
+        ("background_grey", sc.background_grey),
+        ("ring_grey", sc.ring_grey),
+        ("bar_grey", sc.bar_grey),
+        ("vignetting", sc.vignetting),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(SimError::parameter(name, v, "a finite number ≥ 0"));
+        }
+    }
+    check_finite("best_focus_um", sc.best_focus_um)?;
+    if sc.vignetting >= 1.0 {
+        return Err(SimError::parameter("vignetting", sc.vignetting, "0 … < 1"));
+    }
+    if !sc.illumination_gradient.is_finite() || sc.illumination_gradient.abs() >= 1.0 {
+        return Err(SimError::parameter(
+            "illumination_gradient",
+            sc.illumination_gradient,
+            "−1 … 1",
+        ));
+    }
+    if let Some(w) = sc.ring_width_px {
+        check_positive("ring_width_px", w)?;
+    }
+    for r in &sc.roundness {
+        check_finite("roundness.amplitude_um", r.amplitude_um)?;
+        check_finite("roundness.phase_rad", r.phase_rad)?;
+    }
+    check_range("dust_radius_px", sc.dust_radius_px, 0.01)?;
+    check_range("dust_depth", sc.dust_depth, 0.0)?;
+    for b in &sc.track_borders {
+        check_finite("track_borders.offset_px", b.offset_px)?;
+        check_positive("track_borders.width_px", b.width_px)?;
+        check_finite("track_borders.pitch_px", b.pitch_px)?;
+        if let Some(d) = b.depth_grey {
+            check_finite("track_borders.depth_grey", d)?;
+        }
+    }
+    for t in &sc.radial_tracks {
+        check_finite("radial_tracks.inner_px", t.inner_px)?;
+        check_finite("radial_tracks.outer_px", t.outer_px)?;
+        if t.outer_px <= t.inner_px {
+            return Err(SimError::parameter(
+                "radial_tracks.outer_px",
+                t.outer_px,
+                &format!("> inner_px ({})", t.inner_px),
+            ));
+        }
+        check_positive("radial_tracks.pitch_px", t.pitch_px)?;
+        check_positive("radial_tracks.mark_px", t.mark_px)?;
+        if t.mark_px >= t.pitch_px {
+            return Err(SimError::parameter(
+                "radial_tracks.mark_px",
+                t.mark_px,
+                &format!("< pitch_px ({})", t.pitch_px),
+            ));
+        }
+        if let Some(d) = t.depth_grey {
+            check_finite("radial_tracks.depth_grey", d)?;
+        }
+    }
+    for s in &sc.scratches {
+        check_finite("scratches.x_px", s.x_px)?;
+        check_finite("scratches.y_px", s.y_px)?;
+        check_finite("scratches.angle_deg", s.angle_deg)?;
+        check_positive("scratches.width_px", s.width_px)?;
+        check_finite("scratches.depth_grey", s.depth_grey)?;
+        if let Some(l) = s.length_px {
+            check_positive("scratches.length_px", l)?;
+        }
+    }
+    for g in &sc.ring_gaps {
+        check_finite("ring_gaps.start_row", g.start_row)?;
+        check_positive("ring_gaps.rows", g.rows)?;
+    }
+    for p in &sc.saturated_patches {
+        check_finite("saturated_patches.x_px", p.x_px)?;
+        check_finite("saturated_patches.y_px", p.y_px)?;
+        check_positive("saturated_patches.radius_px", p.radius_px)?;
+    }
+    Ok(())
+}
+
+/// One concentric dark line or band: radius (µm), half width (µm), depth (grey).
+#[derive(Debug, Clone, Copy)]
+struct Circle {
+    radius_um: f64,
+    half_um: f64,
+    depth: f32,
+}
 
 impl GratingRenderer {
     /// A renderer for the optics' window.
     ///
     /// # Errors
-    /// [`SimError::Parameter`] for invalid optics or scene values.
+    /// [`SimError::Parameter`] for invalid optics or scene values (named as in the scene TOML).
     pub fn new(optics: &Optics, scene: GratingScene) -> Result<Self, SimError> {
         let p = optics
             .params()
             .map_err(|e| SimError::parameter("optics", e, "valid optics"))?;
-        for (name, v) in [
-            ("psf_sigma_um", scene.psf_sigma_um),
-            ("exposure", scene.exposure),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(SimError::parameter(name, v, "a finite number > 0"));
-            }
-        }
-        for (name, v) in [
-            ("read_noise_grey", scene.read_noise_grey),
-            ("electrons_per_grey", scene.electrons_per_grey),
-            ("numerical_aperture", scene.numerical_aperture),
-            ("background_grey", scene.background_grey),
-            ("ring_grey", scene.ring_grey),
-            ("bar_grey", scene.bar_grey),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(SimError::parameter(name, v, "a finite number ≥ 0"));
-            }
-        }
-        if !scene.illumination_gradient.is_finite() || scene.illumination_gradient.abs() >= 1.0 {
-            return Err(SimError::parameter(
-                "illumination_gradient",
-                scene.illumination_gradient,
-                "−1 … 1",
-            ));
-        }
+        validate(&scene)?;
         let n = (2.0 * CDF_RANGE * CDF_STEPS) as usize + 2;
         let cdf = (0..n)
             .map(|i| norm_cdf(i as f64 / CDF_STEPS - CDF_RANGE) as f32)
@@ -279,6 +326,22 @@ impl GratingRenderer {
             scene,
             cdf,
             normal,
+        })
+    }
+
+    /// A renderer for the same optics and another scene, sharing this one's tables (cheap: for
+    /// a new scene every frame).
+    ///
+    /// # Errors
+    /// [`SimError::Parameter`] for invalid scene values.
+    pub fn with_scene(&self, scene: GratingScene) -> Result<Self, SimError> {
+        validate(&scene)?;
+        Ok(GratingRenderer {
+            optics: self.optics.clone(),
+            p: self.p.clone(),
+            scene,
+            cdf: self.cdf.clone(),
+            normal: self.normal.clone(),
         })
     }
 
@@ -310,7 +373,7 @@ impl GratingRenderer {
         self.cdf[i] + (self.cdf[i + 1] - self.cdf[i]) * f
     }
 
-    /// Fraction covered by a band [a, b] (µm) blurred by σ, at position s.
+    /// Fraction covered by a band [a, b] blurred by σ, at position s (any consistent unit).
     #[inline]
     fn band(&self, s: f64, a: f64, b: f64, inv_sigma: f64) -> f32 {
         self.phi((s - a) * inv_sigma) - self.phi((s - b) * inv_sigma)
@@ -336,6 +399,13 @@ impl GratingRenderer {
             .sqrt()
     }
 
+    /// The drawn ring's width, µm.
+    fn ring_width_um(&self) -> f64 {
+        self.scene
+            .ring_width_px
+            .map_or(self.optics.ring_width_um, |w| w * self.p.um_per_px)
+    }
+
     /// Stage X of the ring centre line at stage Y, or None if the ring does not reach that Y.
     fn ring_x(&self, g: (f64, f64), theta: f64, y: f64) -> Option<f64> {
         let dy = y - g.1;
@@ -356,6 +426,21 @@ impl GratingRenderer {
         } else {
             Some(g.0 + q.sqrt())
         }
+    }
+
+    /// Fraction of the ring missing at row `v` (gaps with their ends blurred like any edge).
+    fn gap_fraction(&self, v: usize, inv_sigma_px: f64) -> f32 {
+        let y = v as f64;
+        let mut f = 0.0f32;
+        for g in &self.scene.ring_gaps {
+            f += self.band(
+                y,
+                g.start_row - 0.5,
+                g.start_row + g.rows - 0.5,
+                inv_sigma_px,
+            );
+        }
+        f.min(1.0)
     }
 
     /// Renders one frame into `out` (window width × height bytes, row-major) and returns its truth.
@@ -389,9 +474,7 @@ impl GratingRenderer {
             ("ecc_angle_deg", ecc_angle_deg),
             ("focus_um", focus_um),
         ] {
-            if !v.is_finite() {
-                return Err(SimError::parameter(name, v, "a finite number"));
-            }
+            check_finite(name, v)?;
         }
         let sc = &self.scene;
         let s = self.p.um_per_px;
@@ -401,7 +484,8 @@ impl GratingRenderer {
         let g = (eccentricity_um * a.cos(), eccentricity_um * a.sin());
         let sigma = self.blur_sigma_um(focus_um);
         let inv_sigma = 1.0 / sigma;
-        let half_w = self.optics.ring_width_um / 2.0;
+        let inv_sigma_px = s / sigma;
+        let half_w = self.ring_width_um() / 2.0;
         let r0 = self.optics.ring_radius_um;
         let col_of = |x: f64| (x - x0) / s + (w as f64 - 1.0) / 2.0;
         let stage_x = |u: usize| x0 + (u as f64 - (w as f64 - 1.0) / 2.0) * s;
@@ -409,19 +493,53 @@ impl GratingRenderer {
 
         // Ring centre line per row (shared by the truth and the drawing).
         let ring_xs: Vec<Option<f64>> = (0..h).map(|v| self.ring_x(g, theta, stage_y(v))).collect();
+        let gaps: Vec<f32> = (0..h).map(|v| self.gap_fraction(v, inv_sigma_px)).collect();
+
+        let gain = sc.exposure;
+        let bg = sc.background_grey;
+        let ring_depth = sc.ring_depth_grey() as f32;
+        let bar_depth = sc.background_grey - sc.bar_grey;
+        let reach = 4.5 * sigma;
+        let reach_px = reach / s;
+        let tau = std::f64::consts::TAU;
+        // Illumination: the column and row terms (additive, as a relative change), and the
+        // vignetting's quadratic falloff from the window's centre.
+        let illum_col: Vec<f64> = (0..w)
+            .map(|u| -sc.illumination_gradient * (u as f64 / w as f64 - 0.5))
+            .collect();
+        let illum_row =
+            |v: usize| 1.0 + 0.5 * sc.illumination_gradient * (v as f64 / h as f64 - 0.5);
+        let (cu, cv) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+        let corner2 = cu * cu + cv * cv;
+        let vig_col: Vec<f64> = (0..w)
+            .map(|u| sc.vignetting * (u as f64 - cu).powi(2) / corner2)
+            .collect();
+        let vig_row = |v: usize| sc.vignetting * (v as f64 - cv).powi(2) / corner2;
+        let illum =
+            |u: usize, v: usize| (illum_row(v) + illum_col[u]) * (1.0 - vig_row(v) - vig_col[u]);
 
         // Truth.
         let mut sum = 0.0;
         let mut all_rows = true;
         let mut inside = sc.ring_present;
         let d_half_px = half_w / s;
-        for rx in &ring_xs {
+        let mut contrast = f64::INFINITY;
+        let mut gap_rows = 0u32;
+        for (v, rx) in ring_xs.iter().enumerate() {
             match *rx {
                 Some(x) => {
                     let c = col_of(x);
                     sum += c;
                     if c - d_half_px < 0.0 || c + d_half_px > w as f64 - 1.0 {
                         inside = false;
+                    }
+                    if gaps[v] > 0.5 {
+                        gap_rows += 1;
+                    } else if sc.ring_present {
+                        let u = (c.round().max(0.0) as usize).min(w - 1);
+                        let k = illum(u, v) * gain;
+                        let vis = (bg * k).min(255.0) - (sc.ring_grey * k).clamp(0.0, 255.0);
+                        contrast = contrast.min(vis);
                     }
                 }
                 None => {
@@ -432,19 +550,49 @@ impl GratingRenderer {
         }
         let c_true_px = if all_rows { sum / h as f64 } else { f64::NAN };
         let c_mid_row_px = ring_xs[h / 2].map_or(f64::NAN, col_of);
+        let mut patch_distance_px = f64::INFINITY;
+        if sc.ring_present {
+            for p in &sc.saturated_patches {
+                for (v, rx) in ring_xs.iter().enumerate() {
+                    if let Some(x) = *rx {
+                        let d =
+                            (col_of(x) - p.x_px).hypot(v as f64 - p.y_px) - p.radius_px - d_half_px;
+                        patch_distance_px = patch_distance_px.min(d);
+                    }
+                }
+            }
+        }
 
-        let gain = sc.exposure;
-        let (bg, ring_depth, bar_depth) = (
-            sc.background_grey,
-            (sc.background_grey - sc.ring_grey) as f32,
-            (sc.background_grey - sc.bar_grey) as f32,
-        );
-        let reach = 4.5 * sigma;
-        let tau = std::f64::consts::TAU;
-        // Illumination's column term, and the noise model's constants.
-        let illum_col: Vec<f64> = (0..w)
-            .map(|u| -sc.illumination_gradient * (u as f64 / w as f64 - 0.5))
+        // Concentric lines: the track borders.
+        let circles: Vec<Circle> = sc
+            .track_borders
+            .iter()
+            .flat_map(|b| {
+                (0..b.count).map(move |k| Circle {
+                    radius_um: r0 + (b.offset_px + k as f64 * b.pitch_px) * s,
+                    half_um: b.width_px * s / 2.0,
+                    depth: b.depth_grey.unwrap_or(sc.ring_depth_grey()) as f32,
+                })
+            })
             .collect();
+        // Radial tracks in µm: (inner, outer, period, mark, depth).
+        let tracks: Vec<(f64, f64, f64, f64, f32)> = if sc.code_tracks {
+            sc.radial_tracks
+                .iter()
+                .map(|t| {
+                    (
+                        t.inner_px * s,
+                        t.outer_px * s,
+                        t.pitch_px * s,
+                        t.mark_px * s,
+                        t.depth_grey.unwrap_or(bar_depth) as f32,
+                    )
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+
         let rn2 = (sc.read_noise_grey * sc.read_noise_grey) as f32;
         let inv_e = if sc.electrons_per_grey > 0.0 {
             (1.0 / sc.electrons_per_grey) as f32
@@ -474,6 +622,7 @@ impl GratingRenderer {
         let deep_band = self.cdf[self.cdf.len() - 2] - self.cdf[0];
         let normal = &self.normal[..];
         let mask = (1u64 << NORMAL_BITS) - 1;
+        let any_vignetting = sc.vignetting > 0.0;
         // Rows in parallel; each row has its own noise stream, so the bytes do not depend on
         // the number of threads.
         out.par_chunks_mut(w).enumerate().for_each_init(
@@ -491,23 +640,41 @@ impl GratingRenderer {
                     let qx = stage_x(u) - g.0;
                     (qx, (qx * qx + qy * qy).sqrt())
                 };
-                if sc.ring_present {
-                    let (lo, hi) = cols(qy, rr - half_w - reach, rr + half_w + reach);
+                let ring_here = ring_depth * (1.0 - gaps[v]);
+                let draw_circle = |c: Circle, dark: &mut [f32]| {
+                    let (lo, hi) = cols(
+                        qy,
+                        c.radius_um - c.half_um - reach,
+                        c.radius_um + c.half_um + reach,
+                    );
                     for (u, d) in dark.iter_mut().enumerate().take(hi).skip(lo) {
                         let (_, rho) = rho_at(u);
-                        let dr = rho - rr;
-                        if dr.abs() < half_w + reach {
-                            *d += ring_depth * self.band(dr, -half_w, half_w, inv_sigma);
+                        let dr = rho - c.radius_um;
+                        if dr.abs() < c.half_um + reach {
+                            *d += c.depth * self.band(dr, -c.half_um, c.half_um, inv_sigma);
                         }
                     }
+                };
+                if sc.ring_present && ring_here > 0.01 {
+                    draw_circle(
+                        Circle {
+                            radius_um: rr,
+                            half_um: half_w,
+                            depth: ring_here,
+                        },
+                        dark,
+                    );
                 }
-                if sc.code_tracks {
+                for &c in &circles {
+                    draw_circle(c, dark);
+                }
+                if !tracks.is_empty() {
                     // Unit vector toward the window centre's grating point, for the track angles.
                     let qxc = x0 - g.0;
                     let nrm = (qxc * qxc + qy * qy).sqrt();
                     let (cx, cy) = (qxc / nrm, qy / nrm);
                     let phi_c = qy.atan2(qxc) - theta;
-                    for (lo, hi, period, mark) in [WIDE_BARS, THIN_LINES] {
+                    for &(lo, hi, period, mark, depth) in &tracks {
                         let (ulo, uhi) = cols(qy, r0 + lo - reach, r0 + hi + reach);
                         let n = tau * r0 / period;
                         let n_tau = n / tau;
@@ -549,18 +716,70 @@ impl GratingRenderer {
                                         inv_sigma,
                                     );
                                 }
-                                *d += bar_depth * radial * ang;
+                                *d += depth * radial * ang;
                             }
                         }
                     }
                 }
-                let illum_row = 1.0 + 0.5 * sc.illumination_gradient * (v as f64 / h as f64 - 0.5);
+                // Scratches (window pixels): perpendicular distance to the centre line.
+                let vf = v as f64;
+                for sk in &sc.scratches {
+                    let (sn, cs) = sk.angle_deg.to_radians().sin_cos();
+                    let hw = sk.width_px / 2.0;
+                    let r = hw + reach_px;
+                    let along0 = (vf - sk.y_px) * sn;
+                    let (ulo, uhi) = if cs.abs() > 1e-9 {
+                        let a = sk.x_px + (along0 - r) / cs;
+                        let b = sk.x_px + (along0 + r) / cs;
+                        let (a, b) = (a.min(b), a.max(b));
+                        (
+                            a.floor().clamp(0.0, w as f64) as usize,
+                            (b.ceil() + 1.0).clamp(0.0, w as f64) as usize,
+                        )
+                    } else if along0.abs() <= r {
+                        (0, w)
+                    } else {
+                        (0, 0)
+                    };
+                    for (u, d) in dark.iter_mut().enumerate().take(uhi).skip(ulo) {
+                        let du = u as f64 - sk.x_px;
+                        let perp = du * cs - (vf - sk.y_px) * sn;
+                        let mut f = self.band(perp, -hw, hw, inv_sigma_px);
+                        if let Some(l) = sk.length_px {
+                            let t = du * sn + (vf - sk.y_px) * cs;
+                            f *= self.band(t, -l / 2.0, l / 2.0, inv_sigma_px);
+                        }
+                        *d += sk.depth_grey as f32 * f;
+                    }
+                }
+                // Saturated patches: light added, far above what the sensor can hold.
+                for p in &sc.saturated_patches {
+                    let dy = vf - p.y_px;
+                    let r = p.radius_px + reach_px;
+                    if dy.abs() > r {
+                        continue;
+                    }
+                    let half = (r * r - dy * dy).sqrt();
+                    let ulo = (p.x_px - half).floor().clamp(0.0, w as f64) as usize;
+                    let uhi = (p.x_px + half + 2.0).clamp(0.0, w as f64) as usize;
+                    for (u, d) in dark.iter_mut().enumerate().take(uhi).skip(ulo) {
+                        let dist = (u as f64 - p.x_px).hypot(dy);
+                        *d -= PATCH_GREY as f32 * self.phi((p.radius_px - dist) * inv_sigma_px);
+                    }
+                }
+                let il_row = illum_row(v);
+                let vr = vig_row(v);
                 let mut state = rng_seed ^ (v as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03);
                 let mut bits = 0u64;
                 let mut left = 0u32;
-                for ((o, &d), &ic) in row.iter_mut().zip(dark.iter()).zip(&illum_col) {
+                for (u, ((o, &d), &ic)) in
+                    row.iter_mut().zip(dark.iter()).zip(&illum_col).enumerate()
+                {
                     let r = bg as f32 - d;
-                    let val = r as f64 * (illum_row + ic) * gain;
+                    let mut val = r as f64 * (il_row + ic) * gain;
+                    if any_vignetting {
+                        val *= 1.0 - vr - vig_col[u];
+                    }
                     let var = rn2 + (val as f32).max(0.0) * inv_e;
                     if left == 0 {
                         bits = splitmix64(&mut state);
@@ -575,13 +794,21 @@ impl GratingRenderer {
             },
         );
         let mut rng = ChaCha8Rng::seed_from_u64(rng_seed);
-        let bg = sc.background_grey;
-        // Dust specks: small dark blurred blobs.
-        for _ in 0..sc.dust_per_frame {
-            let cu = rng.random_range(0.0..w as f64);
-            let cv = rng.random_range(0.0..h as f64);
-            let rad_um: f64 = rng.random_range(0.5..1.6);
-            let depth: f64 = rng.random_range(0.3..0.8) * (bg - sc.ring_grey) * gain;
+        let depth_ref = sc.ring_depth_grey().max(1.0);
+        let speck = |out: &mut [u8], rng: &mut ChaCha8Rng, cu: f64, cv: f64| {
+            let [r_lo, r_hi] = sc.dust_radius_px;
+            let rad_um = if r_hi > r_lo {
+                rng.random_range(r_lo..r_hi)
+            } else {
+                r_lo
+            } * s;
+            let [k_lo, k_hi] = sc.dust_depth;
+            let depth = if k_hi > k_lo {
+                rng.random_range(k_lo..k_hi)
+            } else {
+                k_lo
+            } * depth_ref
+                * gain;
             let sd = (rad_um * rad_um / 2.0 + sigma * sigma).sqrt() / s;
             let amp = depth * (rad_um * rad_um / 2.0) / (rad_um * rad_um / 2.0 + sigma * sigma);
             let ext = (3.0 * sd).ceil() as isize;
@@ -601,6 +828,22 @@ impl GratingRenderer {
                     *o = ((*o as f64 - k).clamp(0.0, 255.0) + 0.5) as u8;
                 }
             }
+        };
+        // Dust specks: small dark blurred blobs, anywhere …
+        for _ in 0..sc.dust_per_frame {
+            let cu = rng.random_range(0.0..w as f64);
+            let cv = rng.random_range(0.0..h as f64);
+            speck(out, &mut rng, cu, cv);
+        }
+        // … and on the ring (its band ± 2 px).
+        if sc.ring_present {
+            for _ in 0..sc.dust_on_ring_per_frame {
+                let v = rng.random_range(0..h);
+                let off = rng.random_range(-(d_half_px + 2.0)..(d_half_px + 2.0));
+                if let Some(x) = ring_xs[v] {
+                    speck(out, &mut rng, col_of(x) + off, v as f64);
+                }
+            }
         }
         Ok(FrameTruth {
             theta_deg,
@@ -611,6 +854,14 @@ impl GratingRenderer {
             c_mid_row_px,
             blur_sigma_px: sigma / s,
             ring_in_window: inside && all_rows,
+            ring_width_px: 2.0 * d_half_px,
+            ring_contrast_grey: if sc.ring_present && contrast.is_finite() {
+                contrast.max(0.0)
+            } else {
+                0.0
+            },
+            ring_gap_rows: gap_rows,
+            patch_distance_px,
         })
     }
 }

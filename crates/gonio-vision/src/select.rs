@@ -1,0 +1,1171 @@
+//! Ring selection: which two edges are the alignment ring's, chosen by the ring's model rather
+//! than by component size (spec `eccentricity-detector.md`, "Scenes the detector must survive").
+//!
+//! A grating shows many long, near-vertical edges besides the ring's: the residues that thin
+//! concentric track-border lines leave after the d/2 opening (10–50 % of their depth once the
+//! optics blur them), scratches, the ends of radial marks. The selection uses what only the ring
+//! has:
+//!
+//! 1. **Fragments.** Every component spanning at least `min_fragment_rows` rows whose pixels
+//!    share one gradient polarity (≥ 90 %): rising (Gx > 0: the left edge of the bright band the
+//!    top-hat makes of a dark ring) or falling. Each gets its least-squares curve (column as a
+//!    parabola, or a line when short, of the row), the scatter of its pixels about it, and its
+//!    mean gradient magnitude.
+//! 2. **Tracks.** Fragments of one edge cut apart by dust, a scratch, marks touching the ring or a
+//!    gap in the ring are linked top to bottom when each continues the other's curve (within
+//!    1.5 px plus 1 % of the rows between them); their sums are added.
+//! 3. **Candidates.** A rising track L and a falling track R to its right form a ring candidate
+//!    when, over the rows they share (at least `min_edge_fraction` of the window's): their
+//!    separation stays within the band derived from the ring width in the optics, they are
+//!    parallel (the separation changes by at most `parallel_px`), their gradients are alike (the
+//!    weaker at least half the stronger: both edges of one band), and no track at least
+//!    `interior_fraction` as strong as their weaker edge runs between them, parallel to them,
+//!    over 30 % of those rows (a ring's inside is flat; two neighbouring lines have edges as
+//!    strong as their outer ones between them; a scratch crossing the ring at an angle, or what
+//!    the opening leaves of one inside it, does not count).
+//! 4. **Score.** Strength × coverage × width fit × balance, each 0 … 1: strength is the weaker
+//!    edge's mean gradient relative to the strongest candidate's (the frame-relative threshold:
+//!    a faint ring in a faint frame scores as well as a strong one in a strong frame) with half
+//!    weight on its strong-pixel share; coverage the shared rows over the window's; width fit
+//!    1 − ½·((sep − d)/(tolerance·d))²; balance the weaker edge's gradient over the stronger's.
+//! 5. **Margin.** (best − runner-up)/best, the runner-up being the best candidate whose c lies
+//!    more than d/2 from the best's (a different ring hypothesis). Below `min_margin` the frame
+//!    is [`InvalidReason::Ambiguous`]: never guess.
+//!
+//! Each candidate's edges are re-fitted from the frame's own edge pixels near their curves, the
+//! two together as parallel curves with the pixels that stray from them dropped
+//! ([`refit_pair`]): pixels that only crossed an edge, or a scratch or speck running along one,
+//! drop out, and c is the fitted centre line's mean column over the window's rows.
+//!
+//! Thresholds are the optics' (the minimum ring contrast sets the segmentation's floor) and the
+//! frame's own (relative to its best candidate); no fixed count of largest components.
+//!
+//! ```
+//! use gonio_vision::{Detector, InvalidReason, Optics};
+//! let optics = Optics { window_width_px: 200, window_height_px: 64, ..Optics::default() };
+//! let mut det = Detector::new(&optics).unwrap();
+//! // A dark 11 px ring at column 100 and, 40 px to its left, a thin 3 px line of the same depth.
+//! let mut frame = vec![190u8; 200 * 64];
+//! for row in frame.chunks_mut(200) {
+//!     for x in 95..=105 { row[x] = 70; }
+//!     for x in 59..=61 { row[x] = 70; }
+//! }
+//! let r = det.detect(&frame).unwrap();
+//! assert!(r.valid, "{:?}", r.reason);
+//! assert!((r.c_px.unwrap() - 100.0).abs() < 0.05);
+//! assert_eq!(r.margin, Some(1.0)); // nothing else looks like a ring
+//! ```
+
+use crate::features::{InvalidReason, SaturatedRun};
+use crate::label::{Component, EdgeList, EdgePixel, component_of};
+use crate::optics::Params;
+
+/// A least-squares curve of a component's pixels: column = a + b·u + q·u² with
+/// u = 2·row − (H − 1) (q = 0 for a short component), and the scatter about it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Curve {
+    /// Column at u = 0 (the window's middle row), px.
+    pub a: f64,
+    /// Linear coefficient, px per u.
+    pub b: f64,
+    /// Quadratic coefficient, px per u².
+    pub q: f64,
+    /// RMS distance of the positioned pixels from the curve, px.
+    pub rms_px: f64,
+    /// Positioned pixels.
+    pub n: f64,
+}
+
+impl Curve {
+    /// Column at `row`, px.
+    pub fn at(&self, row: f64, height: usize) -> f64 {
+        let u = 2.0 * row - (height as f64 - 1.0);
+        self.a + self.b * u + self.q * u * u
+    }
+}
+
+/// Centred moments of a component: Σuᵏ (k = 0…4), Σuᵏ·c (k = 0…2, px), Σc² (px²).
+pub(crate) fn moments(c: &Component, height: usize) -> ([f64; 5], [f64; 3], f64) {
+    // u = 2·row − (H − 1): centred, integer. Exact expansion in i128.
+    let h = height as i128 - 1;
+    let n = c.pos_n as i128;
+    let (s1, s2, s3, s4) = (
+        c.sum_row as i128,
+        c.sum_row2 as i128,
+        c.sum_row3 as i128,
+        c.sum_row4 as i128,
+    );
+    let u1 = 2 * s1 - h * n;
+    let u2 = 4 * s2 - 4 * h * s1 + h * h * n;
+    let u3 = 8 * s3 - 12 * h * s2 + 6 * h * h * s1 - h * h * h * n;
+    let u4 = 16 * s4 - 32 * h * s3 + 24 * h * h * s2 - 8 * h * h * h * s1 + h * h * h * h * n;
+    let (c0, c1, c2) = (
+        c.sum_col32 as i128,
+        c.sum_row_col32 as i128,
+        c.sum_row2_col32 as i128,
+    );
+    let v1 = 2 * c1 - h * c0;
+    let v2 = 4 * c2 - 4 * h * c1 + h * h * c0;
+    (
+        [n as f64, u1 as f64, u2 as f64, u3 as f64, u4 as f64],
+        [c0 as f64 / 32.0, v1 as f64 / 32.0, v2 as f64 / 32.0],
+        c.sum_col32_sq as f64 / 1024.0,
+    )
+}
+
+fn det3(m: [[f64; 3]; 3]) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+/// Solves a 3×3 system by Cramer's rule; `None` when (nearly) singular.
+pub(crate) fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let d = det3(a);
+    let scale = a[0][0] * a[1][1] * a[2][2];
+    if d.is_nan() || d.abs() <= 1e-9 * scale.abs() {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (i, xi) in x.iter_mut().enumerate() {
+        let mut m = a;
+        for r in 0..3 {
+            m[r][i] = b[r];
+        }
+        *xi = det3(m) / d;
+    }
+    Some(x)
+}
+
+/// The component's curve: a parabola when it spans at least half the window's rows, a line
+/// otherwise (a shorter piece cannot pin the curvature, and a line extrapolates better);
+/// `None` without two positioned pixels on different rows.
+pub fn curve(c: &Component, height: usize) -> Option<Curve> {
+    curve_with(c, height, None)
+}
+
+/// As [`curve`], but a piece spanning less than half the window's rows bends with the given
+/// curvature `q_prior` (px per u², e.g. the frame's: every edge in the window is a circle
+/// concentric with the ring) instead of being straight.
+pub fn curve_with(c: &Component, height: usize, q_prior: Option<f64>) -> Option<Curve> {
+    if c.pos_n < 2 {
+        return None;
+    }
+    let (u, v, cc) = moments(c, height);
+    let n = u[0];
+    let span = (c.max_row - c.min_row) as f64;
+    // A line through the columns less q·u²: Σ(c − q u²) = v0 − q·u2, Σu(c − q u²) = v1 − q·u3,
+    // Σ(c − q u²)² = cc − 2q·v2 + q²·u4.
+    let line = |q: f64| {
+        let (w0, w1) = (v[0] - q * u[2], v[1] - q * u[3]);
+        let ww = cc - 2.0 * q * v[2] + q * q * u[4];
+        let suu = u[2] - u[1] * u[1] / n;
+        if suu <= 0.0 {
+            return None;
+        }
+        let b = (w1 - u[1] * w0 / n) / suu;
+        let a = (w0 - b * u[1]) / n;
+        Some((a, b, q, ww, a * w0 + b * w1, 2.0))
+    };
+    let fit = if span >= height as f64 / 2.0 && c.pos_n >= 4 {
+        match solve3(
+            [[u[0], u[1], u[2]], [u[1], u[2], u[3]], [u[2], u[3], u[4]]],
+            [v[0], v[1], v[2]],
+        ) {
+            Some([a, b, q]) => Some((a, b, q, cc, a * v[0] + b * v[1] + q * v[2], 3.0)),
+            None => line(0.0),
+        }
+    } else {
+        line(q_prior.unwrap_or(0.0))
+    };
+    let (a, b, q, total, explained, k) = fit?;
+    let ssr = (total - explained).max(0.0);
+    let dof = (n - k).max(1.0);
+    Some(Curve {
+        a,
+        b,
+        q,
+        rms_px: (ssr / dof).sqrt(),
+        n,
+    })
+}
+
+/// Rows `[first, last]` covered by a set of intervals (overlaps counted once).
+fn union_len(iv: &[(u32, u32)]) -> u32 {
+    let mut v: Vec<(u32, u32)> = iv.to_vec();
+    v.sort_unstable();
+    let mut total = 0;
+    let mut cur: Option<(u32, u32)> = None;
+    for (a, b) in v {
+        match cur {
+            Some((ca, cb)) if a <= cb + 1 => cur = Some((ca, cb.max(b))),
+            Some((ca, cb)) => {
+                total += cb - ca + 1;
+                cur = Some((a, b));
+            }
+            None => cur = Some((a, b)),
+        }
+    }
+    if let Some((ca, cb)) = cur {
+        total += cb - ca + 1;
+    }
+    total
+}
+
+/// Rows covered by both interval sets, and the first and last of them.
+fn shared(a: &[(u32, u32)], b: &[(u32, u32)]) -> (u32, u32, u32) {
+    let mut parts = Vec::new();
+    for &(a0, a1) in a {
+        for &(b0, b1) in b {
+            let (lo, hi) = (a0.max(b0), a1.min(b1));
+            if lo <= hi {
+                parts.push((lo, hi));
+            }
+        }
+    }
+    let first = parts.iter().map(|p| p.0).min().unwrap_or(0);
+    let last = parts.iter().map(|p| p.1).max().unwrap_or(0);
+    (union_len(&parts), first, last)
+}
+
+/// One edge of the window seen as a ring edge: linked fragments with their summed statistics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    /// The fragments' sums, added.
+    pub comp: Component,
+    /// Row ranges of the fragments.
+    pub rows: Vec<(u32, u32)>,
+    /// Rows covered.
+    pub coverage: u32,
+    /// +1 rising (Gx > 0), −1 falling.
+    pub polarity: i8,
+    /// The curve of all the fragments' pixels.
+    pub curve: Curve,
+    /// Mean gradient magnitude of the positioned pixels (Sobel L1 units).
+    pub gradient: f64,
+    /// Strong pixels over all pixels.
+    pub strong_share: f64,
+}
+
+impl Track {
+    fn new(comp: Component, polarity: i8, height: usize, q: Option<f64>) -> Option<Track> {
+        let curve = curve_with(&comp, height, q)?;
+        let mut t = Track {
+            comp,
+            rows: vec![(comp.min_row, comp.max_row)],
+            coverage: comp.row_span(),
+            polarity,
+            curve,
+            gradient: 0.0,
+            strong_share: 0.0,
+        };
+        t.update_stats();
+        Some(t)
+    }
+
+    fn update_stats(&mut self) {
+        self.gradient = self.comp.sum_mag as f64 / self.comp.pos_n.max(1) as f64;
+        self.strong_share = self.comp.strong as f64 / self.comp.pixels.max(1) as f64;
+    }
+
+    fn absorb(&mut self, f: &Track, height: usize, q: Option<f64>) {
+        let mut c = self.comp;
+        c.merge(&f.comp);
+        if let Some(cv) = curve_with(&c, height, q) {
+            self.comp = c;
+            self.curve = cv;
+            self.rows.extend_from_slice(&f.rows);
+            self.coverage = union_len(&self.rows);
+            self.update_stats();
+        }
+    }
+
+    /// Last row covered.
+    fn last_row(&self) -> u32 {
+        self.rows.iter().map(|r| r.1).max().unwrap_or(0)
+    }
+}
+
+fn polarity(c: &Component) -> Option<i8> {
+    if 10 * c.gx_pos >= 9 * c.pixels {
+        Some(1)
+    } else if 10 * c.gx_pos <= c.pixels {
+        Some(-1)
+    } else {
+        None
+    }
+}
+
+/// A deterministic RANSAC line through pixels whose columns are first reduced by the curvature
+/// `q` (px per u²): pairs of pixels from the upper and lower halves (in raster order) at least
+/// `min_fragment_rows` rows apart, slope within the baseline filter's tolerance, the line with
+/// most pixels within `gate` px. Returns (row, reduced column, slope) of the line.
+fn ransac(px: &[EdgePixel], q: f64, gate: f64, p: &Params) -> Option<(f64, f64, f64)> {
+    let h = p.height;
+    let tan = p.tan_tolerance_q10 as f64 / 1024.0;
+    let col = |e: &EdgePixel| {
+        let u = 2.0 * e.row as f64 - (h as f64 - 1.0);
+        e.col32() as f64 / 32.0 - q * u * u
+    };
+    let n = px.len();
+    let half = n / 2;
+    if half == 0 {
+        return None;
+    }
+    let mut best: Option<(usize, f64, f64, f64)> = None;
+    const TRIES: usize = 48;
+    for k in 0..TRIES {
+        let a = &px[k * half / TRIES];
+        let b = &px[half + ((k * 37) % TRIES) * (n - half) / TRIES];
+        let dr = b.row as f64 - a.row as f64;
+        if dr < p.min_fragment_rows as f64 {
+            continue;
+        }
+        let slope = (col(b) - col(a)) / dr;
+        if slope.abs() > tan {
+            continue;
+        }
+        let (r0, c0) = (a.row as f64, col(a));
+        let inl = px
+            .iter()
+            .filter(|e| (col(e) - c0 - slope * (e.row as f64 - r0)).abs() <= gate)
+            .count();
+        if best.is_none_or(|b| inl > b.0) {
+            best = Some((inl, r0, c0, slope));
+        }
+    }
+    best.map(|(_, r0, c0, slope)| (r0, c0, slope))
+}
+
+/// The smooth pieces of a set of same-polarity pixels, strongest first: a deterministic RANSAC
+/// line bent with the frame's curvature `q` (pairs of pixels from the upper and lower halves;
+/// inliers within 1.5 px; slope within the baseline filter's tolerance), its pixels within
+/// 1.5 px, then a curve re-fitted to those within 1 px of it, twice. Pieces spanning fewer than
+/// `min_fragment_rows` rows end the search.
+fn split(mut px: Vec<EdgePixel>, p: &Params, q: Option<f64>) -> Vec<Component> {
+    let (h, w) = (p.height, p.width);
+    let qq = q.unwrap_or(0.0);
+    // Columns less the frame's curvature: a concentric edge is straight in these.
+    let col = |e: &EdgePixel| {
+        let u = 2.0 * e.row as f64 - (h as f64 - 1.0);
+        e.col32() as f64 / 32.0 - qq * u * u
+    };
+    let col_px = |e: &EdgePixel| e.col32() as f64 / 32.0;
+    let mut out = Vec::new();
+    for _ in 0..4 {
+        if px.len() < p.min_fragment_rows as usize {
+            break;
+        }
+        let Some((r0, c0, slope)) = ransac(&px, qq, 1.5, p) else {
+            break;
+        };
+        let near = |q: &EdgePixel| (col(q) - c0 - slope * (q.row as f64 - r0)).abs() <= 1.5;
+        let (taken, rest): (Vec<EdgePixel>, Vec<EdgePixel>) = px.iter().partition(|q| near(q));
+        px = rest;
+        let mut piece = taken.clone();
+        for _ in 0..2 {
+            let Some(cv) = curve_with(&component_of(&piece, w), h, q) else {
+                break;
+            };
+            piece = taken
+                .iter()
+                .filter(|e| (col_px(e) - cv.at(e.row as f64, h)).abs() <= 1.0)
+                .copied()
+                .collect();
+        }
+        let c = component_of(&piece, w);
+        if c.pixels == 0 || c.row_span() < p.min_fragment_rows {
+            break;
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// The fragments of the frame and its curvature: clean candidate components as they are; a
+/// component that mixes polarities or scatters about its curve (an edge that took in a
+/// crossing scratch's or a speck's edge) split into its smooth pieces from its own pixels. The
+/// frame's curvature (px per u²) is the median of the clean fragments spanning half the window
+/// or more (`None` without one): every edge in the window is concentric with the ring, and a
+/// shorter piece bends with it.
+fn fragments(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Track>, Option<f64>) {
+    let h = p.height;
+    let mut sorted: Vec<&Component> = cands
+        .iter()
+        .filter(|c| c.row_span() >= p.min_fragment_rows)
+        .collect();
+    sorted.sort_by_key(|c| c.first_index);
+    let mut qs: Vec<f64> = sorted
+        .iter()
+        .filter(|c| 2 * c.row_span() as usize > h && polarity(c).is_some())
+        .filter_map(|c| curve(c, h))
+        .filter(|cv| cv.rms_px <= p.max_fragment_rms_px)
+        .map(|cv| cv.q)
+        .collect();
+    let q = (!qs.is_empty()).then(|| median(&mut qs));
+    let mut out = Vec::with_capacity(sorted.len());
+    for c in sorted {
+        let pol = polarity(c);
+        let clean = curve_with(c, h, q).is_some_and(|cv| cv.rms_px <= p.max_fragment_rms_px);
+        if let (Some(pol), true) = (pol, clean) {
+            out.extend(Track::new(*c, pol, h, q));
+            continue;
+        }
+        let px = edges.component(c.first_index, c.min_row, c.max_row);
+        for rising in [true, false] {
+            let part: Vec<EdgePixel> = px
+                .iter()
+                .filter(|e| e.rising() == rising)
+                .copied()
+                .collect();
+            for piece in split(part, p, q) {
+                out.extend(Track::new(piece, if rising { 1 } else { -1 }, h, q));
+            }
+        }
+    }
+    (out, q)
+}
+
+/// The pixels of one polarity within `gate` px of a curve, row by row (rows marked in `skip`
+/// left out), appended to `px`; `pos[y]` gets their mean column on row y (NaN: none).
+#[allow(clippy::too_many_arguments)]
+fn gather(
+    cv: &Curve,
+    rising: bool,
+    gate: f64,
+    edges: &mut EdgeList,
+    skip: &[bool],
+    h: usize,
+    px: &mut Vec<EdgePixel>,
+    pos: &mut [f64],
+) {
+    for y in 0..h {
+        pos[y] = f64::NAN;
+        if skip[y] {
+            continue;
+        }
+        let row = edges.row(y);
+        let c = cv.at(y as f64, h);
+        let lo = row.partition_point(|q| (q.col as f64) < c - gate - 1.0);
+        let (mut n, mut sum) = (0, 0.0);
+        for q in &row[lo..] {
+            let x = q.col32() as f64 / 32.0;
+            if x > c + gate {
+                break;
+            }
+            if q.rising() == rising && (x - c).abs() <= gate {
+                px.push(*q);
+                n += 1;
+                sum += x;
+            }
+        }
+        if n > 0 {
+            pos[y] = sum / n as f64;
+        }
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// How far another edge can pull a ring edge's profile through the opening, the 5×5 blur and
+/// Sobel, px.
+const NEIGHBOUR_REACH_PX: f64 = 6.0;
+/// Neighbouring edge pixels weaker than this fraction of the ring edge's mean gradient are
+/// ignored (noise).
+const NEIGHBOUR_FRACTION: f64 = 0.15;
+
+/// A ring's two edges fitted together as parallel curves: column = a_L (or a_R) + b·u + q·u²,
+/// u = 2·row − (H − 1) (concentric circles 10 px apart differ in slope and curvature by
+/// ≈ 0.2 %), with the pixels each edge kept.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairFit {
+    /// The left edge's kept pixels, summed.
+    pub left: Component,
+    /// The right edge's kept pixels, summed.
+    pub right: Component,
+    /// Rows where the left edge kept a pixel.
+    pub left_rows: Vec<bool>,
+    /// Rows where the right edge kept a pixel.
+    pub right_rows: Vec<bool>,
+    /// The left edge's column at u = 0, px.
+    pub a_left: f64,
+    /// The right edge's column at u = 0, px.
+    pub a_right: f64,
+    /// Common linear coefficient, px per u.
+    pub b: f64,
+    /// Common quadratic coefficient, px per u².
+    pub q: f64,
+    /// Standard uncertainty of c from the fit (the pixels' scatter about the curves propagated
+    /// through the fit: grows when the edges cover little of the window), px.
+    pub c_sigma_px: f64,
+    /// How much the ring's width changes over the window: the range of a parabola fitted to the
+    /// row-wise widths, px (a ring is equally wide everywhere; something running along an edge
+    /// or into the ring makes it change).
+    pub width_change_px: f64,
+}
+
+impl PairFit {
+    /// The ring's c: its centre line's mean column over the window's rows, px.
+    pub fn c_px(&self, height: usize) -> f64 {
+        let mean_u2 = ((height * height) as f64 - 1.0) / 3.0;
+        0.5 * (self.a_left + self.a_right) + self.q * mean_u2
+    }
+
+    /// Each edge's mean column over the window's rows, px (left, right).
+    pub fn window_means(&self, height: usize) -> (f64, f64) {
+        let mean_u2 = ((height * height) as f64 - 1.0) / 3.0;
+        (
+            self.a_left + self.q * mean_u2,
+            self.a_right + self.q * mean_u2,
+        )
+    }
+
+    fn at(&self, right: bool, row: f64, height: usize) -> f64 {
+        let u = 2.0 * row - (height as f64 - 1.0);
+        (if right { self.a_right } else { self.a_left }) + self.b * u + self.q * u * u
+    }
+}
+
+/// Solves a small dense system by Gaussian elimination with partial pivoting.
+#[allow(clippy::needless_range_loop)]
+fn solve_n<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
+    for k in 0..N {
+        let piv = (k..N).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
+        if a[piv][k].abs() < 1e-12 * a[k][k].abs().max(1.0) || a[piv][k] == 0.0 {
+            return None;
+        }
+        a.swap(k, piv);
+        b.swap(k, piv);
+        for i in k + 1..N {
+            let f = a[i][k] / a[k][k];
+            for j in k..N {
+                a[i][j] -= f * a[k][j];
+            }
+            b[i] -= f * b[k];
+        }
+    }
+    let mut x = [0.0; N];
+    for k in (0..N).rev() {
+        let s: f64 = (k + 1..N).map(|j| a[k][j] * x[j]).sum();
+        x[k] = (b[k] - s) / a[k][k];
+    }
+    Some(x)
+}
+
+/// The joint least-squares fit of two edges as parallel curves (see [`PairFit`]), with the
+/// common curvature free or fixed to `q_fixed`: (a_L, a_R, b, q, standard uncertainty of c).
+fn joint_fit(
+    l: &Component,
+    r: &Component,
+    height: usize,
+    q_fixed: Option<f64>,
+) -> Option<(f64, f64, f64, f64, f64)> {
+    if l.pos_n < 3 || r.pos_n < 3 {
+        return None;
+    }
+    let (ul, vl, cl) = moments(l, height);
+    let (ur, vr, cr) = moments(r, height);
+    let mean_u2 = ((height * height) as f64 - 1.0) / 3.0;
+    let dof = (ul[0] + ur[0] - 4.0).max(1.0);
+    match q_fixed {
+        None => {
+            let n = [
+                [ul[0], 0.0, ul[1], ul[2]],
+                [0.0, ur[0], ur[1], ur[2]],
+                [ul[1], ur[1], ul[2] + ur[2], ul[3] + ur[3]],
+                [ul[2], ur[2], ul[3] + ur[3], ul[4] + ur[4]],
+            ];
+            let rhs = [vl[0], vr[0], vl[1] + vr[1], vl[2] + vr[2]];
+            let theta = solve_n(n, rhs)?;
+            // c = (a_L + a_R)/2 + q·mean(u²): var(c) = σ²·gᵀN⁻¹g.
+            let g = [0.5, 0.5, 0.0, mean_u2];
+            let ng = solve_n(n, g)?;
+            let explained: f64 = theta.iter().zip(&rhs).map(|(t, v)| t * v).sum();
+            let s2 = ((cl + cr - explained) / dof).max(0.0);
+            let var_c: f64 = g.iter().zip(&ng).map(|(a, b)| a * b).sum::<f64>() * s2;
+            let [a_l, a_r, b, q] = theta;
+            Some((a_l, a_r, b, q, var_c.max(0.0).sqrt()))
+        }
+        Some(q) => {
+            // Columns less q·u²: Σ(c − q u²) = v0 − q·u2, Σu(c − q u²) = v1 − q·u3,
+            // Σ(c − q u²)² = cc − 2q·v2 + q²·u4.
+            let w = |u: &[f64; 5], v: &[f64; 3], cc: f64| {
+                (
+                    v[0] - q * u[2],
+                    v[1] - q * u[3],
+                    cc - 2.0 * q * v[2] + q * q * u[4],
+                )
+            };
+            let (wl0, wl1, wll) = w(&ul, &vl, cl);
+            let (wr0, wr1, wrr) = w(&ur, &vr, cr);
+            let n = [
+                [ul[0], 0.0, ul[1]],
+                [0.0, ur[0], ur[1]],
+                [ul[1], ur[1], ul[2] + ur[2]],
+            ];
+            let rhs = [wl0, wr0, wl1 + wr1];
+            let theta = solve_n(n, rhs)?;
+            let g = [0.5, 0.5, 0.0];
+            let ng = solve_n(n, g)?;
+            let explained: f64 = theta.iter().zip(&rhs).map(|(t, v)| t * v).sum();
+            let s2 = ((wll + wrr - explained) / dof).max(0.0);
+            let var_c: f64 = g.iter().zip(&ng).map(|(a, b)| a * b).sum::<f64>() * s2;
+            let [a_l, a_r, b] = theta;
+            Some((a_l, a_r, b, q, var_c.max(0.0).sqrt()))
+        }
+    }
+}
+
+/// Row-wise mean column of a pixel set (NaN where a row has none).
+fn row_means(px: &[EdgePixel], h: usize) -> Vec<f64> {
+    let mut sum = vec![0.0; h];
+    let mut n = vec![0u32; h];
+    for e in px {
+        sum[e.row as usize] += e.col32() as f64 / 32.0;
+        n[e.row as usize] += 1;
+    }
+    sum.iter()
+        .zip(&n)
+        .map(|(&s, &k)| if k > 0 { s / k as f64 } else { f64::NAN })
+        .collect()
+}
+
+/// Re-fits a ring candidate's two edges from the frame's pixels (`None` when the frame's edge
+/// pixels are not available or too little is left):
+///
+/// 1. the pixels of each edge's polarity within 1.5 px of its track's curve, rows marked in
+///    `skip` (saturated) left out: the edge's pixels, whatever component they ended up in;
+/// 2. each edge's clean majority: a RANSAC curve (the frame's curvature, else the track's) and
+///    its pixels within 0.75 px; then, twice, the two edges fitted together as parallel curves
+///    ([`PairFit`]) and the gathered pixels within 0.75 px of them kept (pixels that only
+///    crossed an edge drop out);
+/// 3. rows where the ring's width departs from its median by more than max(0.35 px, 4 robust
+///    σ) left out, both edges: a ring is equally wide everywhere, a scratch or speck running
+///    along an edge or into the ring is not;
+/// 4. rows where another edge at least 15 % as strong lies within 6 px of a ring edge left out
+///    for that edge: the opening, the 5×5 blur and Sobel pull an edge's profile toward a
+///    neighbour that close;
+/// 5. the joint fit of what is left.
+pub fn refit_pair(
+    l: &Track,
+    r: &Track,
+    edges: &mut EdgeList,
+    skip: &[bool],
+    q_frame: Option<f64>,
+    p: &Params,
+) -> Option<PairFit> {
+    let h = p.height;
+    edges.pixels()?;
+    let mut skip = skip.to_vec();
+    skip.resize(h, false);
+    // 1. Gather.
+    let mut pos = vec![f64::NAN; h];
+    let (mut lpx, mut rpx) = (Vec::new(), Vec::new());
+    gather(&l.curve, true, 1.5, edges, &skip, h, &mut lpx, &mut pos);
+    gather(&r.curve, false, 1.5, edges, &skip, h, &mut rpx, &mut pos);
+    let col = |e: &EdgePixel| e.col32() as f64 / 32.0;
+    // 2. Clean majorities, then the joint parallel curves.
+    let start = |px: &[EdgePixel], t: &Track| -> Vec<EdgePixel> {
+        let q = q_frame.unwrap_or(t.curve.q);
+        let red = |e: &EdgePixel| {
+            let u = 2.0 * e.row as f64 - (h as f64 - 1.0);
+            col(e) - q * u * u
+        };
+        match ransac(px, q, 0.75, p) {
+            Some((r0, c0, slope)) => px
+                .iter()
+                .filter(|e| (red(e) - c0 - slope * (e.row as f64 - r0)).abs() <= 0.75)
+                .copied()
+                .collect(),
+            None => px.to_vec(),
+        }
+    };
+    let (mut lk, mut rk) = (start(&lpx, l), start(&rpx, r));
+    let fit_of = |lk: &[EdgePixel], rk: &[EdgePixel], q_fixed: Option<f64>| -> Option<PairFit> {
+        let (lc, rc) = (component_of(lk, p.width), component_of(rk, p.width));
+        let (a_left, a_right, b, q, c_sigma_px) = joint_fit(&lc, &rc, h, q_fixed)?;
+        Some(PairFit {
+            left: lc,
+            right: rc,
+            left_rows: Vec::new(),
+            right_rows: Vec::new(),
+            a_left,
+            a_right,
+            b,
+            q,
+            c_sigma_px,
+            width_change_px: 0.0,
+        })
+    };
+    for _ in 0..2 {
+        let f = fit_of(&lk, &rk, None)?;
+        let near =
+            |e: &EdgePixel, right: bool| (col(e) - f.at(right, e.row as f64, h)).abs() <= 0.75;
+        lk = lpx.iter().filter(|e| near(e, false)).copied().collect();
+        rk = rpx.iter().filter(|e| near(e, true)).copied().collect();
+    }
+    // 3. Rows where the ring is not its own width.
+    let (ml, mr) = (row_means(&lk, h), row_means(&rk, h));
+    let mut widths: Vec<f64> = (0..h)
+        .map(|y| mr[y] - ml[y])
+        .filter(|w| w.is_finite())
+        .collect();
+    if widths.is_empty() {
+        return None;
+    }
+    let w0 = median(&mut widths);
+    let mut dev: Vec<f64> = widths.iter().map(|w| (w - w0).abs()).collect();
+    let thr = (4.0 * 1.4826 * median(&mut dev)).max(0.35);
+    for y in 0..h {
+        let w = mr[y] - ml[y];
+        if w.is_finite() && (w - w0).abs() > thr {
+            skip[y] = true;
+        }
+    }
+    lk.retain(|e| !skip[e.row as usize]);
+    rk.retain(|e| !skip[e.row as usize]);
+    // 4. Rows where another edge is close enough to pull a ring edge.
+    let f = fit_of(&lk, &rk, None)?;
+    let g = |c: &Component| c.sum_mag as f64 / c.pos_n.max(1) as f64;
+    let (gl, gr) = (g(&f.left), g(&f.right));
+    let (mut near_l, mut near_r) = (vec![false; h], vec![false; h]);
+    let reach = NEIGHBOUR_REACH_PX;
+    for y in 0..h {
+        let (xl, xr) = (f.at(false, y as f64, h), f.at(true, y as f64, h));
+        let half = 0.5 * (xr - xl);
+        let row = edges.row(y);
+        let lo = row.partition_point(|e| (e.col as f64) < xl - reach - 1.0);
+        for e in &row[lo..] {
+            let x = col(e);
+            if x > xr + reach {
+                break;
+            }
+            let (dl, dr) = (x - xl, x - xr);
+            let m = e.mag as f64;
+            if dl.abs() > 1.5 && dl.abs() <= reach && dl < half && m >= NEIGHBOUR_FRACTION * gl {
+                near_l[y] = true;
+            }
+            if dr.abs() > 1.5 && dr.abs() <= reach && dr > -half && m >= NEIGHBOUR_FRACTION * gr {
+                near_r[y] = true;
+            }
+        }
+    }
+    lk.retain(|e| !near_l[e.row as usize]);
+    rk.retain(|e| !near_r[e.row as usize]);
+    // 5. The fit, with the ring's own curvature: a circle of the optics' radius whose tangent
+    // has the fitted slope s bends by (1 + s²)^{3/2}/radius per row² (its sign from the free
+    // fit, else from the frame's concentric edges). A free curvature would have to be pinned
+    // by the data, and with rows missing at one end the extrapolated mean would follow its
+    // error; with every row present c does not depend on it.
+    let free = fit_of(&lk, &rk, None)?;
+    let slope = 2.0 * free.b;
+    let q_mag = (1.0 + slope * slope).powf(1.5) / (8.0 * p.ring_radius_px);
+    let sign = if (free.q.abs() - q_mag).abs() <= 0.5 * q_mag {
+        Some(free.q.signum())
+    } else {
+        q_frame.filter(|q| q.abs() > 0.5 * q_mag).map(f64::signum)
+    };
+    let mut f = match sign {
+        Some(sg) => fit_of(&lk, &rk, Some(sg * q_mag))?,
+        None => free,
+    };
+    if f.left.row_span() < p.min_fragment_rows || f.right.row_span() < p.min_fragment_rows {
+        return None;
+    }
+    let rows = |px: &[EdgePixel]| {
+        let mut v = vec![false; h];
+        for e in px {
+            v[e.row as usize] = true;
+        }
+        v
+    };
+    f.left_rows = rows(&lk);
+    f.right_rows = rows(&rk);
+    f.width_change_px = width_change(&row_means(&lk, h), &row_means(&rk, h), h);
+    Some(f)
+}
+
+/// Range over the window of a parabola fitted to the row-wise widths `right − left`, px.
+fn width_change(ml: &[f64], mr: &[f64], h: usize) -> f64 {
+    let (mut m, mut v) = ([[0.0; 3]; 3], [0.0; 3]);
+    for y in 0..h {
+        let w = mr[y] - ml[y];
+        if !w.is_finite() {
+            continue;
+        }
+        let u = (2.0 * y as f64 - (h as f64 - 1.0)) / h as f64;
+        let x = [1.0, u, u * u];
+        for i in 0..3 {
+            v[i] += x[i] * w;
+            for j in 0..3 {
+                m[i][j] += x[i] * x[j];
+            }
+        }
+    }
+    let Some([_, b, q]) = solve_n(m, v) else {
+        return f64::INFINITY;
+    };
+    // Extremes of b·u + q·u² on [−1, 1]: the ends and the vertex.
+    let f = |u: f64| b * u + q * u * u;
+    let mut vals = vec![f(-1.0), f(1.0)];
+    if q != 0.0 {
+        let uv = -b / (2.0 * q);
+        if uv.abs() <= 1.0 {
+            vals.push(f(uv));
+        }
+    }
+    let (lo, hi) = vals
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, z), &x| (a.min(x), z.max(x)));
+    hi - lo
+}
+
+/// Tracks from the frame's candidate components: fragments of one polarity linked top to bottom.
+pub fn tracks(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Track>, Option<f64>) {
+    let h = p.height;
+    let (mut frags, q) = fragments(cands, edges, p);
+    // Without the frame's curvature, pieces are straight: allow for the ring's own bending
+    // (1/radius) over the distance a piece is extrapolated.
+    let bend = if q.is_some() {
+        0.0
+    } else {
+        0.5 / p.ring_radius_px
+    };
+    // Top to bottom, ties by the unique first pixel: the same order whatever the input order.
+    frags.sort_by_key(|t| (t.comp.min_row, t.comp.first_index));
+    let mut out: Vec<Track> = Vec::with_capacity(frags.len());
+    for f in frags {
+        let f_first = f.comp.min_row as f64;
+        let mut best: Option<(usize, f64)> = None;
+        for (i, t) in out.iter().enumerate() {
+            if t.polarity != f.polarity || t.last_row() > f.comp.min_row + 12 {
+                continue;
+            }
+            // Where they meet: the track continued down to the fragment's first row, and the
+            // fragment continued up to the track's last row.
+            let t_last = t.last_row() as f64;
+            let gap = (f_first - t_last).max(0.0);
+            let reach = (f_first - t.comp.sum_row as f64 / t.comp.pos_n.max(1) as f64)
+                .max(f.comp.sum_row as f64 / f.comp.pos_n.max(1) as f64 - t_last);
+            let tol = 1.5 + 0.01 * gap + bend * reach * reach;
+            let d1 = (t.curve.at(f_first, h) - f.curve.at(f_first, h)).abs();
+            let d2 = (t.curve.at(t_last, h) - f.curve.at(t_last, h)).abs();
+            let d = d1.max(d2);
+            if d <= tol && best.is_none_or(|(_, bd)| d < bd) {
+                best = Some((i, d));
+            }
+        }
+        match best {
+            Some((i, _)) => out[i].absorb(&f, h, q),
+            None => out.push(f),
+        }
+    }
+    (out, q)
+}
+
+/// A ring candidate: a rising track and a falling track to its right, with both edges
+/// re-fitted from their own pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// Index of the left (rising) track.
+    pub left: usize,
+    /// Index of the right (falling) track.
+    pub right: usize,
+    /// Both edges re-fitted together from their own pixels.
+    pub fit: PairFit,
+    /// Mean separation over the shared rows, px.
+    pub separation_px: f64,
+    /// Rows where both edges have pixels after the refit.
+    pub shared_rows: u32,
+    /// The weaker edge's mean gradient.
+    pub gradient: f64,
+    /// The weaker edge's strong-pixel share.
+    pub strong_share: f64,
+    /// The weaker edge's gradient over the stronger's.
+    pub balance: f64,
+    /// Score, 0 … 1.
+    pub score: f64,
+    /// The candidate's c (mean of the two curves over the window), px.
+    pub c_px: f64,
+}
+
+/// The selection's outcome.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// The tracks of the frame.
+    pub tracks: Vec<Track>,
+    /// The best candidate, if any.
+    pub best: Option<Candidate>,
+    /// Its margin over the runner-up, 0 … 1.
+    pub margin: Option<f64>,
+    /// Why there is no usable candidate (or why it is not trusted).
+    pub reason: Option<InvalidReason>,
+}
+
+/// Window-mean column of a curve: its mean over the window's rows, px.
+pub fn window_mean(c: &Curve, height: usize) -> f64 {
+    let mean_u2 = ((height * height) as f64 - 1.0) / 3.0;
+    c.a + c.q * mean_u2
+}
+
+/// First, last and count of the rows where both edges have pixels.
+fn rows_in_both(a: &Component, b: &Component, pa: &[bool], pb: &[bool]) -> (u32, u32, u32) {
+    let lo = a.min_row.max(b.min_row) as usize;
+    let hi = a.max_row.min(b.max_row) as usize;
+    let (mut n, mut first, mut last) = (0, u32::MAX, 0);
+    for y in lo..=hi.min(pa.len().saturating_sub(1)) {
+        if pa[y] && pb[y] {
+            n += 1;
+            first = first.min(y as u32);
+            last = y as u32;
+        }
+    }
+    (first, last, n)
+}
+
+/// Chooses the ring among the frame's candidate components (see the module documentation);
+/// `edges` holds the frame's edge pixels for the robust steps (an incomplete list disables them:
+/// contaminated components are then dropped), `saturated` the frame's saturated runs.
+pub fn select(
+    cands: &[Component],
+    edges: &mut EdgeList,
+    saturated: &[SaturatedRun],
+    p: &Params,
+) -> Selection {
+    let h = p.height;
+    let (tracks, q_frame) = tracks(cands, edges, p);
+    let long: Vec<usize> = (0..tracks.len())
+        .filter(|&i| 2 * tracks[i].coverage as usize >= p.min_edge_pixels)
+        .collect();
+    let d = p.baseline_width_px as f64;
+    let (sep_lo, sep_hi) = p.separation_px;
+    let mut pairs: Vec<Candidate> = Vec::new();
+    let mut clipped_out = false;
+    let mut coarse_found = false;
+    let mut at_side = false;
+    for &i in &long {
+        let l = &tracks[i];
+        if l.polarity != 1 {
+            continue;
+        }
+        for &j in &long {
+            let r = &tracks[j];
+            if r.polarity != -1 {
+                continue;
+            }
+            // Coarse: the tracks as linked (their curves may still carry a crossing's pull).
+            let (n, first, last) = shared(&l.rows, &r.rows);
+            if 2 * (n as usize) < p.min_edge_pixels {
+                continue;
+            }
+            let (y0, y1) = (first as f64, last as f64);
+            let sep0 = r.curve.at(y0, h) - l.curve.at(y0, h);
+            let sep1 = r.curve.at(y1, h) - l.curve.at(y1, h);
+            let sepm = r.curve.at(0.5 * (y0 + y1), h) - l.curve.at(0.5 * (y0 + y1), h);
+            if sepm < sep_lo - 2.0
+                || sepm > sep_hi + 2.0
+                || (sep1 - sep0).abs() > 3.0 * p.parallel_px
+            {
+                continue;
+            }
+            // Rows where saturation reaches the ring or its edges' profiles are left out.
+            let mut skip = vec![false; h];
+            for s in saturated {
+                let y = s.row as f64;
+                let (a, b) = (l.curve.at(y, h) - 3.0, r.curve.at(y, h) + 3.0);
+                if (s.last as f64) >= a && (s.first as f64) <= b {
+                    skip[s.row as usize] = true;
+                }
+            }
+            if h - skip.iter().filter(|&&c| c).count() < p.min_edge_pixels {
+                clipped_out = true;
+                continue;
+            }
+            // Fine: both edges from their own pixels (without the frame's pixels: the tracks'
+            // sums, which only clean fragments make).
+            let fit = if edges.pixels().is_some() {
+                refit_pair(l, r, edges, &skip, q_frame, p)
+            } else {
+                let rows = |t: &Track| {
+                    let mut v = vec![false; h];
+                    for &(a, b) in &t.rows {
+                        for y in a..=b {
+                            v[y as usize] = !skip[y as usize];
+                        }
+                    }
+                    v
+                };
+                joint_fit(&l.comp, &r.comp, h, None).map(|(a_left, a_right, b, q, c_sigma_px)| {
+                    PairFit {
+                        left: l.comp,
+                        right: r.comp,
+                        left_rows: rows(l),
+                        right_rows: rows(r),
+                        a_left,
+                        a_right,
+                        b,
+                        q,
+                        c_sigma_px,
+                        width_change_px: 0.0,
+                    }
+                })
+            };
+            let Some(fit) = fit else {
+                continue;
+            };
+            let (lc, rc) = (fit.left, fit.right);
+            let (Some(lcv), Some(rcv)) = (curve(&lc, h), curve(&rc, h)) else {
+                continue;
+            };
+            // The refit leaves out rows where something else touches the ring; what is left
+            // must still hold the ring on a good part of the window (with the ring's own
+            // curvature, c needs no more).
+            if (sep_lo..=sep_hi).contains(&sepm) {
+                coarse_found = true;
+                let side = |c: &Component| c.min_col <= 1 || c.max_col as usize + 2 >= p.width;
+                at_side |= side(&l.comp) || side(&r.comp);
+            }
+            let (first, last, n) = rows_in_both(&lc, &rc, &fit.left_rows, &fit.right_rows);
+            if 5 * (n as usize) < 3 * p.min_edge_pixels {
+                continue;
+            }
+            let rows = [first as f64, 0.5 * (first + last) as f64, last as f64];
+            let seps = rows.map(|y| rcv.at(y, h) - lcv.at(y, h));
+            let (smin, smax) = seps
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), &s| (a.min(s), b.max(s)));
+            if smin < sep_lo || smax > sep_hi || smax - smin > p.parallel_px {
+                continue;
+            }
+            let gl = lc.sum_mag as f64 / lc.pos_n.max(1) as f64;
+            let gr = rc.sum_mag as f64 / rc.pos_n.max(1) as f64;
+            let (g_lo, g_hi) = (gl.min(gr), gl.max(gr));
+            if g_lo < 0.5 * g_hi {
+                continue;
+            }
+            let share = |c: &Component| c.strong as f64 / c.pixels.max(1) as f64;
+            pairs.push(Candidate {
+                left: i,
+                right: j,
+                separation_px: fit.a_right - fit.a_left,
+                shared_rows: n,
+                gradient: g_lo,
+                strong_share: share(&lc).min(share(&rc)),
+                balance: g_lo / g_hi,
+                score: 0.0,
+                c_px: fit.c_px(h),
+                fit,
+            });
+        }
+    }
+    // A ring's inside is flat: drop candidates with a track as strong as their edges running
+    // between them, parallel to them, over 30 % of their shared rows (two neighbouring lines,
+    // not a ring). A scratch crossing the ring at an angle does not count.
+    pairs.retain(|c| {
+        let (Some(lcv), Some(rcv)) = (curve(&c.fit.left, h), curve(&c.fit.right, h)) else {
+            return false;
+        };
+        let lrows = [(c.fit.left.min_row, c.fit.left.max_row)];
+        !tracks.iter().enumerate().any(|(k, t)| {
+            if k == c.left || k == c.right || t.gradient < p.interior_fraction * c.gradient {
+                return false;
+            }
+            let (n, first, last) = shared(&t.rows, &lrows);
+            if (n as f64) < 0.3 * c.shared_rows as f64 {
+                return false;
+            }
+            let (y0, y1) = (first as f64, last as f64);
+            let drift = (t.curve.at(y1, h) - lcv.at(y1, h)) - (t.curve.at(y0, h) - lcv.at(y0, h));
+            if drift.abs() > 2.0 * p.parallel_px {
+                return false;
+            }
+            let y = 0.5 * (y0 + y1);
+            let x = t.curve.at(y, h);
+            x > lcv.at(y, h) + 1.5 && x < rcv.at(y, h) - 1.5
+        })
+    });
+    // Frame-relative strength: against the strongest candidate.
+    let g_top = pairs.iter().map(|c| c.gradient).fold(0.0, f64::max);
+    for c in pairs.iter_mut() {
+        let strength = (c.gradient / g_top) * (0.5 + 0.5 * c.strong_share);
+        let coverage = c.shared_rows as f64 / h as f64;
+        let x = (c.separation_px - d) / (p.width_tolerance * d);
+        let width = (1.0 - 0.5 * x * x).max(0.0);
+        c.score = strength * coverage.min(1.0) * width * c.balance;
+    }
+    pairs.sort_by(|a, b| {
+        b.score
+            .total_cmp(&a.score)
+            .then(a.fit.left.first_index.cmp(&b.fit.left.first_index))
+            .then(a.fit.right.first_index.cmp(&b.fit.right.first_index))
+    });
+    let best = pairs.first().cloned();
+    let mut reason = None;
+    let margin = best.as_ref().map(|b| {
+        let runner = pairs
+            .iter()
+            .skip(1)
+            .filter(|c| (c.c_px - b.c_px).abs() > d / 2.0)
+            .map(|c| c.score)
+            .next()
+            .unwrap_or(0.0);
+        if b.score > 0.0 {
+            (1.0 - runner / b.score).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    });
+    if margin.is_some_and(|m| m < p.min_margin) {
+        reason = Some(InvalidReason::Ambiguous);
+    }
+    if best.is_none() {
+        reason = Some(if clipped_out {
+            InvalidReason::Saturated
+        } else if at_side {
+            InvalidReason::RingOutsideWindow
+        } else if coarse_found {
+            // Edges that look like the ring's, but not once re-fitted from their own pixels.
+            InvalidReason::InconsistentEdges
+        } else {
+            no_candidate_reason(&tracks, &long, p)
+        });
+    }
+    Selection {
+        tracks,
+        best,
+        margin,
+        reason,
+    }
+}
+
+/// Why no candidate: a lone edge whose partner would lie beyond the window's side, one long
+/// edge, two that are not a ring's, or none that fits the model at all.
+fn no_candidate_reason(tracks: &[Track], long: &[usize], p: &Params) -> InvalidReason {
+    let h = p.height;
+    let reach = p.separation_px.1 + 2.0;
+    let w = p.width as f64;
+    let beyond_side = long.iter().any(|&i| {
+        let t = &tracks[i];
+        let c = window_mean(&t.curve, h);
+        (t.polarity == 1 && c + reach > w - 1.0) || (t.polarity == -1 && c - reach < 0.0)
+    });
+    if beyond_side {
+        return InvalidReason::RingOutsideWindow;
+    }
+    match long.len() {
+        0 => InvalidReason::NoRing,
+        1 => InvalidReason::OneEdge,
+        2 => InvalidReason::InconsistentEdges,
+        _ => InvalidReason::NoRing,
+    }
+}

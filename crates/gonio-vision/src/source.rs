@@ -1,0 +1,287 @@
+//! Frames in: the [`FrameSource`] trait that image files, raw standard input, the renderer and a
+//! camera's SDK implement; [`RawFrames`], raw 8-bit frames from any reader; and
+//! [`SourceDetector`], the one path from a source to the detector's results (each frame's
+//! window cut out by [`Optics::crop_window`], then [`Detector::detect`]).
+//!
+//! ```
+//! use gonio_vision::{Optics, RawFrames, SourceDetector};
+//! let optics = Optics { window_width_px: 96, window_height_px: 48, ..Optics::default() };
+//! // Two frames of a dark 11 px ring at column 30, as a camera would stream them.
+//! let mut frame = vec![200u8; 96 * 48];
+//! for row in frame.chunks_mut(96) {
+//!     for x in 25..=35 { row[x] = 60; }
+//! }
+//! let bytes = [frame.clone(), frame].concat();
+//! let mut src = SourceDetector::new(RawFrames::new(&bytes[..], 96, 48), &optics).unwrap();
+//! let first = src.detect_next().unwrap().unwrap();
+//! assert_eq!(first.stamp.index, 0);
+//! assert!((first.result.c_px.unwrap() - 30.0).abs() < 0.05);
+//! assert!(src.detect_next().unwrap().is_some());
+//! assert!(src.detect_next().unwrap().is_none()); // end of the stream
+//! ```
+
+use crate::{Detector, FrameResult, Optics, VisionError};
+use std::io::Read;
+use thiserror::Error;
+
+/// When and how a frame was taken, as far as its source knows.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FrameStamp {
+    /// 0-based index of the frame in its source.
+    pub index: u64,
+    /// Start of the exposure, s (on the source's clock).
+    pub start_s: Option<f64>,
+    /// Exposure time, s.
+    pub exposure_s: Option<f64>,
+    /// Table angle at mid-exposure, degrees.
+    pub theta_deg: Option<f64>,
+}
+
+/// A frame's size and stamp (its pixels are in the caller's buffer).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameHeader {
+    /// Width, px.
+    pub width: usize,
+    /// Height, px.
+    pub height: usize,
+    /// The stamp.
+    pub stamp: FrameStamp,
+}
+
+/// Something that delivers 8-bit grey frames one after another: image files, raw frames on
+/// standard input, the renderer, a camera. Frames may be of the optics' window or its sensor;
+/// [`Optics::crop_window`] cuts the window out.
+pub trait FrameSource {
+    /// The source's error.
+    type Error: std::error::Error + 'static;
+    /// Reads the next frame into `pixels` (resized to width × height, row-major) and returns its
+    /// size and stamp; `Ok(None)` after the last frame.
+    ///
+    /// # Errors
+    /// Whatever keeps the source from delivering a whole frame (unreadable file, truncated
+    /// stream, camera fault).
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, Self::Error>;
+}
+
+impl<T: FrameSource + ?Sized> FrameSource for &mut T {
+    type Error = T::Error;
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, Self::Error> {
+        (**self).next_frame(pixels)
+    }
+}
+
+impl<T: FrameSource + ?Sized> FrameSource for Box<T> {
+    type Error = T::Error;
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, Self::Error> {
+        (**self).next_frame(pixels)
+    }
+}
+
+/// An error reading raw frames.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum RawFramesError {
+    /// The reader failed.
+    #[error("cannot read frame {frame}: {source}")]
+    Io {
+        /// 0-based index of the frame being read.
+        frame: u64,
+        /// The reader's error.
+        source: std::io::Error,
+    },
+    /// The stream ended inside a frame.
+    #[error(
+        "truncated frame: {frames} whole {width}x{height} frames read, then {got} of {expected} bytes"
+    )]
+    Truncated {
+        /// Whole frames read before.
+        frames: u64,
+        /// Frame width, px.
+        width: usize,
+        /// Frame height, px.
+        height: usize,
+        /// Bytes of the last, partial frame.
+        got: usize,
+        /// Bytes of a whole frame.
+        expected: usize,
+    },
+}
+
+/// Raw 8-bit frames of a fixed size, back to back, from any reader (standard input from
+/// `ffmpeg … -f rawvideo -pix_fmt gray -` or a camera SDK's pipe). Stamps carry the index only.
+#[derive(Debug)]
+pub struct RawFrames<R> {
+    reader: R,
+    width: usize,
+    height: usize,
+    index: u64,
+}
+
+impl<R: Read> RawFrames<R> {
+    /// Frames of `width` × `height` bytes from `reader`.
+    pub fn new(reader: R, width: usize, height: usize) -> Self {
+        RawFrames {
+            reader,
+            width,
+            height,
+            index: 0,
+        }
+    }
+}
+
+impl<R: Read> FrameSource for RawFrames<R> {
+    type Error = RawFramesError;
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, RawFramesError> {
+        let n = self.width * self.height;
+        pixels.resize(n, 0);
+        let mut got = 0;
+        while got < n {
+            match self.reader.read(&mut pixels[got..]) {
+                Ok(0) => break,
+                Ok(m) => got += m,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    return Err(RawFramesError::Io {
+                        frame: self.index,
+                        source: e,
+                    });
+                }
+            }
+        }
+        if got == 0 {
+            return Ok(None);
+        }
+        if got < n {
+            return Err(RawFramesError::Truncated {
+                frames: self.index,
+                width: self.width,
+                height: self.height,
+                got,
+                expected: n,
+            });
+        }
+        let stamp = FrameStamp {
+            index: self.index,
+            ..FrameStamp::default()
+        };
+        self.index += 1;
+        Ok(Some(FrameHeader {
+            width: self.width,
+            height: self.height,
+            stamp,
+        }))
+    }
+}
+
+/// An error on the path from a source to a result: the source's, or the frame's.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum SourceError<E: std::error::Error + 'static> {
+    /// The source could not deliver a frame.
+    #[error(transparent)]
+    Source(E),
+    /// A frame could not be detected on (wrong size).
+    #[error("frame {index}: {error}")]
+    Frame {
+        /// 0-based index of the frame.
+        index: u64,
+        /// Why.
+        error: VisionError,
+    },
+}
+
+/// One frame's stamp and the detector's result for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// The frame's stamp, from its source.
+    pub stamp: FrameStamp,
+    /// The detector's result.
+    pub result: FrameResult,
+}
+
+/// A source, the optics' window cut and the detector: every frame of the source, detected.
+/// Buffers are allocated once and reused.
+#[derive(Debug)]
+pub struct SourceDetector<S> {
+    source: S,
+    optics: Optics,
+    detector: Detector,
+    raw: Vec<u8>,
+    scratch: Vec<u8>,
+}
+
+impl<S: FrameSource> SourceDetector<S> {
+    /// A detector for the optics over `source`.
+    ///
+    /// # Errors
+    /// [`VisionError::Optics`] if the optics are invalid.
+    pub fn new(source: S, optics: &Optics) -> Result<Self, VisionError> {
+        let detector = Detector::new(optics)?;
+        let n = detector.params().width * detector.params().height;
+        Ok(SourceDetector {
+            source,
+            optics: optics.clone(),
+            detector,
+            raw: Vec::with_capacity(n),
+            scratch: Vec::with_capacity(n),
+        })
+    }
+
+    /// Reads, crops and detects the next frame; `Ok(None)` after the last.
+    ///
+    /// # Errors
+    /// [`SourceError::Source`] from the source, [`SourceError::Frame`] for a frame that is
+    /// neither the window nor the sensor in size.
+    pub fn detect_next(&mut self) -> Result<Option<Detection>, SourceError<S::Error>> {
+        let Some(hdr) = self
+            .source
+            .next_frame(&mut self.raw)
+            .map_err(SourceError::Source)?
+        else {
+            return Ok(None);
+        };
+        let frame = self
+            .optics
+            .crop_window(hdr.width, hdr.height, &self.raw, &mut self.scratch)
+            .map_err(|error| SourceError::Frame {
+                index: hdr.stamp.index,
+                error,
+            })?;
+        let result = self
+            .detector
+            .detect(frame)
+            .map_err(|error| SourceError::Frame {
+                index: hdr.stamp.index,
+                error,
+            })?;
+        Ok(Some(Detection {
+            stamp: hdr.stamp,
+            result,
+        }))
+    }
+
+    /// The detector (parameters, stage dumps of the last frame).
+    pub fn detector(&self) -> &Detector {
+        &self.detector
+    }
+
+    /// The detector, to switch stage dumps on or off.
+    pub fn detector_mut(&mut self) -> &mut Detector {
+        &mut self.detector
+    }
+
+    /// The source.
+    pub fn source(&self) -> &S {
+        &self.source
+    }
+
+    /// The source, mutably.
+    pub fn source_mut(&mut self) -> &mut S {
+        &mut self.source
+    }
+
+    /// The optics.
+    pub fn optics(&self) -> &Optics {
+        &self.optics
+    }
+}
