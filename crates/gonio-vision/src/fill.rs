@@ -18,7 +18,7 @@
 //! assert_eq!(fill_pixel(&class, &dir), None);
 //! ```
 
-use crate::rows::RowLag;
+use crate::rows::{RowLag, next_set};
 use crate::segment::{EdgeRow, FILLED, NONE, WEAK};
 
 /// Opposite neighbour pairs ((dy, dx) offsets into a 3×3 block), in the order they are tried.
@@ -143,15 +143,14 @@ impl EdgeFill {
         } else {
             need.fill(1);
         }
-        const CH: usize = 32;
-        let mut x0 = 0;
-        while x0 < w {
-            let x1 = (x0 + CH).min(w);
-            if self.any[x0..x1].iter().fold(0u8, |a, &b| a | b) != 0 {
-                for x in x0..x1 {
-                    if self.any[x] == 0 || cur.class[x] != NONE {
-                        continue;
-                    }
+        let mut x = 0;
+        loop {
+            x = next_set(&self.any, x);
+            if x >= w {
+                break;
+            }
+            {
+                if cur.class[x] == NONE {
                     let get = |r: &EdgeRow, dx: isize| {
                         let xx = x as isize + dx;
                         if xx < 0 || xx >= w as isize {
@@ -176,7 +175,7 @@ impl EdgeFill {
                     }
                 }
             }
-            x0 = x1;
+            x += 1;
         }
         self.rows.advance();
     }

@@ -25,6 +25,7 @@
 //! assert_eq!(l.candidates()[0].pixels, 3);
 //! ```
 
+use crate::rows::next_set;
 use crate::segment::{EdgeRow, FILLED, NONE, STRONG, axial_deviation};
 
 /// The sums of one connected component. Position sums use only pixels with their own sub-pixel
@@ -127,6 +128,52 @@ impl Component {
         self.first_index = self.first_index.min(row as u64 * width as u64 + col as u64);
     }
 
+    /// Adds a run of pixels `a ..= b` of one row (the same sums as [`Component::add_pixel`] on
+    /// each, with the row's powers multiplied once per run).
+    #[inline]
+    pub fn add_run(&mut self, row: u32, a: usize, b: usize, width: usize, e: &EdgeRow) {
+        let (mut n, mut strong, mut dev, mut gx_pos) = (0u64, 0u64, 0i64, 0u64);
+        let (mut pn, mut sc, mut scc, mut sm) = (0i64, 0i64, 0i64, 0u64);
+        for x in a..=b {
+            let (class, dir, sub) = (e.class[x], e.dir[x], e.sub[x]);
+            n += 1;
+            strong += (class == STRONG) as u64;
+            dev += axial_deviation(dir) as i64;
+            gx_pos += (dir.wrapping_add(64) < 128) as u64;
+            if sub != FILLED {
+                let c = x as i64 * 32 + sub as i64;
+                pn += 1;
+                sc += c;
+                scc += c * c;
+                sm += e.mag[x] as u64;
+            }
+        }
+        self.pixels += n;
+        self.strong += strong;
+        self.weak += n - strong;
+        self.sum_dev += dev;
+        self.gx_pos += gx_pos;
+        if pn > 0 {
+            let r = row as i64;
+            let (r2, pn_u) = (r * r, pn as u64);
+            self.pos_n += pn_u;
+            self.sum_row += r * pn;
+            self.sum_row2 += r2 * pn;
+            self.sum_row3 += r2 * r * pn;
+            self.sum_row4 += r2 * r2 * pn;
+            self.sum_col32 += sc;
+            self.sum_row_col32 += r * sc;
+            self.sum_row2_col32 += r2 * sc;
+            self.sum_col32_sq += scc as i128;
+            self.sum_mag += sm;
+        }
+        self.min_col = self.min_col.min(a as u32);
+        self.max_col = self.max_col.max(b as u32);
+        self.min_row = self.min_row.min(row);
+        self.max_row = self.max_row.max(row);
+        self.first_index = self.first_index.min(row as u64 * width as u64 + a as u64);
+    }
+
     /// Adds another component's sums (a merge).
     pub fn merge(&mut self, o: &Component) {
         self.pixels += o.pixels;
@@ -183,7 +230,7 @@ pub struct EdgePixel {
     /// Gradient magnitude.
     pub mag: u16,
     /// The component's `first_index` once resolved (a provisional label before).
-    pub comp: u64,
+    pub comp: u32,
 }
 
 impl EdgePixel {
@@ -205,7 +252,7 @@ enum Event {
     Complete {
         root: u32,
         row: u32,
-        first_index: u64,
+        first_index: u32,
     },
 }
 
@@ -230,7 +277,7 @@ pub struct EdgeList {
     overflow: bool,
     cap: usize,
     labels: usize,
-    fin: Vec<u64>,
+    fin: Vec<u32>,
 }
 
 impl EdgeList {
@@ -292,7 +339,7 @@ impl EdgeList {
             return;
         }
         self.fin.clear();
-        self.fin.resize(self.labels, u64::MAX);
+        self.fin.resize(self.labels, u32::MAX);
         let mut e = self.events.len();
         // Backwards in time: a pixel recorded at row y carries its root at the end of row y;
         // the merges and completions after that row decide its component.
@@ -334,6 +381,7 @@ impl EdgeList {
     /// The pixels of the component with this `first_index` within rows `first ..= last`, in
     /// raster order (empty when the list is incomplete).
     pub fn component(&mut self, first_index: u64, first: u32, last: u32) -> Vec<EdgePixel> {
+        let first_index = first_index as u32;
         self.resolve();
         if self.overflow || self.row_start.is_empty() {
             return Vec::new();
@@ -492,7 +540,7 @@ impl Labeller {
             e.events.push(Event::Complete {
                 root,
                 row: self.row,
-                first_index: c.first_index,
+                first_index: c.first_index as u32,
             });
         }
         self.count += 1;
@@ -521,15 +569,11 @@ impl Labeller {
         let class = &edges.class;
         let mut j = 0usize;
         let mut x = 0usize;
-        while x < w {
-            // Skip empty stretches quickly.
-            if class[x] == NONE {
-                if x + 32 <= w && class[x..x + 32].iter().fold(0u8, |a, &b| a | b) == 0 {
-                    x += 32;
-                } else {
-                    x += 1;
-                }
-                continue;
+        loop {
+            // Skip empty stretches quickly (NONE is 0).
+            x = next_set(class, x);
+            if x >= w {
+                break;
             }
             let a = x;
             while x < w && class[x] != NONE {
@@ -567,18 +611,7 @@ impl Labeller {
                 Some(l) => l,
                 None => self.alloc(),
             };
-            let comp = &mut self.comps[l as usize];
-            for xx in a..=b {
-                comp.add_pixel(
-                    y,
-                    xx as u32,
-                    w,
-                    class[xx],
-                    edges.dir[xx],
-                    edges.sub[xx],
-                    edges.mag[xx],
-                );
-            }
+            self.comps[l as usize].add_run(y, a, b, w, edges);
             let rec = match self.edges.as_mut() {
                 Some(e) if !e.overflow => {
                     let r0 = e.pixels.len() as u32;
@@ -591,7 +624,7 @@ impl Labeller {
                                 dir: edges.dir[xx],
                                 sub: edges.sub[xx],
                                 mag: edges.mag[xx],
-                                comp: l as u64,
+                                comp: l,
                             });
                         }
                     }
@@ -619,7 +652,7 @@ impl Labeller {
             if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
                 let (r0, r1) = self.cur[i].rec;
                 for px in &mut e.pixels[r0 as usize..r1 as usize] {
-                    px.comp = r as u64;
+                    px.comp = r;
                 }
             }
         }

@@ -63,7 +63,8 @@ pub struct Optics {
     /// An edge must cover at least this fraction of the window's rows (0.5).
     pub min_edge_fraction: f64,
     /// How much the imaged ring's width may differ from `ring_width_um`, as a fraction (0.35:
-    /// a nominal 11 px ring is accepted 7.2 … 14.9 px wide).
+    /// a nominal 11 px ring is accepted 8 … 14.9 px wide; the lower end is at least the
+    /// opening's diameter + 3 px).
     pub ring_width_tolerance: f64,
     /// The best ring candidate must score this fraction above the runner-up (a different ring
     /// hypothesis), else the frame is ambiguous (0.3).
@@ -130,8 +131,9 @@ pub struct Params {
     /// Minimum pixels of an edge (min_edge_fraction × height).
     pub min_edge_pixels: usize,
     /// Allowed distance between the two edges' columns, px: d·(1 ± `ring_width_tolerance`),
-    /// and at least the opening's diameter + 2 px (what the opening leaves of a thin line is
-    /// narrower than that).
+    /// and at least the opening's diameter + 3 px: what the d/2 opening leaves of a thin line
+    /// has its edges ≈ the opening's diameter + 1.5 px apart at blur σ = 1.5 px (5.2–6.6 px for
+    /// 2–4 px lines, d = 11), a ring's are its width apart.
     pub separation_px: (f64, f64),
     /// Tolerance of the separation band's width fit: `ring_width_tolerance`.
     pub width_tolerance: f64,
@@ -358,7 +360,7 @@ impl Optics {
             separation_px: {
                 let (df, t) = (d as f64, self.ring_width_tolerance);
                 let open_d = (2 * (d / 4).max(1) + 1) as f64;
-                ((df * (1.0 - t)).max(open_d + 2.0), df * (1.0 + t))
+                ((df * (1.0 - t)).max(open_d + 3.0), df * (1.0 + t))
             },
             width_tolerance: self.ring_width_tolerance,
             parallel_px: (0.15 * d as f64).max(1.5),

@@ -28,7 +28,7 @@ use crate::gradient::{GradRow, Sobel};
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::{Optics, Params};
-use crate::segment::{EdgeRow, SegmentParams, Segmenter};
+use crate::segment::{EdgeRow, FILLED, NONE, SegmentParams, Segmenter};
 
 /// Every stage's output for one frame, whole (filled only when dumps are enabled).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -68,7 +68,7 @@ pub struct EdgeRowsImage {
     pub dir: Vec<u8>,
     /// Sub-pixel offset per pixel.
     pub sub: Vec<i8>,
-    /// Gradient magnitude of edge pixels (0 elsewhere and for filled pixels).
+    /// Gradient magnitude of edge pixels with a position of their own (0 elsewhere).
     pub mag: Vec<u16>,
 }
 
@@ -77,7 +77,13 @@ impl EdgeRowsImage {
         self.class.extend_from_slice(&r.class);
         self.dir.extend_from_slice(&r.dir);
         self.sub.extend_from_slice(&r.sub);
-        self.mag.extend_from_slice(&r.mag);
+        self.mag.extend(
+            r.mag
+                .iter()
+                .zip(&r.class)
+                .zip(&r.sub)
+                .map(|((&m, &c), &s)| if c != NONE && s != FILLED { m } else { 0 }),
+        );
     }
 }
 

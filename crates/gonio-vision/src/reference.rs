@@ -308,7 +308,7 @@ pub fn edge_list(
                 dir: fd.get(x, y),
                 sub: s,
                 mag: mag.get(x, y),
-                comp: components[labels.get(x, y) as usize - 1].first_index,
+                comp: components[labels.get(x, y) as usize - 1].first_index as u32,
             });
         }
     }

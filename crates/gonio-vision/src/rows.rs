@@ -104,3 +104,28 @@ impl RowLag {
         self.n_out += 1;
     }
 }
+
+/// The first index ≥ `from` whose byte is not zero (`bytes.len()` when none): eight bytes at a
+/// time, for the sparse masks of edge and candidate pixels.
+///
+/// ```
+/// use gonio_vision::rows::next_set;
+/// let m = [0u8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 3, 0];
+/// assert_eq!(next_set(&m, 0), 10);
+/// assert_eq!(next_set(&m, 11), 12);
+/// ```
+#[inline(always)]
+pub fn next_set(bytes: &[u8], from: usize) -> usize {
+    let mut x = from;
+    while let Some(chunk) = bytes.get(x..x + 8) {
+        let word = u64::from_le_bytes(chunk.try_into().unwrap_or([0; 8]));
+        if word != 0 {
+            return x + (word.trailing_zeros() / 8) as usize;
+        }
+        x += 8;
+    }
+    while x < bytes.len() && bytes[x] == 0 {
+        x += 1;
+    }
+    x.min(bytes.len())
+}

@@ -16,7 +16,7 @@
 //! ```
 
 use crate::gradient::GradRow;
-use crate::rows::RowLag;
+use crate::rows::{RowLag, next_set};
 
 /// Class of a non-edge pixel.
 pub const NONE: u8 = 0;
@@ -77,7 +77,8 @@ pub struct EdgeRow {
     pub dir: Vec<u8>,
     /// Sub-pixel x offset of the edge in 1/32 px (−16 … 16), [`FILLED`] for filled pixels.
     pub sub: Vec<i8>,
-    /// Gradient magnitude |Gx| + |Gy| of edge pixels, 0 elsewhere and for filled pixels.
+    /// Gradient magnitude |Gx| + |Gy| of edge pixels with a position of their own; meaningless
+    /// elsewhere (the stages do not clear it: only edge pixels are ever read).
     pub mag: Vec<u16>,
 }
 
@@ -100,10 +101,15 @@ impl EdgeRow {
     }
     /// Clears the row.
     pub fn clear(&mut self) {
+        self.clear_marks();
+        self.mag.fill(0);
+    }
+    /// Clears the classes, directions and sub-pixel offsets (not the magnitudes, which are read
+    /// only where a class is set).
+    pub fn clear_marks(&mut self) {
         self.class.fill(0);
         self.dir.fill(0);
         self.sub.fill(0);
-        self.mag.fill(0);
     }
 }
 
@@ -230,7 +236,7 @@ impl Segmenter {
             .rows
             .neighbour(1)
             .map_or(&self.zero, |s| &self.ring[s].mag);
-        out.clear();
+        out.clear_marks();
         let low = self.params.low;
         let tq = self.params.tan_q10;
         // Candidates (magnitude and baseline filter) for the whole row, vectorised; the
@@ -239,15 +245,14 @@ impl Segmenter {
             let dir_ok = gy.unsigned_abs() as u32 * 1024 <= tq * gx.unsigned_abs() as u32;
             *c = ((m >= low) & dir_ok) as u8;
         }
-        const CH: usize = 32;
-        let mut x0 = 0;
-        while x0 < w {
-            let x1 = (x0 + CH).min(w);
-            if self.cand[x0..x1].iter().fold(0u8, |a, &b| a | b) != 0 {
-                for x in x0..x1 {
-                    if self.cand[x] == 0 {
-                        continue;
-                    }
+        let mut x = 0;
+        loop {
+            x = next_set(&self.cand, x);
+            if x >= w {
+                break;
+            }
+            {
+                {
                     let at = |r: &[u16], dx: isize| {
                         let xx = x as isize + dx;
                         if xx < 0 || xx >= w as isize {
@@ -265,10 +270,10 @@ impl Segmenter {
                     out.class[x] = c;
                     out.dir[x] = d;
                     out.sub[x] = s;
-                    out.mag[x] = if c != NONE { cur.mag[x] } else { 0 };
+                    out.mag[x] = cur.mag[x];
                 }
             }
-            x0 = x1;
+            x += 1;
         }
         self.rows.advance();
     }

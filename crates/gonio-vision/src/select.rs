@@ -972,9 +972,10 @@ pub fn select(
             let sep0 = r.curve.at(y0, h) - l.curve.at(y0, h);
             let sep1 = r.curve.at(y1, h) - l.curve.at(y1, h);
             let sepm = r.curve.at(0.5 * (y0 + y1), h) - l.curve.at(0.5 * (y0 + y1), h);
-            if sepm < sep_lo - 2.0
-                || sepm > sep_hi + 2.0
+            if sepm < sep_lo - 1.0
+                || sepm > sep_hi + 1.0
                 || (sep1 - sep0).abs() > 3.0 * p.parallel_px
+                || l.gradient.min(r.gradient) < 0.4 * l.gradient.max(r.gradient)
             {
                 continue;
             }

@@ -78,7 +78,14 @@ fn check_frame(optics: &Optics, frame: &[u8]) {
         .data
         .iter()
         .zip(&r.edges.0.data)
-        .map(|(&m, &c)| if c != 0 { m } else { 0 })
+        .zip(&r.edges.2.data)
+        .map(|((&m, &c), &s)| {
+            if c != 0 && s != gonio_vision::segment::FILLED {
+                m
+            } else {
+                0
+            }
+        })
         .collect();
     assert_eq!(d.edges.mag, edge_mag, "edge magnitudes");
     assert_eq!(d.filled.class, r.filled.0.data, "filled class");
