@@ -115,3 +115,119 @@ fn short_angle_file_is_refused() {
         "no angle for frame 2: 3 frames given, the angle file covers 2",
     );
 }
+
+fn json_lines(o: &Output) -> Vec<serde_json::Value> {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+#[test]
+fn scenes_render_and_detect_with_score_and_margin() {
+    let d = tempfile::tempdir().unwrap();
+    for scene in ["clean", "realistic", "dense", "random"] {
+        let out = d.path().join(scene);
+        let o = gonio(
+            &[
+                "simulate",
+                "frames",
+                "--scene",
+                scene,
+                "--count",
+                "3",
+                "--seed",
+                "5",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let truth: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).unwrap())
+                .unwrap();
+        let frames = truth["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 3);
+        // `random` draws a scene per frame and records it with the frame's truth.
+        assert_eq!(
+            frames[0].get("scene").is_some(),
+            scene == "random",
+            "{scene}"
+        );
+        let o = gonio(&["detect", out.to_str().unwrap()], None);
+        for (l, t) in json_lines(&o).iter().zip(frames) {
+            for key in [
+                "score", "margin", "reason", "valid", "c_px", "edges", "focus",
+            ] {
+                assert!(l.get(key).is_some(), "{scene}: no {key} in {l}");
+            }
+            // The named scenes hold a ring well inside the window: found, to 0.1 px.
+            if scene != "random" {
+                assert_eq!(l["valid"], true, "{scene}: {l}");
+                let err = l["c_px"].as_f64().unwrap() - t["c_true_px"].as_f64().unwrap();
+                assert!(err.abs() < 0.1, "{scene}: error {err}");
+                assert!(l["margin"].as_f64().unwrap() >= 0.3);
+            }
+        }
+    }
+}
+
+#[test]
+fn two_rings_alike_are_ambiguous_not_a_guess() {
+    // Two equal dark 11 px rings 200 px apart: either could be the ring.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("two.png");
+    let img = image::GrayImage::from_fn(1440, 540, |x, _| {
+        let ring = |c: u32| x + 5 >= c && x <= c + 5;
+        image::Luma([if ring(620) || ring(820) { 70 } else { 190 }])
+    });
+    img.save(&p).unwrap();
+    let o = gonio(&["detect", p.to_str().unwrap()], None);
+    let l = &json_lines(&o)[0];
+    assert_eq!(l["valid"], false, "{l}");
+    assert_eq!(l["reason"], "ambiguous", "{l}");
+    assert!(l["c_px"].is_null());
+    assert!(l["margin"].as_f64().unwrap() < 0.3, "{l}");
+}
+
+#[test]
+fn a_bad_scene_file_names_its_line() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("scene.toml");
+    std::fs::write(&p, "ring_present = true\nring_widht_px = 11.0\n").unwrap();
+    let o = gonio(
+        &[
+            "simulate",
+            "frames",
+            "--scene-file",
+            p.to_str().unwrap(),
+            "--count",
+            "1",
+            "--seed",
+            "1",
+            "--out",
+            d.path().join("o").to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_error(&o, "scene.toml:2:1");
+    std::fs::write(&p, "[[scratches]]\nx_px = 1.0\ny_px = 2.0\nangle_deg = 3.0\nwidth_px = -1.0\ndepth_grey = 9.0\n").unwrap();
+    let o = gonio(
+        &[
+            "simulate",
+            "frames",
+            "--scene-file",
+            p.to_str().unwrap(),
+            "--count",
+            "1",
+            "--seed",
+            "1",
+            "--out",
+            d.path().join("o").to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_error(&o, "scratches.width_px = -1: expected a finite number > 0");
+}

@@ -3,7 +3,9 @@
 //! arrive); for each, no push is made on an untrusted turn and the part ends in the stated
 //! verdict with a record of why. On good parts the gate costs nothing.
 
-use gonio_sim::station::{BatchConfig, BatchReport, PlantConfig, run_batch, run_batch_on};
+use gonio_sim::station::{
+    BatchConfig, BatchReport, PlantConfig, SimCamera, run_batch, run_batch_on,
+};
 use gonio_station::hal::{ApproachSpeed, Camera, CameraFrame, PushRod};
 use gonio_station::quality::QualityCheck;
 use gonio_station::{PartRecord, PartResult, Strategy};
@@ -148,8 +150,7 @@ fn with_camera(cfg: &BatchConfig, fault: Fault, turns: Option<u64>) -> BatchRepo
     run_batch_on(
         cfg,
         15,
-        None,
-        |c| FaultyCamera::new(c, fault, turns),
+        |t| Ok(FaultyCamera::new(SimCamera(t), fault, turns)),
         |r| r,
         &mut |_, _, _| {},
     )
@@ -332,8 +333,7 @@ fn a_rod_at_30_percent_gain_stops_after_one_push() {
     let r = run_batch_on(
         &cfg,
         15,
-        None,
-        |c| c,
+        |t| Ok(SimCamera(t)),
         |rod| WeakRod {
             inner: rod,
             gain: 0.3,
@@ -409,8 +409,7 @@ fn a_part_that_does_not_move_is_not_shoved_again() {
         let r = run_batch_on(
             &cfg,
             16,
-            None,
-            |c| c,
+            |t| Ok(SimCamera(t)),
             |rod| WeakRod {
                 inner: rod,
                 gain: 0.0,

@@ -8,6 +8,7 @@
 //! device advances the simulated clock instead of sleeping.
 
 use crate::interval::AngleSample;
+use gonio_vision::InvalidReason;
 use serde::{Deserialize, Serialize};
 
 /// What kind of failure a device reported.
@@ -65,9 +66,10 @@ pub struct CameraFrame {
     pub exposure_s: f64,
     /// The ring's column, px, or `None` when the frame has no valid ring.
     pub c_px: Option<f64>,
-    /// Why the frame is invalid (empty when valid).
-    pub invalid_reason: String,
-    /// The frame's average gradient magnitude (the autofocus measure).
+    /// Why the frame has no valid ring (`None` when valid): the detector's reasons, the same for
+    /// a real camera and for either fidelity of the simulated station.
+    pub invalid_reason: Option<InvalidReason>,
+    /// The frame's focus measure (mean gradient energy; the autofocus maximises it).
     pub focus_measure: f64,
 }
 

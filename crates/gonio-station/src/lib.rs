@@ -6,6 +6,8 @@
 //! - [`interval`]: mid-exposure angle stamping from the servo's angle log; the frame-interval
 //!   error ε = e(1 − cos(v/FPS)) as a planning helper.
 //! - [`hal`]: small fallible traits for the servo, camera, focus drive, push rod and clock.
+//! - [`camera`]: [`DetectorCamera`], a frame source with the streaming detector behind it: the
+//!   station's camera, the one typed path from a frame to a push.
 //! - [`quality`]: the quality gate on every turn: may the station push on this measurement?
 //! - [`recipe`]: per-grating-type settings (TOML).
 //! - [`strategy`]: the push strategies, the live-feedback loop, the push model's prediction
@@ -20,6 +22,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod camera;
 pub mod controller;
 pub mod error;
 pub mod fit;
@@ -31,6 +34,7 @@ pub mod record;
 pub mod spline;
 pub mod strategy;
 
+pub use camera::{DetectorCamera, DetectorCameraError};
 pub use controller::{Controller, Devices, Trusted};
 pub use error::StationError;
 pub use fit::{EccentricityFit, FitMethod, FitOptions, Sample};

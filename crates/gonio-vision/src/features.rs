@@ -11,10 +11,10 @@
 use crate::label::{Component, EdgeList};
 use crate::optics::Params;
 use crate::select::{curve, moments, select, window_mean};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Why a frame gave no valid c.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum InvalidReason {
@@ -32,6 +32,27 @@ pub enum InvalidReason {
     InconsistentEdges,
     /// Two ring candidates score too close to call (see [`FrameResult::margin`]).
     Ambiguous,
+}
+
+impl InvalidReason {
+    /// The reason's name as in the detector's JSON lines (`no_ring`, `ambiguous`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            InvalidReason::NoRing => "no_ring",
+            InvalidReason::OneEdge => "one_edge",
+            InvalidReason::RingOutsideWindow => "ring_outside_window",
+            InvalidReason::Saturated => "saturated",
+            InvalidReason::OutOfFocus => "out_of_focus",
+            InvalidReason::InconsistentEdges => "inconsistent_edges",
+            InvalidReason::Ambiguous => "ambiguous",
+        }
+    }
+}
+
+impl std::fmt::Display for InvalidReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// One edge of the ring: its fitted line `column(row) = column_px + slope·(row − row_px)`.

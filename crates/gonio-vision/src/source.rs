@@ -173,9 +173,9 @@ impl<R: Read> FrameSource for RawFrames<R> {
     }
 }
 
-/// An error on the path from a source to a result: the source's, or the frame's.
+/// An error on the path from a source to a result: the source's, or the frame's (exactly these
+/// two, so callers can take each apart).
 #[derive(Debug, Error)]
-#[non_exhaustive]
 pub enum SourceError<E: std::error::Error + 'static> {
     /// The source could not deliver a frame.
     #[error(transparent)]

@@ -16,8 +16,14 @@ use std::path::{Path, PathBuf};
 Frames are 8-bit grey, of the optics' window size (default 1440×540) or its sensor size (then the
 centred window is cut out). Each output line: frame, file, theta_deg, time_s, c_px (the ring's
 column, px; null when invalid), c_um, valid, reason (no_ring, one_edge, ring_outside_window,
-saturated, out_of_focus, inconsistent_edges), focus (mean gradient energy, grey²/px²),
-mean_gradient, edges [{column_px, slope, pixels, strong, …}].
+saturated, out_of_focus, inconsistent_edges, ambiguous), score (0–1, the best ring candidate's),
+margin (0–1, how far it is ahead of the runner-up; below the optics' min_margin the frame is
+ambiguous), c_sigma_px, width_change_px, focus (mean gradient energy, grey²/px²), mean_gradient,
+edges [{column_px, slope, pixels, strong, …}].
+
+The ring is chosen by its model (docs/detector.md): a rising and a falling edge a ring width
+apart, parallel, over shared rows, with nothing as strong between them; the frame is ambiguous
+rather than guessed when two such candidates score alike.
 
 Examples:
   gonio simulate frames --count 200 --eccentricity-um 120 --seed 1 --out frames

@@ -1,7 +1,9 @@
 //! `gonio mount`: mount a batch of gratings on the (simulated) automatic mounting station.
 
+use crate::formats::frames::load_scene;
 use crate::io::{read_text, write_json};
 use anyhow::{Result, anyhow, bail};
+use gonio_sim::frames::{GratingScene, ScenePreset};
 use gonio_sim::station::{BatchConfig, Fidelity, run_batch};
 use gonio_station::{Recipe, StationError, Strategy};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -40,11 +42,25 @@ pub enum FidelityArg {
     Frames,
 }
 
+/// The scene rendered at `--fidelity frames`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MountSceneArg {
+    /// The ring alone: noise and blur only.
+    Clean,
+    /// A typical grating near its ring (default).
+    Realistic,
+    /// Everything at once, close to the ring.
+    Dense,
+}
+
 /// Arguments of `gonio mount`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Runs the sequence autofocus → measure → align → approach → push → verify for every part (Yu et
 al., 2024) and prints a table like their Table 3. Only the simulated station (--sim) is available.
+--fidelity frames renders every frame (the realistic scene unless --scene/--scene-file say
+otherwise) and runs it through the station's camera path: the streaming detector, whose invalid
+and ambiguous frames the fit skips.
 
 The station pushes only on a turn that passes the quality gate (docs/quality-gates.md). A failing
 turn is measured again after a refocus (recipe: quality.remeasure_turns); if it fails again the
@@ -56,7 +72,8 @@ Every part record keeps its turns, pushes, verdict, reject_reason and remeasured
 Examples:
   gonio mount --sim --seed 1
   gonio mount --sim --parts 200 --strategy paper --seed 7 --json batch.json
-  gonio mount --sim --recipe examples/recipes/r40-standard.toml --strategy live --seed 3")]
+  gonio mount --sim --recipe examples/recipes/r40-standard.toml --strategy live --seed 3
+  gonio mount --sim --parts 5 --fidelity frames --scene dense --seed 4")]
 pub struct Args {
     /// Use the simulated station (the digital twin with the default plant).
     #[arg(long)]
@@ -70,6 +87,17 @@ pub struct Args {
     /// Frame fidelity of the simulation.
     #[arg(long, value_enum, default_value = "fast")]
     pub fidelity: FidelityArg,
+    /// The scene rendered with --fidelity frames (docs/scenes.md).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "realistic",
+        conflicts_with = "scene_file"
+    )]
+    pub scene: MountSceneArg,
+    /// A scene TOML file rendered with --fidelity frames.
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene_file: Option<PathBuf>,
     /// Recipe (TOML) for the grating type; the defaults are the station of Yu et al., 2024.
     #[arg(long)]
     pub recipe: Option<PathBuf>,
@@ -121,6 +149,12 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => load_recipe(p)?,
         None => Recipe::default(),
     };
+    let scene = match (&a.scene_file, a.scene) {
+        (Some(p), _) => load_scene(p)?,
+        (None, MountSceneArg::Clean) => GratingScene::preset(ScenePreset::Clean),
+        (None, MountSceneArg::Realistic) => GratingScene::preset(ScenePreset::Realistic),
+        (None, MountSceneArg::Dense) => GratingScene::preset(ScenePreset::Dense),
+    };
     let cfg = BatchConfig {
         parts: a.parts,
         strategy: a.strategy.into(),
@@ -128,6 +162,7 @@ pub fn run(a: Args) -> Result<()> {
             FidelityArg::Fast => Fidelity::Fast,
             FidelityArg::Frames => Fidelity::Frames,
         },
+        scene: Some(scene),
         recipe,
         ..BatchConfig::default()
     };

@@ -1,8 +1,10 @@
 //! A batch of parts mounted on the simulated station, with the station's records and the
 //! simulation's ground truth side by side.
 
+use super::frames::frame_camera;
 use super::plant::{PartTruth, PlantConfig, StationTruth};
-use super::twin::{Faults, SimCamera, SimClock, SimFocus, SimRod, SimServo, Twin};
+use super::twin::{Faults, Shared, SimCamera, SimClock, SimFocus, SimRod, SimServo, Twin};
+use crate::frames::GratingScene;
 use gonio_station::hal::{Camera, PushRod};
 use gonio_station::strategy::Learned;
 use gonio_station::{
@@ -33,6 +35,8 @@ pub struct BatchConfig {
     pub strategy: Strategy,
     /// Frame fidelity.
     pub fidelity: Fidelity,
+    /// The scene the frames fidelity renders (`None`: the `realistic` scene).
+    pub scene: Option<GratingScene>,
     /// The recipe.
     pub recipe: Recipe,
     /// The plant.
@@ -47,6 +51,7 @@ impl Default for BatchConfig {
             parts: 25,
             strategy: Strategy::default(),
             fidelity: Fidelity::Fast,
+            scene: None,
             recipe: Recipe::default(),
             plant: PlantConfig::default(),
             faults: Faults::default(),
@@ -153,10 +158,14 @@ pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
 /// `progress(done, total, part)` is called after every part. The same seed gives the same
 /// report; part `i` is the same part for every strategy.
 ///
-/// A device error (injected through [`Faults`]) ends its part `rejected_device_error`; the
-/// batch then stops or goes on as the recipe's `on_device_error` says ([`BatchReport::stopped`]).
-/// The `frames` fidelity renders every frame and runs the real detector
-/// ([`super::RenderedDetector`]).
+/// A device error (injected through [`Faults`], or a frame that cannot be rendered or detected)
+/// ends its part `rejected_device_error`; the batch then stops or goes on as the recipe's
+/// `on_device_error` says ([`BatchReport::stopped`]).
+///
+/// The `frames` fidelity renders every frame of `cfg.scene` (default: the `realistic` scene) and
+/// runs it through the station's own camera path (`gonio_station::DetectorCamera` over
+/// [`TwinFrames`](super::TwinFrames)); the fast one computes each frame's column from the
+/// geometry ([`SimCamera`]). Both report the detector's reasons for the frames they cannot use.
 ///
 /// # Errors
 /// [`StationError::RecipeValue`] for an invalid recipe; [`StationError::Device`] when the
@@ -166,42 +175,46 @@ pub fn run_batch(
     seed: u64,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
-    let detector: Option<Box<dyn super::FrameDetector>> = match cfg.fidelity {
-        Fidelity::Fast => None,
-        Fidelity::Frames => Some(Box::new(super::RenderedDetector::seed_station().map_err(
-            |e| StationError::Device {
-                device: "camera",
-                kind: gonio_station::hal::DeviceErrorKind::Other,
-                message: format!("cannot set up the renderer and detector: {e}"),
+    match cfg.fidelity {
+        Fidelity::Fast => run_batch_with(cfg, seed, |t| Ok(SimCamera(t)), progress),
+        Fidelity::Frames => run_batch_with(
+            cfg,
+            seed,
+            |t| {
+                frame_camera(t, cfg.scene.clone()).map_err(|e| StationError::Device {
+                    device: "camera",
+                    kind: gonio_station::hal::DeviceErrorKind::Other,
+                    message: format!("cannot set up the renderer and detector: {e}"),
+                })
             },
-        )?)),
-    };
-    run_batch_with(cfg, seed, detector, progress)
+            progress,
+        ),
+    }
 }
 
-/// As [`run_batch`], with a frame detector of the caller's (`None`: fast fidelity).
+/// As [`run_batch`], with the camera `camera(twin)` makes for the simulated station (a test's
+/// own camera, built on [`Twin::expose`] or on [`TwinFrames`](super::TwinFrames)).
 ///
 /// # Errors
-/// As [`run_batch`].
-pub fn run_batch_with(
+/// As [`run_batch`], and whatever `camera` returns.
+pub fn run_batch_with<C: Camera>(
     cfg: &BatchConfig,
     seed: u64,
-    detector: Option<Box<dyn super::FrameDetector>>,
+    camera: impl FnOnce(Shared) -> Result<C, StationError>,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
-    run_batch_on(cfg, seed, detector, |c| c, |r| r, progress)
+    run_batch_on(cfg, seed, camera, |r| r, progress)
 }
 
-/// As [`run_batch_with`], with the twin's camera and push rod wrapped by the caller (to inject
-/// faults through the `Camera` and `PushRod` traits, as a real glitch would arrive).
+/// As [`run_batch_with`], with the twin's push rod wrapped by the caller too (to inject faults
+/// through the `Camera` and `PushRod` traits, as a real glitch would arrive).
 ///
 /// # Errors
-/// As [`run_batch`].
+/// As [`run_batch_with`].
 pub fn run_batch_on<C: Camera, P: PushRod>(
     cfg: &BatchConfig,
     seed: u64,
-    detector: Option<Box<dyn super::FrameDetector>>,
-    camera: impl FnOnce(SimCamera) -> C,
+    camera: impl FnOnce(Shared) -> Result<C, StationError>,
     rod: impl FnOnce(SimRod) -> P,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
@@ -215,14 +228,11 @@ pub fn run_batch_on<C: Camera, P: PushRod>(
         seed,
     );
     twin.faults = cfg.faults.clone();
-    if let Some(d) = detector {
-        twin.set_detector(d);
-    }
     let station_truth = twin.station;
     let shared = Rc::new(RefCell::new(twin));
     let mut devices = Devices {
         servo: SimServo(shared.clone()),
-        camera: camera(SimCamera(shared.clone())),
+        camera: camera(shared.clone())?,
         focus: SimFocus(shared.clone()),
         rod: rod(SimRod(shared.clone())),
         clock: SimClock(shared.clone()),

@@ -1,76 +1,99 @@
-//! Full fidelity: every frame rendered by the grating renderer ([`crate::frames`]) and run
-//! through the real streaming detector (`gonio_vision::Detector`).
+//! Full fidelity: every frame rendered by the grating renderer ([`crate::frames`]) at the twin's
+//! current exposure ([`TwinFrames`], a `FrameSource`) and run through the real streaming detector
+//! by the station's own camera (`gonio_station::DetectorCamera`): the same typed path as a real
+//! camera's.
 
-use super::twin::FrameDetector;
+use super::twin::{DeviceId, Shared, SimDeviceError};
 use crate::SimError;
-use crate::frames::{GratingRenderer, GratingScene};
-use gonio_vision::{Detector, Optics};
+use crate::frames::{GratingRenderer, GratingScene, ScenePreset};
+use gonio_station::DetectorCamera;
+use gonio_station::hal::DeviceErrorKind;
+use gonio_vision::{FrameHeader, FrameSource, FrameStamp, Optics};
 
-/// Render → detect, one frame at a time, reusing one frame buffer.
-pub struct RenderedDetector {
+/// The twin's camera sensor at full fidelity: renders the grating as the twin has it at each
+/// exposure (servo angle at mid-exposure, the part's offset, defocus), a ring-less grating once
+/// the ring is lost (fault injection). Counts as the camera for injected device faults.
+#[derive(Debug)]
+pub struct TwinFrames {
+    twin: Shared,
     renderer: GratingRenderer,
-    detector: Detector,
-    buf: Vec<u8>,
+    no_ring: GratingRenderer,
+    index: u64,
 }
 
-impl std::fmt::Debug for RenderedDetector {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("RenderedDetector").finish_non_exhaustive()
-    }
-}
-
-impl RenderedDetector {
-    /// The seed's optics and the renderer's default scene.
+impl TwinFrames {
+    /// Frames of `scene` through `optics` for the twin behind `twin`.
     ///
     /// # Errors
     /// [`SimError::Parameter`] when the optics or scene are invalid.
-    pub fn new(optics: &Optics, scene: GratingScene) -> Result<Self, SimError> {
+    pub fn new(twin: Shared, optics: &Optics, scene: GratingScene) -> Result<Self, SimError> {
         let renderer = GratingRenderer::new(optics, scene)?;
-        let detector = Detector::new(optics)
-            .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))?;
-        let buf = vec![0u8; renderer.frame_len()];
-        Ok(RenderedDetector {
+        let no_ring = renderer.with_scene(GratingScene {
+            ring_present: false,
+            ..renderer.scene().clone()
+        })?;
+        Ok(TwinFrames {
+            twin,
             renderer,
-            detector,
-            buf,
+            no_ring,
+            index: 0,
         })
-    }
-
-    /// The seed's station: default optics and scene.
-    ///
-    /// # Errors
-    /// As [`RenderedDetector::new`].
-    pub fn seed_station() -> Result<Self, SimError> {
-        Self::new(&Optics::default(), GratingScene::default())
     }
 }
 
-impl FrameDetector for RenderedDetector {
-    fn detect(
-        &mut self,
-        theta_deg: f64,
-        offset_um: [f64; 2],
-        dz_um: f64,
-        frame_seed: u64,
-    ) -> (Option<f64>, String, f64) {
+impl FrameSource for TwinFrames {
+    type Error = SimDeviceError;
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, SimDeviceError> {
+        let x = {
+            let mut t = self.twin.borrow_mut();
+            t.call(DeviceId::Camera)?;
+            t.expose()
+        };
+        let r = if x.ring_lost {
+            &self.no_ring
+        } else {
+            &self.renderer
+        };
+        let (w, h) = r.size();
+        pixels.resize(w * h, 0);
         // The renderer's grating centre at table angle θ is e·(cos(θ+ψ), sin(θ+ψ)) with X toward
         // the camera (columns increase with X); the twin's camera sees offset·(cos θ, sin θ),
         // i.e. e·cos(θ − θ_e): ψ = −θ_e.
-        let e = offset_um[0].hypot(offset_um[1]);
-        let psi = -offset_um[1].atan2(offset_um[0]).to_degrees();
-        match self
-            .renderer
-            .render(theta_deg, e, psi, dz_um, frame_seed, &mut self.buf)
-        {
-            Err(err) => (None, format!("render failed: {err}"), 0.0),
-            Ok(_) => match self.detector.detect(&self.buf) {
-                Err(err) => (None, format!("detector failed: {err}"), 0.0),
-                Ok(r) => (
-                    r.c_px.filter(|_| r.valid),
-                    r.reason.map_or(String::new(), |x| format!("{x:?}")),
-                    r.focus,
-                ),
-            },
-        }
+        let e = x.offset_um[0].hypot(x.offset_um[1]);
+        let psi = -x.offset_um[1].atan2(x.offset_um[0]).to_degrees();
+        r.render(x.theta_deg, e, psi, x.dz_um, x.seed, pixels)
+            .map_err(|err| SimDeviceError {
+                device: DeviceId::Camera,
+                kind: DeviceErrorKind::Fault,
+                message: format!("cannot render the frame: {err}"),
+            })?;
+        let stamp = FrameStamp {
+            index: self.index,
+            start_s: Some(x.start_s),
+            exposure_s: Some(x.exposure_s),
+            theta_deg: Some(x.theta_deg),
+        };
+        self.index += 1;
+        Ok(Some(FrameHeader {
+            width: w,
+            height: h,
+            stamp,
+        }))
     }
+}
+
+/// The twin's camera at full fidelity: rendered frames through the station's detector camera.
+pub type FrameCamera = DetectorCamera<TwinFrames>;
+
+/// The full-fidelity camera for the twin behind `twin`: `scene` (default: the `realistic` scene)
+/// through the seed's optics.
+///
+/// # Errors
+/// [`SimError::Parameter`] when the scene is invalid.
+pub fn frame_camera(twin: Shared, scene: Option<GratingScene>) -> Result<FrameCamera, SimError> {
+    let optics = Optics::default();
+    let scene = scene.unwrap_or_else(|| GratingScene::preset(ScenePreset::Realistic));
+    let frames = TwinFrames::new(twin, &optics, scene)?;
+    DetectorCamera::new(frames, &optics)
+        .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))
 }

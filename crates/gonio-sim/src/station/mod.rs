@@ -3,8 +3,9 @@
 //! `gonio_station::hal`, and a batch runner.
 //!
 //! Two fidelities: [`Fidelity::Fast`] computes each frame's ring column from the geometry plus
-//! the detector's noise; [`Fidelity::Frames`] renders each frame and runs it through a
-//! [`FrameDetector`] (the real detector).
+//! the detector's noise ([`SimCamera`](twin::SimCamera)); [`Fidelity::Frames`] renders each frame
+//! ([`TwinFrames`]) and runs it through the station's own camera path
+//! (`gonio_station::DetectorCamera`). Both report the detector's typed reasons.
 //!
 //! ```
 //! use gonio_sim::station::{BatchConfig, run_batch};
@@ -24,9 +25,9 @@ pub use batch::{
     BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch, run_batch_on,
     run_batch_with,
 };
-pub use frames::RenderedDetector;
+pub use frames::{FrameCamera, TwinFrames, frame_camera};
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
 pub use twin::{
-    DeviceId, Faults, FrameDetector, SimCamera, SimClock, SimDeviceError, SimFocus, SimRod,
+    DeviceId, Exposure, Faults, Shared, SimCamera, SimClock, SimDeviceError, SimFocus, SimRod,
     SimServo, Twin,
 };

@@ -13,6 +13,7 @@ use gonio_station::hal::{
     Servo,
 };
 use gonio_station::interval::AngleSample;
+use gonio_vision::InvalidReason;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -73,19 +74,24 @@ impl DeviceError for SimDeviceError {
     }
 }
 
-/// Produces a frame's detector result at full fidelity (render → detect); the fast fidelity
-/// computes the column from the geometry instead.
-pub trait FrameDetector {
-    /// Renders the frame of the grating at servo angle `theta_deg` (mid-exposure) with its centre
-    /// offset `offset_um` (servo-angle coordinates: the camera sees `offset·(cos θ, sin θ)`) and
-    /// defocus `dz_um`, runs the detector, and returns `(c_px or None, why not, focus measure)`.
-    fn detect(
-        &mut self,
-        theta_deg: f64,
-        offset_um: [f64; 2],
-        dz_um: f64,
-        frame_seed: u64,
-    ) -> (Option<f64>, String, f64);
+/// One exposure of the simulated camera: when, at what servo angle and pose, with what seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Exposure {
+    /// Start of the exposure, s (simulated clock).
+    pub start_s: f64,
+    /// Exposure time, s.
+    pub exposure_s: f64,
+    /// Servo angle at mid-exposure, degrees.
+    pub theta_deg: f64,
+    /// The grating centre's offset from the shaft in servo-angle coordinates (the camera sees
+    /// `offset·(cos θ, sin θ)`), µm.
+    pub offset_um: [f64; 2],
+    /// Focus position relative to the part's best focus, µm.
+    pub dz_um: f64,
+    /// Seed of the frame's noise and dust.
+    pub seed: u64,
+    /// The ring is lost (fault injection): the frame shows no ring.
+    pub ring_lost: bool,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -160,7 +166,6 @@ pub struct Twin {
     focus_um: f64,
     contact: Option<Contact>,
     calls: [u64; 5],
-    detector: Option<Box<dyn FrameDetector>>,
 }
 
 impl std::fmt::Debug for Twin {
@@ -200,13 +205,7 @@ impl Twin {
             focus_um: 0.0,
             contact: None,
             calls: [0; 5],
-            detector: None,
         }
-    }
-
-    /// Uses `d` (render → detect) for every frame instead of the geometric fast fidelity.
-    pub fn set_detector(&mut self, d: Box<dyn FrameDetector>) {
-        self.detector = Some(d);
     }
 
     /// Places a new part on the shaft.
@@ -230,7 +229,11 @@ impl Twin {
         self.part.e_um()
     }
 
-    fn call(&mut self, d: DeviceId) -> Result<(), SimDeviceError> {
+    /// Counts a call to device `d` and fails it when a fault is injected on this call.
+    ///
+    /// # Errors
+    /// The injected [`SimDeviceError`].
+    pub fn call(&mut self, d: DeviceId) -> Result<(), SimDeviceError> {
         let i = d as usize;
         self.calls[i] += 1;
         if let Some((dev, n)) = self.faults.device_error {
@@ -272,51 +275,68 @@ impl Twin {
         self.motion_at(t).angle(t)
     }
 
-    fn frame(&mut self) -> CameraFrame {
+    /// Takes the next exposure: its time, the servo angle at mid-exposure, the part's pose and
+    /// a frame seed; advances the clock by one frame interval.
+    pub fn expose(&mut self) -> Exposure {
+        self.exposure(true)
+    }
+
+    /// As [`Twin::expose`]; the fast fidelity draws no frame seed (its random stream stays the
+    /// one the station's acceptance figures were made with).
+    fn exposure(&mut self, draw_seed: bool) -> Exposure {
         let start = self.t_s;
         let mid = start + 0.5 * self.exposure_s;
-        let theta = self.angle(mid);
-        let c_true = self.part.column_px(&self.plant, self.um_per_px, theta);
-        let dz = self.focus_um - self.part.best_focus_um;
-        let p = &self.plant;
-        let lost = self
-            .faults
-            .ring_lost_after_pushes
-            .is_some_and(|n| self.part_pushes >= n);
-        let (c, reason, focus) = if let Some(det) = self.detector.as_mut() {
-            if lost {
-                (None, "no ring".to_string(), 0.0)
-            } else {
-                let frame_seed = self.rng.random::<u64>();
-                det.detect(theta, self.part.offset_um, dz, frame_seed)
-            }
-        } else {
-            let w = dz / p.focus_depth_um;
-            let focus_measure = if self.faults.focus_dead {
-                0.3 * p.focus_peak
-            } else {
-                0.05 * p.focus_peak + p.focus_peak * (-0.5 * w * w).exp()
-            } * (1.0
-                + 0.01 * Normal::new(0.0, 1.0).unwrap().sample(&mut self.rng));
-            let sigma = p.noise_px * (1.0 + w * w).sqrt();
-            let noise = Normal::new(0.0, sigma).unwrap().sample(&mut self.rng);
-            if lost {
-                (None, "no ring".to_string(), focus_measure)
-            } else if w.abs() > 3.0 || self.faults.focus_dead {
-                (None, "out of focus".to_string(), focus_measure)
-            } else if !(0.0..p.window_width_px).contains(&c_true) {
-                (None, "ring outside the window".to_string(), focus_measure)
-            } else {
-                (Some(c_true + noise), String::new(), focus_measure)
-            }
-        };
-        self.t_s += 1.0 / self.fps;
-        CameraFrame {
+        let e = Exposure {
             start_s: start,
             exposure_s: self.exposure_s,
-            c_px: c,
+            theta_deg: self.angle(mid),
+            offset_um: self.part.offset_um,
+            dz_um: self.focus_um - self.part.best_focus_um,
+            seed: if draw_seed {
+                self.rng.random::<u64>()
+            } else {
+                0
+            },
+            ring_lost: self
+                .faults
+                .ring_lost_after_pushes
+                .is_some_and(|n| self.part_pushes >= n),
+        };
+        self.t_s += 1.0 / self.fps;
+        e
+    }
+
+    /// The fast fidelity's frame: the ring's column from the geometry plus the detector's noise,
+    /// a Gaussian focus curve, and the detector's reasons for the frames it could not use.
+    fn fast_frame(&mut self) -> CameraFrame {
+        let x = self.exposure(false);
+        let c_true = self
+            .part
+            .column_px(&self.plant, self.um_per_px, x.theta_deg);
+        let p = &self.plant;
+        let w = x.dz_um / p.focus_depth_um;
+        let focus_measure = if self.faults.focus_dead {
+            0.3 * p.focus_peak
+        } else {
+            0.05 * p.focus_peak + p.focus_peak * (-0.5 * w * w).exp()
+        } * (1.0 + 0.01 * Normal::new(0.0, 1.0).unwrap().sample(&mut self.rng));
+        let sigma = p.noise_px * (1.0 + w * w).sqrt();
+        let noise = Normal::new(0.0, sigma).unwrap().sample(&mut self.rng);
+        let reason = if x.ring_lost {
+            Some(InvalidReason::NoRing)
+        } else if w.abs() > 3.0 || self.faults.focus_dead {
+            Some(InvalidReason::OutOfFocus)
+        } else if !(0.0..p.window_width_px).contains(&c_true) {
+            Some(InvalidReason::RingOutsideWindow)
+        } else {
+            None
+        };
+        CameraFrame {
+            start_s: x.start_s,
+            exposure_s: x.exposure_s,
+            c_px: reason.is_none().then_some(c_true + noise),
             invalid_reason: reason,
-            focus_measure: focus,
+            focus_measure,
         }
     }
 
@@ -333,7 +353,8 @@ pub type Shared = Rc<RefCell<Twin>>;
 /// The simulated servo.
 #[derive(Debug, Clone)]
 pub struct SimServo(pub Shared);
-/// The simulated camera (fast fidelity, or a [`FrameDetector`]).
+/// The simulated camera at fast fidelity (the column from the geometry); the full fidelity is a
+/// `DetectorCamera` over [`TwinFrames`](super::frames::TwinFrames).
 #[derive(Debug, Clone)]
 pub struct SimCamera(pub Shared);
 /// The simulated focus drive.
@@ -445,7 +466,7 @@ impl Camera for SimCamera {
     fn capture(&mut self) -> Result<CameraFrame, SimDeviceError> {
         let mut t = self.0.borrow_mut();
         t.call(DeviceId::Camera)?;
-        Ok(t.frame())
+        Ok(t.fast_frame())
     }
 }
 
