@@ -104,6 +104,7 @@ impl<C: Camera> Camera for FaultyCamera<C> {
             Fault::Drop { from_deg, to_deg } => {
                 if (from_deg..to_deg).contains(&turned) {
                     f.c_px = None;
+                    f.invalid_reason = Some(gonio_vision::InvalidReason::NoRing);
                 }
             }
         }
