@@ -231,3 +231,66 @@ fn a_bad_scene_file_names_its_line() {
     );
     assert_error(&o, "scratches.width_px = -1: expected a finite number > 0");
 }
+
+/// Every key path of a JSON value (`edges[].slope` for the members of an array's objects).
+fn key_paths(v: &serde_json::Value, prefix: &str, out: &mut std::collections::BTreeSet<String>) {
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                let p = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                out.insert(p.clone());
+                key_paths(x, &p, out);
+            }
+        }
+        serde_json::Value::Array(a) => {
+            for x in a {
+                key_paths(x, &format!("{prefix}[]"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn json_lines_keep_every_field_and_add_score_and_margin() {
+    // The contract: every key `gonio detect` wrote before (tests/data/json-keys-detect.txt, from
+    // a valid and a ring-less frame) is still written, plus `score` and `margin`.
+    let d = tempfile::tempdir().unwrap();
+    let mut keys = std::collections::BTreeSet::new();
+    for (name, extra) in [("ring", None), ("none", Some("--no-ring"))] {
+        let out = d.path().join(name);
+        let mut args = vec![
+            "simulate",
+            "frames",
+            "--count",
+            "1",
+            "--seed",
+            "3",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = gonio(&args, None);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = gonio(&["detect", out.to_str().unwrap()], None);
+        let lines = json_lines(&o);
+        assert_eq!(lines[0]["valid"], extra.is_none(), "{}", lines[0]);
+        for l in &lines {
+            key_paths(l, "", &mut keys);
+        }
+    }
+    let old = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/json-keys-detect.txt"),
+    )
+    .unwrap();
+    for k in old.lines().filter(|l| !l.starts_with('#') && !l.is_empty()) {
+        assert!(keys.contains(k), "`gonio detect` no longer writes {k}");
+    }
+    for k in ["score", "margin"] {
+        assert!(keys.contains(k), "no {k}");
+    }
+}
