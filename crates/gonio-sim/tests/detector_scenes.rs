@@ -4,7 +4,8 @@
 //!
 //! - No wrong-but-valid frame: valid with |c − c_true| > 1 px, or valid without a ring.
 //! - ≥ 99 % valid where the ring lies fully inside the window with a visible contrast at or above
-//!   the optics' minimum and no saturated patch within the closing's reach (2d) of it.
+//!   the optics' minimum (whatever else the scene holds: borders, tracks, dust, scratches, gaps,
+//!   saturated patches).
 //! - |c − c_true| ≤ 0.1 px on every valid frame, RMS ≤ 0.03 px.
 //!
 //! Per-class figures are printed (`--nocapture`) for VALIDATION.md.
@@ -137,7 +138,6 @@ impl Tally {
 #[test]
 fn random_scenes_never_wrong_and_almost_always_found() {
     let optics = Optics::default();
-    let p = optics.params().unwrap();
     let n: u64 = std::env::var("GONIO_SCENES")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -178,14 +178,12 @@ fn random_scenes_never_wrong_and_almost_always_found() {
         }),
     ];
     let mut tallies: Vec<Tally> = classes.iter().map(|_| Tally::default()).collect();
-    let reach = 2.0 * p.baseline_width_px as f64;
     let mut reasons = std::collections::BTreeMap::<String, usize>::new();
     for o in &out {
         let s = &o.draw.scene;
         let eligible = s.ring_present
             && o.truth.ring_in_window
-            && o.truth.ring_contrast_grey >= optics.min_ring_contrast_grey
-            && o.truth.patch_distance_px > reach;
+            && o.truth.ring_contrast_grey >= optics.min_ring_contrast_grey;
         let wrong = o.result.valid
             && !(s.ring_present
                 && o.truth.c_true_px.is_finite()
