@@ -1,4 +1,4 @@
-//! Full fidelity on realistic scenes (issue 9, point 5): 25 parts — seed 004's count — mounted
+//! Full fidelity on realistic scenes (issue 9, point 5): 25 parts — the batch of Yu et al., 2024 — mounted
 //! end to end with every frame of the `realistic` scene rendered and run through the station's
 //! own camera path (`TwinFrames` → `DetectorCamera` → fit → push), against issue 6's acceptance
 //! figures, and part by part against the same parts measured by a perfect geometric camera
