@@ -2,6 +2,8 @@
 //! gonio.certificate/1 that keeps every JSON field the commands wrote before (the key lists in
 //! tests/data were taken from the commands at main 8062237), and `compare` reads two of them.
 
+mod common;
+
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -31,33 +33,11 @@ fn example(name: &str) -> String {
         .to_string()
 }
 
-fn paths(v: &Value, prefix: &str, out: &mut BTreeSet<String>) {
-    match v {
-        Value::Object(m) => {
-            for (k, x) in m {
-                let p = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                out.insert(p.clone());
-                paths(x, &p, out);
-            }
-        }
-        Value::Array(a) => {
-            for x in a {
-                paths(x, &format!("{prefix}[]"), out);
-            }
-        }
-        _ => {}
-    }
-}
-
 fn keys_of(files: &[PathBuf]) -> BTreeSet<String> {
     let mut s = BTreeSet::new();
     for f in files {
         let v: Value = serde_json::from_str(&std::fs::read_to_string(f).unwrap()).unwrap();
-        paths(&v, "", &mut s);
+        common::key_paths(&v, "", &mut s);
     }
     s
 }

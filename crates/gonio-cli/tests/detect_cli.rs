@@ -1,5 +1,7 @@
 //! `gonio detect`: bad input is a one-line error with exit code 2, never a panic.
 
+mod common;
+
 use std::io::Write;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
@@ -232,29 +234,6 @@ fn a_bad_scene_file_names_its_line() {
     assert_error(&o, "scratches.width_px = -1: expected a finite number > 0");
 }
 
-/// Every key path of a JSON value (`edges[].slope` for the members of an array's objects).
-fn key_paths(v: &serde_json::Value, prefix: &str, out: &mut std::collections::BTreeSet<String>) {
-    match v {
-        serde_json::Value::Object(m) => {
-            for (k, x) in m {
-                let p = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                out.insert(p.clone());
-                key_paths(x, &p, out);
-            }
-        }
-        serde_json::Value::Array(a) => {
-            for x in a {
-                key_paths(x, &format!("{prefix}[]"), out);
-            }
-        }
-        _ => {}
-    }
-}
-
 #[test]
 fn json_lines_keep_every_field_and_add_score_and_margin() {
     // The contract: every key `gonio detect` wrote before (tests/data/json-keys-detect.txt, from
@@ -280,7 +259,7 @@ fn json_lines_keep_every_field_and_add_score_and_margin() {
         let lines = json_lines(&o);
         assert_eq!(lines[0]["valid"], extra.is_none(), "{}", lines[0]);
         for l in &lines {
-            key_paths(l, "", &mut keys);
+            common::key_paths(l, "", &mut keys);
         }
     }
     let old = std::fs::read_to_string(

@@ -2,32 +2,10 @@
 //! built on the twin's exposures: the controller must do as well through it as through the fast
 //! fidelity.
 
-use gonio_sim::station::{
-    BatchConfig, DeviceId, Shared, SimDeviceError, run_batch, run_batch_with,
-};
+use gonio_sim::station::{BatchConfig, run_batch, run_batch_with};
 use gonio_station::Strategy;
-use gonio_station::hal::{Camera, CameraFrame};
-
-/// The ring column from the geometry (no roundness, no noise) and a Gaussian focus curve.
-struct Geometric(Shared);
-
-impl Camera for Geometric {
-    type Error = SimDeviceError;
-    fn capture(&mut self) -> Result<CameraFrame, SimDeviceError> {
-        let mut t = self.0.borrow_mut();
-        t.call(DeviceId::Camera)?;
-        let x = t.expose();
-        let th = x.theta_deg.to_radians();
-        let c = 720.0 + (x.offset_um[0] * th.cos() + x.offset_um[1] * th.sin()) / 0.75;
-        Ok(CameraFrame {
-            start_s: x.start_s,
-            exposure_s: x.exposure_s,
-            c_px: Some(c),
-            invalid_reason: None,
-            focus_measure: 40.0 * (-0.5 * (x.dz_um / 25.0).powi(2)).exp() + 2.0,
-        })
-    }
-}
+mod common;
+use common::Geometric;
 
 #[test]
 fn camera_path_matches_the_fast_fidelity_statistics() {

@@ -1,36 +1,13 @@
-//! Full fidelity on realistic scenes (issue 9, point 5): 25 parts — the batch of Yu et al., 2024 — mounted
-//! end to end with every frame of the `realistic` scene rendered and run through the station's
+//! Full fidelity on realistic scenes (issue 9, point 5): 25 parts (the batch of Yu et al., 2024)
+//! mounted end to end with every frame of the `realistic` scene rendered and run through the station's
 //! own camera path (`TwinFrames` → `DetectorCamera` → fit → push), against issue 6's acceptance
 //! figures, and part by part against the same parts measured by a perfect geometric camera
 //! (the same random stream: the detector must change nothing).
 
-use gonio_sim::station::{
-    BatchConfig, BatchReport, DeviceId, Fidelity, Shared, SimDeviceError, run_batch, run_batch_with,
-};
-use gonio_station::hal::{Camera, CameraFrame};
+use gonio_sim::station::{BatchConfig, BatchReport, Fidelity, run_batch, run_batch_with};
+mod common;
+use common::Geometric;
 use gonio_station::{PartResult, Strategy};
-
-/// The ring's column straight from the geometry (no roundness, no noise), a Gaussian focus
-/// curve; draws each frame's seed like the frames fidelity, so the plant's draws match.
-struct Geometric(Shared);
-
-impl Camera for Geometric {
-    type Error = SimDeviceError;
-    fn capture(&mut self) -> Result<CameraFrame, SimDeviceError> {
-        let mut t = self.0.borrow_mut();
-        t.call(DeviceId::Camera)?;
-        let x = t.expose();
-        let th = x.theta_deg.to_radians();
-        let c = 720.0 + (x.offset_um[0] * th.cos() + x.offset_um[1] * th.sin()) / 0.75;
-        Ok(CameraFrame {
-            start_s: x.start_s,
-            exposure_s: x.exposure_s,
-            c_px: Some(c),
-            invalid_reason: None,
-            focus_measure: 40.0 * (-0.5 * (x.dz_um / 25.0).powi(2)).exp() + 2.0,
-        })
-    }
-}
 
 fn show(r: &BatchReport) {
     for p in &r.parts {
