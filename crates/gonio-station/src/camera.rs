@@ -23,14 +23,14 @@
 //!     type Error = Never;
 //!     fn next_frame(&mut self, px: &mut Vec<u8>) -> Result<Option<FrameHeader>, Never> {
 //!         px.clear();
-//!         px.resize(64 * 32, 180);
+//!         px.resize(128 * 64, 180);
 //!         self.0 += 1;
 //!         let stamp = FrameStamp { index: self.0 - 1, start_s: Some(self.0 as f64 / 100.0),
 //!                                  exposure_s: Some(0.5e-3), theta_deg: None };
-//!         Ok(Some(FrameHeader { width: 64, height: 32, stamp }))
+//!         Ok(Some(FrameHeader { width: 128, height: 64, stamp }))
 //!     }
 //! }
-//! let optics = Optics { window_width_px: 64, window_height_px: 32, ..Optics::default() };
+//! let optics = Optics { window_width_px: 128, window_height_px: 64, ..Optics::default() };
 //! let mut cam = DetectorCamera::new(Blank(0), &optics).unwrap();
 //! let f = cam.capture().unwrap();
 //! assert_eq!(f.c_px, None);
