@@ -102,10 +102,13 @@ fn autofocus_finds_the_best_focus() {
 
 #[test]
 fn max_pushes_rejects() {
-    // A threshold no part reaches; the u(e) gate (5 % of the threshold, 0.0025 µm, below one
-    // turn's 0.022 µm) is relaxed so that the push limit is what ends the part.
+    // A threshold no part reaches: 0.002 µm. A push leaves a part a few µm off-centre and one
+    // turn measures e within ±0.022 µm, so a measured e below 0.002 µm needs the push to land
+    // within ≈ 0.02 µm of the centre: a chance of about (0.02 µm / 2 µm)² = 1e-4 per push.
+    // (0.05 µm, used before, was reached by one part.) The u(e) gate (5 % of the threshold) is
+    // relaxed to 50× the threshold (0.1 µm) so that the push limit is what ends the part.
     let recipe = Recipe::from_toml(
-        "threshold_um = 0.05\n[push]\nmax_pushes = 2\n[quality]\nmax_u_e_fraction = 1.0\n",
+        "threshold_um = 0.002\n[push]\nmax_pushes = 2\n[quality]\nmax_u_e_fraction = 50.0\n",
     )
     .unwrap();
     let c = BatchConfig {
@@ -114,7 +117,12 @@ fn max_pushes_rejects() {
     };
     let r = run_batch(&c, 3, &mut |_, _, _| {}).unwrap();
     for p in &r.parts {
-        assert_eq!(p.record.result, PartResult::RejectedMaxPushes);
+        assert_eq!(
+            p.record.result,
+            PartResult::RejectedMaxPushes,
+            "{:?}",
+            p.record.reject_reason
+        );
         assert_eq!(p.record.pushes, 2);
         assert_eq!(p.record.push_log.len(), 2);
     }

@@ -24,14 +24,15 @@
 //! assert_eq!(c.strategy.name(), "learned");
 //! ```
 
-use crate::fit::{EccentricityFit, FitOptions, Sample, fit_judged};
+use crate::fit::EccentricityFit;
 use crate::hal::{Camera, CameraFrame, Clock, DeviceError, FocusDrive, PushRod, Servo};
-use crate::interval::AngleLog;
+use crate::observe::{LiveFrame, NoObserver, Observer, Phase};
 pub use crate::record::{
     DeviceFault, PartRecord, PartResult, PhaseTimes, PushRecord, TurnKind, TurnRecord,
 };
 pub use crate::strategy::{Learned, Strategy};
 use crate::strategy::{LiveFeedback, PushOutcome, PushPlan, PushPrediction, e_vec_um};
+use crate::turn::evaluate_turn;
 use crate::{Recipe, StationError};
 
 /// The five devices of a station.
@@ -106,13 +107,6 @@ impl Controller {
         }
     }
 
-    fn fit_options(&self) -> FitOptions {
-        FitOptions {
-            method: self.strategy.fit_method(),
-            ..self.recipe.fit.clone()
-        }
-    }
-
     /// Mounts one part and returns its record, whatever happened to it.
     ///
     /// A device error ends the part `rejected_device_error` with the device and its message in
@@ -134,14 +128,36 @@ impl Controller {
         P: PushRod,
         K: Clock,
     {
+        self.mount_observed(d, serial, &mut NoObserver)
+    }
+
+    /// As [`Controller::mount`], telling `obs` what happens as it happens (frames, turns,
+    /// pushes, the finished record). The observer cannot change what the station does.
+    ///
+    /// # Errors
+    /// As [`Controller::mount`].
+    pub fn mount_observed<S, C, F, P, K>(
+        &mut self,
+        d: &mut Devices<S, C, F, P, K>,
+        serial: &str,
+        obs: &mut dyn Observer,
+    ) -> Result<PartRecord, StationError>
+    where
+        S: Servo,
+        C: Camera,
+        F: FocusDrive,
+        P: PushRod,
+        K: Clock,
+    {
         self.recipe.validate()?;
+        obs.part_started(serial);
         if !self.carry_learning {
             self.learned = Learned::default();
         }
         let mut rec = PartRecord::new(serial, &self.recipe.name, self.strategy.name());
         let t0 = d.clock.now_s().map_err(dev("clock"));
         let ending = match &t0 {
-            Ok(t0) => self.run(d, &mut rec, *t0).map(|e| (*t0, e)),
+            Ok(t0) => self.run(d, &mut rec, *t0, obs).map(|e| (*t0, e)),
             Err(e) => Err(e.clone()),
         };
         match ending {
@@ -171,6 +187,7 @@ impl Controller {
             }
             Err(other) => return Err(other),
         }
+        obs.part_finished(&rec);
         Ok(rec)
     }
 
@@ -180,6 +197,7 @@ impl Controller {
         d: &mut Devices<S, C, F, P, K>,
         rec: &mut PartRecord,
         t0: f64,
+        obs: &mut dyn Observer,
     ) -> Result<Ending, StationError>
     where
         S: Servo,
@@ -189,6 +207,7 @@ impl Controller {
         K: Clock,
     {
         let t = now(d)?;
+        obs.phase(Phase::Focus);
         let focus = self.autofocus(d)?;
         rec.phase_times.focus_s += now(d)? - t;
         match focus {
@@ -202,7 +221,7 @@ impl Controller {
         }
         let um = self.recipe.um_per_px;
         let threshold = self.recipe.threshold_um;
-        let mut current = match self.gated_turn(d, rec, t0, TurnKind::Initial)? {
+        let mut current = match self.gated_turn(d, rec, t0, TurnKind::Initial, obs)? {
             Gated::Trusted(f) => *f,
             Gated::Rejected(r, why) => return Ok((r, Some(why))),
         };
@@ -236,9 +255,11 @@ impl Controller {
                 .strategy
                 .plan(e_um, theta_max, &self.learned, &self.recipe);
             let t = now(d)?;
+            obs.phase(Phase::Push);
             let pushed = self.push(d, &current, &plan, t - t0)?;
-            rec.phase_times.push_s += now(d)? - t;
-            let (push, prediction) = match pushed {
+            let push_duration = now(d)? - t;
+            rec.phase_times.push_s += push_duration;
+            let (mut push, prediction) = match pushed {
                 Some(p) => p,
                 None => {
                     return Ok((
@@ -250,9 +271,11 @@ impl Controller {
                     ));
                 }
             };
+            push.duration_s = push_duration;
+            obs.push(&push);
             rec.pushes += 1;
             rec.push_log.push(push);
-            let next = match self.gated_turn(d, rec, t0, TurnKind::Verify)? {
+            let next = match self.gated_turn(d, rec, t0, TurnKind::Verify, obs)? {
                 Gated::Trusted(f) => *f,
                 Gated::Rejected(r, why) => return Ok((r, Some(why))),
             };
@@ -301,6 +324,7 @@ impl Controller {
         rec: &mut PartRecord,
         t0: f64,
         kind: TurnKind,
+        obs: &mut dyn Observer,
     ) -> Result<Gated, StationError>
     where
         S: Servo,
@@ -317,7 +341,8 @@ impl Controller {
                 TurnKind::Remeasure
             };
             let t = now(d)?;
-            let turn = self.measure(d, t0, k)?;
+            obs.phase(Phase::Measure(k));
+            let turn = self.measure(d, t0, k, rec.turns.len(), rec.focus_um, obs)?;
             rec.phase_times.measure_s += now(d)? - t;
             let n = rec.turns.len() + 1;
             let (failure, result) = match turn {
@@ -357,6 +382,7 @@ impl Controller {
             rec.remeasured_turns += 1;
             if q.refocus_before_remeasure {
                 let t = now(d)?;
+                obs.phase(Phase::Focus);
                 let z = self.autofocus(d)?;
                 rec.phase_times.focus_s += now(d)? - t;
                 match z {
@@ -441,11 +467,15 @@ impl Controller {
     }
 
     /// One measuring turn, its fit and the quality gate's verdict.
+    #[allow(clippy::too_many_arguments)]
     fn measure<S, C, F, P, K>(
         &self,
         d: &mut Devices<S, C, F, P, K>,
         t0: f64,
         kind: TurnKind,
+        turn_index: usize,
+        focus_um: f64,
+        obs: &mut dyn Observer,
     ) -> Result<Turn, StationError>
     where
         S: Servo,
@@ -459,73 +489,35 @@ impl Controller {
             .map_err(dev("servo"))?;
         let n = self.recipe.frames_per_turn();
         let mut frames: Vec<CameraFrame> = Vec::with_capacity(n);
-        for _ in 0..n {
-            frames.push(d.camera.capture().map_err(dev("camera"))?);
+        for index in 0..n {
+            let f = d.camera.capture().map_err(dev("camera"))?;
+            let t_s = f.start_s + 0.5 * f.exposure_s - t_start;
+            obs.frame(&LiveFrame {
+                turn: turn_index,
+                index,
+                frames: n,
+                t_s,
+                turn_deg: ms.speed_deg_per_s * t_s,
+                c_px: f.c_px.filter(|c| c.is_finite()),
+            });
+            frames.push(f);
         }
         d.servo.stop().map_err(dev("servo"))?;
         let log = d.servo.angle_log(t_start).map_err(dev("servo"))?;
-        let mut rec = TurnRecord {
-            t_start_s: t_start - t0,
+        let (rec, fit) = evaluate_turn(
+            &self.recipe,
+            self.strategy,
+            &frames,
+            log,
+            t_start - t0,
             kind,
-            frames_taken: n,
-            samples: Vec::with_capacity(n),
-            invalid_frames: 0,
-            e_um: f64::NAN,
-            u_e_um: f64::NAN,
-            theta_max_deg: f64::NAN,
-            c0_px: f64::NAN,
-            residual_rms_px: f64::NAN,
-            outliers: 0,
-            quality: None,
-        };
-        let log = match AngleLog::new(log) {
-            Ok(l) => l,
-            Err(_) => return Ok(Turn::Lost(rec)),
-        };
-        for f in &frames {
-            match f.c_px {
-                Some(c) if c.is_finite() => {
-                    match log.stamp(f.start_s, f.exposure_s, self.strategy.stamping()) {
-                        Ok(theta) => {
-                            // Keep angles strictly increasing (a stalled servo repeats angles).
-                            if rec
-                                .samples
-                                .last()
-                                .is_none_or(|s: &Sample| theta > s.theta_deg)
-                            {
-                                rec.samples.push(Sample {
-                                    theta_deg: theta,
-                                    c_px: c,
-                                });
-                            } else {
-                                rec.invalid_frames += 1;
-                            }
-                        }
-                        Err(_) => rec.invalid_frames += 1,
-                    }
-                }
-                _ => rec.invalid_frames += 1,
-            }
-        }
-        let valid = rec.samples.len();
-        if valid < 3 || (valid as f64) < ms.min_valid_fraction * n as f64 {
-            return Ok(Turn::Lost(rec));
-        }
-        let limits = self.recipe.quality_limits();
-        match fit_judged(&rec.samples, n, &self.fit_options(), &limits) {
-            Ok(f) => {
-                let um = self.recipe.um_per_px;
-                rec.e_um = f.e_px * um;
-                rec.u_e_um = f.u_e_px * um;
-                rec.theta_max_deg = f.theta_max_deg;
-                rec.c0_px = f.c0_px;
-                rec.residual_rms_px = f.residual_rms_px;
-                rec.outliers = f.outliers.len();
-                rec.quality = Some(f.quality.clone());
-                Ok(Turn::Ok(rec, Box::new(f)))
-            }
-            Err(_) => Ok(Turn::Lost(rec)),
-        }
+            focus_um,
+        );
+        obs.turn(&rec, fit.as_ref());
+        Ok(match fit {
+            Some(f) => Turn::Ok(rec, Box::new(f)),
+            None => Turn::Lost(rec),
+        })
     }
 
     /// Align, approach, push (open loop or under live feedback), retract; the push model's
@@ -609,6 +601,7 @@ impl Controller {
                 e_after_um: f64::NAN,
                 deviation_um: f64::NAN,
                 consistent: None,
+                duration_s: f64::NAN,
             },
             prediction,
         )))

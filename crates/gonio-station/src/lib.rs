@@ -14,6 +14,9 @@
 //!   and what is learned from each push.
 //! - [`controller`]: the mounting sequence, one part at a time, pushing only on trusted turns.
 //! - [`record`]: what is recorded about every part (turns, pushes, verdicts, reasons, times).
+//! - [`turn`]: one measuring turn from its frames and angle log (the controller's and the
+//!   replay's one code path).
+//! - [`observe`]: the station's events as they happen, for a live view (no-op by default).
 //!
 //! ```
 //! use gonio_station::interval::frame_interval_error_um;
@@ -28,11 +31,13 @@ pub mod error;
 pub mod fit;
 pub mod hal;
 pub mod interval;
+pub mod observe;
 pub mod quality;
 pub mod recipe;
 pub mod record;
 pub mod spline;
 pub mod strategy;
+pub mod turn;
 
 pub use camera::{DetectorCamera, DetectorCameraError};
 pub use controller::{Controller, Devices, Trusted};

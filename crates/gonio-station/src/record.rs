@@ -85,6 +85,9 @@ pub struct TurnRecord {
     pub residual_rms_px: f64,
     /// Outliers rejected by the fit.
     pub outliers: usize,
+    /// Focus position during the turn, µm (NaN when autofocus never succeeded).
+    #[serde(default = "nan", deserialize_with = "nan_or")]
+    pub focus_um: f64,
     /// The quality gate's verdict (`None` when the ring was lost and nothing was fitted).
     pub quality: Option<QualityVerdict>,
 }
@@ -118,6 +121,18 @@ pub struct PushRecord {
     pub deviation_um: f64,
     /// Whether the verify turn agreed with the prediction (`None`: no trusted verify turn).
     pub consistent: Option<bool>,
+    /// Duration of the push cycle (align, approach, push, retract), s.
+    #[serde(default = "nan", deserialize_with = "nan_or")]
+    pub duration_s: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
+}
+
+/// Reads a number written as `null` (how JSON writes NaN) back as NaN.
+fn nan_or<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 /// Time spent in each phase of a part, s.

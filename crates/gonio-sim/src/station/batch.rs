@@ -2,16 +2,19 @@
 //! simulation's ground truth side by side.
 
 use super::frames::frame_camera;
+use super::pace::Pace;
 use super::plant::{PartTruth, PlantConfig, StationTruth};
 use super::twin::{Faults, Shared, SimCamera, SimClock, SimFocus, SimRod, SimServo, Twin};
 use crate::frames::GratingScene;
 use gonio_station::hal::{Camera, PushRod};
+use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::strategy::Learned;
 use gonio_station::{
     Controller, DeviceErrorPolicy, Devices, PartRecord, PartResult, Recipe, StationError, Strategy,
 };
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
+use std::ops::ControlFlow;
 use std::rc::Rc;
 
 /// How frames are simulated.
@@ -218,6 +221,77 @@ pub fn run_batch_on<C: Camera, P: PushRod>(
     rod: impl FnOnce(SimRod) -> P,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
+    run_batch_from(
+        cfg,
+        seed,
+        RunOptions::default(),
+        camera,
+        rod,
+        &mut |d: &PartDone| {
+            progress(d.index + 1, d.total, d.part);
+            ControlFlow::Continue(())
+        },
+    )
+}
+
+/// Where a batch starts and how it runs (see [`run_batch_from`]).
+#[derive(Default)]
+pub struct RunOptions<'a> {
+    /// 0-based index of the first part to mount: a resumed batch starts after its last stored
+    /// part.
+    pub first_part: usize,
+    /// What the controller had learned before that part (a resumed batch: from the last stored
+    /// part; a new batch: nothing).
+    pub learned: Learned,
+    /// Told everything the controller does, as it happens (a live view).
+    pub observer: Option<&'a mut dyn Observer>,
+    /// Run in step with the wall clock (a live view); `None`: as fast as possible.
+    pub pace: Option<Pace>,
+}
+
+impl std::fmt::Debug for RunOptions<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RunOptions")
+            .field("first_part", &self.first_part)
+            .field("learned", &self.learned)
+            .field("observed", &self.observer.is_some())
+            .field("pace", &self.pace)
+            .finish()
+    }
+}
+
+/// A part just finished, as [`run_batch_from`] reports it.
+#[derive(Debug, Clone, Copy)]
+pub struct PartDone<'a> {
+    /// 0-based index of the part in the batch.
+    pub index: usize,
+    /// Parts in the batch.
+    pub total: usize,
+    /// The part's record and truth.
+    pub part: &'a SimPartRecord,
+    /// What the controller has learned after this part (the state a resumed batch restores).
+    pub learned: &'a Learned,
+}
+
+/// Mounts parts `opts.first_part..cfg.parts` of the batch `seed`, calling `on_part` as each one
+/// finishes (to commit it to a results store); `on_part` returning [`ControlFlow::Break`] ends
+/// the batch there (the report then holds the parts so far).
+///
+/// Part `i` depends only on the seed, `i` and the controller's learned state before it (each
+/// part has its own random stream and clock; the station's constants come from the seed), so
+/// a batch resumed at part `i` with the learned state stored with part `i − 1` gives the same
+/// records as an uninterrupted one.
+///
+/// # Errors
+/// As [`run_batch`].
+pub fn run_batch_from<C: Camera, P: PushRod>(
+    cfg: &BatchConfig,
+    seed: u64,
+    opts: RunOptions<'_>,
+    camera: impl FnOnce(Shared) -> Result<C, StationError>,
+    rod: impl FnOnce(SimRod) -> P,
+    on_part: &mut dyn FnMut(&PartDone) -> ControlFlow<()>,
+) -> Result<BatchReport, StationError> {
     cfg.recipe.validate()?;
     let r = &cfg.recipe;
     let mut twin = Twin::new(
@@ -228,6 +302,9 @@ pub fn run_batch_on<C: Camera, P: PushRod>(
         seed,
     );
     twin.faults = cfg.faults.clone();
+    if let Some(p) = opts.pace {
+        twin.set_pace(p);
+    }
     let station_truth = twin.station;
     let shared = Rc::new(RefCell::new(twin));
     let mut devices = Devices {
@@ -238,21 +315,32 @@ pub fn run_batch_on<C: Camera, P: PushRod>(
         clock: SimClock(shared.clone()),
     };
     let mut ctl = Controller::new(cfg.recipe.clone(), cfg.strategy);
-    let mut parts = Vec::with_capacity(cfg.parts);
+    ctl.learned = opts.learned;
+    let mut none = NoObserver;
+    let obs: &mut dyn Observer = match opts.observer {
+        Some(o) => o,
+        None => &mut none,
+    };
+    let mut parts = Vec::with_capacity(cfg.parts.saturating_sub(opts.first_part));
     let mut stopped = None;
-    for i in 0..cfg.parts {
+    for i in opts.first_part..cfg.parts {
         let truth = PartTruth::draw(&cfg.plant, seed, i as u64 + 1);
         let true_initial = truth.e_um();
         shared.borrow_mut().load_part(truth);
         let serial = format!("SIM-{seed}-{:04}", i + 1);
-        let record = ctl.mount(&mut devices, &serial)?;
+        let record = ctl.mount_observed(&mut devices, &serial, obs)?;
         let true_final = shared.borrow().true_e_um();
         let p = SimPartRecord {
             record,
             true_initial_e_um: true_initial,
             true_final_e_um: true_final,
         };
-        progress(i + 1, cfg.parts, &p);
+        let flow = on_part(&PartDone {
+            index: i,
+            total: cfg.parts,
+            part: &p,
+            learned: &ctl.learned,
+        });
         let failed = p.record.device_error.is_some();
         if failed && cfg.recipe.on_device_error == DeviceErrorPolicy::Stop && i + 1 < cfg.parts {
             stopped = Some(format!(
@@ -264,7 +352,7 @@ pub fn run_batch_on<C: Camera, P: PushRod>(
             ));
         }
         parts.push(p);
-        if stopped.is_some() {
+        if stopped.is_some() || flow.is_break() {
             break;
         }
     }

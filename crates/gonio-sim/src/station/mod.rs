@@ -18,14 +18,16 @@
 
 pub mod batch;
 pub mod frames;
+pub mod pace;
 pub mod plant;
 pub mod twin;
 
 pub use batch::{
-    BatchConfig, BatchReport, BatchSummary, Fidelity, SimPartRecord, run_batch, run_batch_on,
-    run_batch_with,
+    BatchConfig, BatchReport, BatchSummary, Fidelity, PartDone, RunOptions, SimPartRecord,
+    run_batch, run_batch_from, run_batch_on, run_batch_with,
 };
 pub use frames::{FrameCamera, TwinFrames, frame_camera};
+pub use pace::{FrameTiming, Pace, TimingSummary};
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
 pub use twin::{
     DeviceId, Exposure, Faults, Shared, SimCamera, SimClock, SimDeviceError, SimFocus, SimRod,

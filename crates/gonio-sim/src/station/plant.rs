@@ -164,6 +164,8 @@ pub struct PartTruth {
     pub start_angle_deg: f64,
     /// Phase of the servo's 1 ms log relative to the clock, s.
     pub log_phase_s: f64,
+    /// Seed of the part's own random stream (detector noise, push scatter) while it is mounted.
+    pub noise_seed: u64,
 }
 
 impl PartTruth {
@@ -190,6 +192,7 @@ impl PartTruth {
             best_focus_um: focus,
             start_angle_deg: rng.random_range(0.0..360.0),
             log_phase_s: rng.random_range(0.0..p.log_period_s),
+            noise_seed: rng.random::<u64>(),
         }
     }
 

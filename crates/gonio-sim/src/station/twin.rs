@@ -7,6 +7,7 @@
 //! a function of that time (ramps and constant speed), logged every millisecond with a random
 //! phase; each frame's ring column is computed at mid-exposure.
 
+use super::pace::Pace;
 use super::plant::{PartTruth, PlantConfig, StationTruth};
 use gonio_station::hal::{
     ApproachSpeed, Camera, CameraFrame, Clock, DeviceError, DeviceErrorKind, FocusDrive, PushRod,
@@ -166,6 +167,7 @@ pub struct Twin {
     focus_um: f64,
     contact: Option<Contact>,
     calls: [u64; 5],
+    pace: Option<Pace>,
 }
 
 impl std::fmt::Debug for Twin {
@@ -205,12 +207,28 @@ impl Twin {
             focus_um: 0.0,
             contact: None,
             calls: [0; 5],
+            pace: None,
         }
     }
 
+    /// Runs in step with the wall clock from now on (see [`Pace`]).
+    pub fn set_pace(&mut self, pace: Pace) {
+        self.pace = Some(pace);
+    }
+
     /// Places a new part on the shaft.
+    ///
+    /// Each part starts on its own clock at 0 s with its own random stream (its
+    /// [`PartTruth::noise_seed`]), so part `i` of a batch depends only on the seed, its index
+    /// and what the controller learned before it: a batch resumed at part `i` gives the same
+    /// records as one run without a break.
     pub fn load_part(&mut self, part: PartTruth) {
         let th = part.start_angle_deg;
+        self.rng = ChaCha8Rng::seed_from_u64(part.noise_seed);
+        self.t_s = 0.0;
+        if let Some(p) = self.pace.as_mut() {
+            p.rebase(0.0);
+        }
         self.part = part;
         self.part_pushes = 0;
         self.contact = None;
@@ -246,6 +264,14 @@ impl Twin {
             }
         }
         Ok(())
+    }
+
+    /// Simulated time moved on: in paced mode, wait for the wall clock.
+    fn advanced(&mut self) {
+        let t = self.t_s;
+        if let Some(p) = self.pace.as_mut() {
+            p.wait_until(t);
+        }
     }
 
     fn set_motion(&mut self, m: Motion) {
@@ -303,6 +329,10 @@ impl Twin {
                 .is_some_and(|n| self.part_pushes >= n),
         };
         self.t_s += 1.0 / self.fps;
+        let t = self.t_s;
+        if let Some(p) = self.pace.as_mut() {
+            p.frame_at(t);
+        }
         e
     }
 
@@ -378,6 +408,7 @@ impl Clock for SimClock {
         let mut t = self.0.borrow_mut();
         t.call(DeviceId::Clock)?;
         t.t_s += dt_s.max(0.0);
+        t.advanced();
         Ok(())
     }
 }
@@ -408,6 +439,7 @@ impl Servo for SimServo {
             ramp: 0.0,
             starting: false,
         });
+        t.advanced();
         Ok(())
     }
     fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), SimDeviceError> {
@@ -424,6 +456,7 @@ impl Servo for SimServo {
             starting: true,
         });
         t.t_s += t.plant.timing.spin_up_s;
+        t.advanced();
         Ok(())
     }
     fn stop(&mut self) -> Result<(), SimDeviceError> {
@@ -440,6 +473,7 @@ impl Servo for SimServo {
             starting: false,
         });
         t.t_s += t.plant.timing.stop_s;
+        t.advanced();
         Ok(())
     }
     fn angle_log(&mut self, since_s: f64) -> Result<Vec<AngleSample>, SimDeviceError> {
@@ -482,6 +516,7 @@ impl FocusDrive for SimFocus {
         t.call(DeviceId::Focus)?;
         t.focus_um = z_um;
         t.t_s += t.plant.timing.focus_move_s;
+        t.advanced();
         Ok(())
     }
 }
@@ -521,6 +556,7 @@ impl PushRod for SimRod {
             moved_um: overshoot,
             pushes: 0,
         });
+        t.advanced();
         Ok(())
     }
     fn push_um(&mut self, d_um: f64) -> Result<(), SimDeviceError> {
@@ -553,6 +589,7 @@ impl PushRod for SimRod {
         c.moved_um += m;
         c.pushes += 1;
         t.contact = Some(c);
+        t.advanced();
         Ok(())
     }
     fn retract(&mut self) -> Result<(), SimDeviceError> {
@@ -564,6 +601,7 @@ impl PushRod for SimRod {
             t.apply_move(c.dir_deg, -sb * c.moved_um);
             t.part_pushes += 1;
         }
+        t.advanced();
         Ok(())
     }
 }

@@ -1,0 +1,132 @@
+//! SQLite (embedded, bundled): WAL journal, full sync on commit, foreign keys on, and a busy
+//! timeout so several station processes can share one file.
+
+use crate::StoreError;
+use crate::backend::{Backend, Dialect, Value};
+use rusqlite::types::ValueRef;
+use std::path::Path;
+use std::time::Duration;
+
+pub(crate) struct Sqlite {
+    conn: rusqlite::Connection,
+}
+
+impl Sqlite {
+    pub(crate) fn open(path: &Path) -> Result<Self, StoreError> {
+        let open_err = |e: rusqlite::Error| StoreError::Open {
+            location: path.display().to_string(),
+            message: e.to_string(),
+        };
+        let conn = rusqlite::Connection::open(path).map_err(open_err)?;
+        conn.busy_timeout(Duration::from_secs(30))
+            .map_err(open_err)?;
+        // WAL: readers (the dashboard) never block the station's writes. synchronous = FULL:
+        // a committed part survives a power cut, not only a killed process.
+        let mode: String = conn
+            .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+            .map_err(open_err)?;
+        if !mode.eq_ignore_ascii_case("wal") {
+            return Err(StoreError::Open {
+                location: path.display().to_string(),
+                message: format!("cannot switch the journal to WAL (got {mode})"),
+            });
+        }
+        conn.execute_batch("PRAGMA synchronous = FULL; PRAGMA foreign_keys = ON;")
+            .map_err(open_err)?;
+        Ok(Sqlite { conn })
+    }
+}
+
+/// `$1` → `?1`: SQLite numbers `?NNN` parameters exactly as PostgreSQL numbers `$n`.
+fn translate(sql: &str) -> String {
+    let mut out = String::with_capacity(sql.len());
+    let mut it = sql.chars().peekable();
+    while let Some(c) = it.next() {
+        if c == '$' && it.peek().is_some_and(char::is_ascii_digit) {
+            out.push('?');
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+fn to_sql(v: &Value) -> rusqlite::types::Value {
+    match v {
+        Value::Null => rusqlite::types::Value::Null,
+        Value::Int(i) => rusqlite::types::Value::Integer(*i),
+        Value::Real(f) => rusqlite::types::Value::Real(*f),
+        Value::Text(s) => rusqlite::types::Value::Text(s.clone()),
+    }
+}
+
+fn from_sql(v: ValueRef<'_>) -> Value {
+    match v {
+        ValueRef::Null => Value::Null,
+        ValueRef::Integer(i) => Value::Int(i),
+        ValueRef::Real(f) => Value::Real(f),
+        ValueRef::Text(t) | ValueRef::Blob(t) => Value::Text(String::from_utf8_lossy(t).into()),
+    }
+}
+
+fn err(e: rusqlite::Error) -> StoreError {
+    StoreError::db("sqlite", e)
+}
+
+impl Backend for Sqlite {
+    fn dialect(&self) -> Dialect {
+        Dialect::Sqlite
+    }
+
+    fn exec(&mut self, sql: &str, params: &[Value]) -> Result<u64, StoreError> {
+        let mut st = self.conn.prepare_cached(&translate(sql)).map_err(err)?;
+        let n = st
+            .execute(rusqlite::params_from_iter(params.iter().map(to_sql)))
+            .map_err(err)?;
+        Ok(n as u64)
+    }
+
+    fn query(&mut self, sql: &str, params: &[Value]) -> Result<Vec<Vec<Value>>, StoreError> {
+        let mut st = self.conn.prepare_cached(&translate(sql)).map_err(err)?;
+        let cols = st.column_count();
+        let mut rows = st
+            .query(rusqlite::params_from_iter(params.iter().map(to_sql)))
+            .map_err(err)?;
+        let mut out = Vec::new();
+        while let Some(r) = rows.next().map_err(err)? {
+            let mut row = Vec::with_capacity(cols);
+            for i in 0..cols {
+                row.push(from_sql(r.get_ref(i).map_err(err)?));
+            }
+            out.push(row);
+        }
+        Ok(out)
+    }
+
+    fn exec_script(&mut self, sql: &str) -> Result<(), StoreError> {
+        self.conn.execute_batch(sql).map_err(err)
+    }
+
+    fn begin(&mut self) -> Result<(), StoreError> {
+        self.conn.execute_batch("BEGIN IMMEDIATE").map_err(err)
+    }
+
+    fn commit(&mut self) -> Result<(), StoreError> {
+        self.conn.execute_batch("COMMIT").map_err(err)
+    }
+
+    fn rollback(&mut self) {
+        let _ = self.conn.execute_batch("ROLLBACK");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn parameters_are_renumbered() {
+        assert_eq!(
+            super::translate("SELECT $1, '$x', $12"),
+            "SELECT ?1, '$x', ?12"
+        );
+    }
+}
