@@ -4,6 +4,7 @@
 //! errors to exit codes. The work is done in the library crates.
 
 mod cmd;
+mod db;
 mod formats;
 mod io;
 mod table;
@@ -53,6 +54,8 @@ enum Command {
     Mount(cmd::mount::Args),
     /// Find the alignment ring's column c in camera frames (PNG/TIFF files or raw stdin).
     Detect(cmd::detect::Args),
+    /// Query the mounted parts in a results store (SQLite file or PostgreSQL).
+    Parts(cmd::parts::Args),
 }
 
 fn main() {
@@ -71,6 +74,7 @@ fn main() {
         Command::Eccentricity(a) => cmd::eccentricity::run(a),
         Command::Mount(a) => cmd::mount::run(a),
         Command::Detect(a) => cmd::detect::run(a),
+        Command::Parts(a) => cmd::parts::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ".

@@ -9,6 +9,7 @@ pub mod eccentricity;
 pub mod import;
 pub mod joint;
 pub mod mount;
+pub mod parts;
 pub mod report;
 pub mod selfcal;
 pub mod shift_angle;

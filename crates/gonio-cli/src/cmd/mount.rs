@@ -1,13 +1,22 @@
 //! `gonio mount`: mount a batch of gratings on the (simulated) automatic mounting station.
 
+use crate::db;
 use crate::formats::frames::load_scene;
 use crate::io::{read_text, write_json};
 use anyhow::{Result, anyhow, bail};
 use gonio_sim::frames::{GratingScene, ScenePreset};
-use gonio_sim::station::{BatchConfig, Fidelity, run_batch};
+use gonio_sim::station::{
+    BatchConfig, BatchReport, Fidelity, PartDone, RunOptions, run_batch_observed,
+};
+use gonio_station::observe::Observer;
+use gonio_station::strategy::Learned;
 use gonio_station::{Recipe, StationError, Strategy};
+use gonio_store::{BatchStatus, NewBatch, NewPart, Store};
 use indicatif::{ProgressBar, ProgressStyle};
+use std::cell::RefCell;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -69,9 +78,18 @@ ends the part push_inconsistent. A device error ends the part rejected_device_er
 then stops (exit code 2, records written) or goes on, as the recipe's on_device_error says.
 Every part record keeps its turns, pushes, verdict, reject_reason and remeasured_turns.
 
+With --db, every part is committed to the results store (SQLite file or postgres:// URL) in
+one transaction as it finishes, with its recipe, times and the controller's learned state. If
+the batch is interrupted (the process killed, a device error under on_device_error = \"stop\"),
+the same command with --resume continues it after its last stored part: no part lost, none
+duplicated, the same records as an uninterrupted run.
+
 Examples:
   gonio mount --sim --seed 1
   gonio mount --sim --parts 200 --strategy paper --seed 7 --json batch.json
+  gonio mount --sim --parts 500 --seed 7 --db results.sqlite
+  gonio mount --sim --parts 500 --seed 7 --db results.sqlite --resume
+  gonio mount --sim --seed 7 --db postgres://gonio@/results?host=/run/postgresql --station-name line3-s2
   gonio mount --sim --recipe examples/recipes/r40-standard.toml --strategy live --seed 3
   gonio mount --sim --parts 5 --fidelity frames --scene dense --seed 4")]
 pub struct Args {
@@ -107,6 +125,75 @@ pub struct Args {
     /// Write per-part records and the summary as JSON here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Commit every part to this results store as it finishes: a SQLite file (created if
+    /// missing) or a postgres:// URL.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: Option<String>,
+    /// Continue the most recent batch in --db started with the same settings, after its last
+    /// stored part.
+    #[arg(long, requires = "db")]
+    pub resume: bool,
+    /// The station's name in the results store.
+    #[arg(long, default_value = "sim", value_name = "NAME")]
+    pub station_name: String,
+}
+
+/// The batch's identity in the store: what was asked for, so `--resume` finds the same batch.
+fn batch_config_json(cfg: &BatchConfig, seed: u64) -> Result<String> {
+    Ok(serde_json::to_string(&serde_json::json!({
+        "seed": seed,
+        "config": cfg,
+    }))?)
+}
+
+/// Notes the wall-clock start of each part (for its record in the store).
+struct WallClock {
+    started_at: Rc<RefCell<String>>,
+}
+
+impl Observer for WallClock {
+    fn part_started(&mut self, _serial: &str) {
+        *self.started_at.borrow_mut() = gonio_store::time::now_utc();
+    }
+}
+
+/// Where a batch writes its parts.
+struct Sink<'a> {
+    store: &'a mut dyn Store,
+    batch: i64,
+    station: &'a str,
+    recipe: &'a Recipe,
+    version: String,
+    error: Option<anyhow::Error>,
+}
+
+impl Sink<'_> {
+    fn commit(&mut self, d: &PartDone, started_at: &str) -> ControlFlow<()> {
+        let ended_at = gonio_store::time::now_utc();
+        let r = self.store.insert_part(&NewPart {
+            batch: self.batch,
+            batch_index: d.index,
+            station: self.station,
+            software_version: &self.version,
+            recipe: self.recipe,
+            started_at,
+            ended_at: &ended_at,
+            record: &d.part.record,
+            learned: d.learned,
+            truth: Some((d.part.true_initial_e_um, d.part.true_final_e_um)),
+        });
+        match r {
+            Ok(_) => ControlFlow::Continue(()),
+            Err(e) => {
+                self.error = Some(anyhow!(
+                    "storing part {} ({}): {e}",
+                    d.index + 1,
+                    d.part.record.serial
+                ));
+                ControlFlow::Break(())
+            }
+        }
+    }
 }
 
 /// Reads a recipe file; errors name the file, line and column.
@@ -167,17 +254,115 @@ pub fn run(a: Args) -> Result<()> {
         ..BatchConfig::default()
     };
     let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    let mut store = match &a.db {
+        Some(loc) => Some(db::open(loc)?),
+        None => None,
+    };
+    let config_json = batch_config_json(&cfg, a.seed)?;
+    let mut opts = RunOptions::default();
+    let mut batch = None;
+    if let Some(st) = store.as_mut() {
+        let loc = gonio_store::display_location(a.db.as_deref().unwrap_or_default());
+        if a.resume {
+            let info = st
+                .latest_batch(&a.station_name, &config_json)
+                .map_err(|e| anyhow!("{loc}: {e}"))?
+                .ok_or_else(|| {
+                    anyhow!(
+                        "{loc}: no batch of station {} with these settings (seed {}, {} parts, strategy {}, recipe {}) to resume: start it without --resume",
+                        a.station_name,
+                        a.seed,
+                        a.parts,
+                        cfg.strategy.name(),
+                        cfg.recipe.name
+                    )
+                })?;
+            if info.next_index() >= info.parts_planned {
+                eprintln!(
+                    "batch {} in {loc} is complete ({} of {} parts stored): nothing to resume",
+                    info.batch, info.parts_stored, info.parts_planned
+                );
+                return Ok(());
+            }
+            eprintln!(
+                "resuming batch {} in {loc} at part {} of {} ({} stored)",
+                info.batch,
+                info.next_index() + 1,
+                info.parts_planned,
+                info.parts_stored
+            );
+            opts.first_part = info.next_index();
+            opts.learned = info.learned.unwrap_or_else(Learned::default);
+            batch = Some(info.batch);
+        } else {
+            batch = Some(
+                st.begin_batch(&NewBatch {
+                    station: &a.station_name,
+                    seed: Some(a.seed),
+                    config_json: &config_json,
+                    parts_planned: a.parts,
+                    software_version: &db::software_version(),
+                })
+                .map_err(|e| anyhow!("{loc}: {e}"))?,
+            );
+        }
+    }
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let report = run_batch(&cfg, a.seed, &mut |_, _, p| {
+    bar.set_position(opts.first_part as u64);
+    let started = Rc::new(RefCell::new(gonio_store::time::now_utc()));
+    let mut clock = WallClock {
+        started_at: started.clone(),
+    };
+    let mut sink = match (store.as_mut(), batch) {
+        (Some(st), Some(b)) => Some(Sink {
+            store: st.as_mut(),
+            batch: b,
+            station: &a.station_name,
+            recipe: &cfg.recipe,
+            version: db::software_version(),
+            error: None,
+        }),
+        _ => None,
+    };
+    opts.observer = Some(&mut clock);
+    let report = run_batch_observed(&cfg, a.seed, opts, &mut |d: &PartDone| {
         bar.inc(1);
-        bar.set_message(format!("{} {}", p.record.serial, p.record.result.name()));
+        bar.set_message(format!(
+            "{} {}",
+            d.part.record.serial,
+            d.part.record.result.name()
+        ));
+        match sink.as_mut() {
+            Some(s) => s.commit(d, &started.borrow()),
+            None => ControlFlow::Continue(()),
+        }
     })
     .map_err(|e| anyhow!("simulated station: {e}"))?;
+    if let Some(e) = sink.and_then(|s| s.error) {
+        bar.abandon();
+        return Err(e);
+    }
+    if let (Some(st), Some(b)) = (store.as_mut(), batch) {
+        let (status, reason) = match &report.stopped {
+            Some(why) => (BatchStatus::Stopped, Some(why.as_str())),
+            None => (BatchStatus::Complete, None),
+        };
+        st.end_batch(b, status, reason).map_err(|e| {
+            anyhow!(
+                "{}: {e}",
+                gonio_store::display_location(a.db.as_deref().unwrap_or_default())
+            )
+        })?;
+    }
     bar.finish_and_clear();
+    print_and_write(&a, &report, to_stdout)
+}
+
+fn print_and_write(a: &Args, report: &BatchReport, to_stdout: bool) -> Result<()> {
     if !to_stdout {
         println!(
             "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
@@ -228,7 +413,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if let Some(p) = &a.json {
-        write_json(p, &report)?;
+        write_json(p, report)?;
     }
     if let Some(why) = &report.stopped {
         bail!("the batch {why} (recipe on_device_error = \"stop\"); the records so far are kept");

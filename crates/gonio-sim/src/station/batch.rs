@@ -178,11 +178,29 @@ pub fn run_batch(
     seed: u64,
     progress: &mut dyn FnMut(usize, usize, &SimPartRecord),
 ) -> Result<BatchReport, StationError> {
+    run_batch_observed(cfg, seed, RunOptions::default(), &mut |d: &PartDone| {
+        progress(d.index + 1, d.total, d.part);
+        ControlFlow::Continue(())
+    })
+}
+
+/// As [`run_batch_from`] with the twin's own camera for `cfg.fidelity` (as [`run_batch`]): a
+/// batch from any part, observed, paced, each part handed to `on_part` as it finishes.
+///
+/// # Errors
+/// As [`run_batch`].
+pub fn run_batch_observed(
+    cfg: &BatchConfig,
+    seed: u64,
+    opts: RunOptions<'_>,
+    on_part: &mut dyn FnMut(&PartDone) -> ControlFlow<()>,
+) -> Result<BatchReport, StationError> {
     match cfg.fidelity {
-        Fidelity::Fast => run_batch_with(cfg, seed, |t| Ok(SimCamera(t)), progress),
-        Fidelity::Frames => run_batch_with(
+        Fidelity::Fast => run_batch_from(cfg, seed, opts, |t| Ok(SimCamera(t)), |r| r, on_part),
+        Fidelity::Frames => run_batch_from(
             cfg,
             seed,
+            opts,
             |t| {
                 frame_camera(t, cfg.scene.clone()).map_err(|e| StationError::Device {
                     device: "camera",
@@ -190,7 +208,8 @@ pub fn run_batch(
                     message: format!("cannot set up the renderer and detector: {e}"),
                 })
             },
-            progress,
+            |r| r,
+            on_part,
         ),
     }
 }

@@ -1,0 +1,188 @@
+//! `gonio parts`: query the mounted parts in a results store.
+
+use crate::{db, io};
+use anyhow::{Result, anyhow};
+use gonio_store::{PartQuery, PartSummary};
+use std::path::PathBuf;
+
+/// Arguments of `gonio parts`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Without --json or --csv, prints a table. --json prints a JSON array of part records: part (the
+id), serial, station, batch, batch_index, recipe, recipe_hash, strategy, software_version,
+started_at and ended_at (UTC), initial_e_um, final_e_um, pushes, time_s, result, verdict (pass or
+reject), reject_reason, remeasured_turns, focus_um, phase_times, device_error, turns (each with
+its samples (θ, c), fit and quality verdict), push_log, learned, and for simulated parts
+true_initial_e_um and true_final_e_um. Numbers not determined are null. --csv writes one row per
+part (no turns or pushes).
+
+Examples:
+  gonio parts --db results.sqlite
+  gonio parts --db results.sqlite --since 2026-05-20 --verdict reject --json
+  gonio parts --db postgres://gonio@/results?host=/run/postgresql --csv --out parts.csv")]
+pub struct Args {
+    /// The results store: a SQLite file or a postgres:// URL.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: String,
+    /// Only parts started at or after this time: YYYY-MM-DD, YYYY-MM-DDTHH:MM[:SS] (UTC), or
+    /// RFC 3339 with an offset.
+    #[arg(long, value_name = "TIME")]
+    pub since: Option<String>,
+    /// Only parts with this verdict: pass, reject, or a result (rejected_ring_lost,
+    /// measurement_untrusted, push_inconsistent, rejected_device_error, …).
+    #[arg(long)]
+    pub verdict: Option<String>,
+    /// Only this serial number.
+    #[arg(long)]
+    pub serial: Option<String>,
+    /// Only this batch (its id).
+    #[arg(long)]
+    pub batch: Option<i64>,
+    /// Only the most recent N parts.
+    #[arg(long, value_name = "N")]
+    pub limit: Option<usize>,
+    /// Print the records as a JSON array.
+    #[arg(long, conflicts_with = "csv")]
+    pub json: bool,
+    /// Print one CSV row per part.
+    #[arg(long)]
+    pub csv: bool,
+    /// Write the JSON or CSV here instead of standard output (atomically).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// The CSV columns (one row per part).
+const CSV_HEADER: [&str; 17] = [
+    "part",
+    "serial",
+    "station",
+    "batch",
+    "batch_index",
+    "recipe",
+    "strategy",
+    "started_at",
+    "ended_at",
+    "initial_e_um",
+    "final_e_um",
+    "pushes",
+    "time_s",
+    "result",
+    "verdict",
+    "reject_reason",
+    "remeasured_turns",
+];
+
+fn num(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x}")
+    } else {
+        String::new()
+    }
+}
+
+fn csv_text(rows: &[PartSummary]) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(CSV_HEADER)?;
+    for p in rows {
+        w.write_record([
+            p.part.to_string(),
+            p.serial.clone(),
+            p.station.clone(),
+            p.batch.to_string(),
+            p.batch_index.to_string(),
+            p.recipe.clone(),
+            p.strategy.clone(),
+            p.started_at.clone(),
+            p.ended_at.clone(),
+            num(p.initial_e_um),
+            num(p.final_e_um),
+            p.pushes.to_string(),
+            num(p.time_s),
+            p.result.clone(),
+            p.verdict.name().to_string(),
+            p.reject_reason.clone().unwrap_or_default(),
+            p.remeasured_turns.to_string(),
+        ])?;
+    }
+    let bytes = w.into_inner().map_err(|e| anyhow!("csv: {e}"))?;
+    Ok(String::from_utf8(bytes)?)
+}
+
+fn table(rows: &[PartSummary]) -> String {
+    use std::fmt::Write as _;
+    let mut s = format!(
+        "{:>6} {:<16} {:<20} {:>12} {:>11} {:>6} {:>7}  result\n",
+        "part", "serial", "started (UTC)", "initial e/µm", "final e/µm", "pushes", "time/s"
+    );
+    for p in rows {
+        let _ = writeln!(
+            s,
+            "{:>6} {:<16} {:<20} {:>12.1} {:>11.2} {:>6} {:>7.1}  {}",
+            p.part,
+            p.serial,
+            p.started_at.get(..19).unwrap_or(&p.started_at),
+            p.initial_e_um,
+            p.final_e_um,
+            p.pushes,
+            p.time_s,
+            p.result
+        );
+        if let Some(why) = &p.reject_reason {
+            let _ = writeln!(s, "{:>6} why: {why}", "");
+        }
+    }
+    s
+}
+
+/// Runs `gonio parts`.
+pub fn run(a: Args) -> Result<()> {
+    let since = match &a.since {
+        Some(t) => Some(gonio_store::time::parse_since(t).map_err(|e| anyhow!("--since: {e}"))?),
+        None => None,
+    };
+    let q = PartQuery {
+        since,
+        verdict: a.verdict.clone(),
+        serial: a.serial.clone(),
+        batch: a.batch,
+        limit: a.limit,
+        ..PartQuery::default()
+    };
+    let mut store = db::open(&a.db)?;
+    let location = gonio_store::display_location(&a.db);
+    let err = |e: gonio_store::StoreError| anyhow!("{location}: {e}");
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("-"));
+    if a.json {
+        let parts = store.parts(&q).map_err(err)?;
+        io::write_json(&out, &parts)
+    } else if a.csv {
+        let rows = store.part_summaries(&q).map_err(err)?;
+        io::write_atomic(&out, csv_text(&rows)?.as_bytes())
+    } else {
+        let rows = store.part_summaries(&q).map_err(err)?;
+        let stats = store.stats(&q).map_err(err)?;
+        let mut text = table(&rows);
+        if stats.parts == 0 {
+            text.push_str("\nno parts match\n");
+        } else {
+            text.push_str(&format!(
+            "\n{} parts: {} pass, {} reject; mean {:.1} s, {:.2} pushes (max {}), final e {:.2} µm\n",
+            stats.parts,
+            stats.pass,
+            stats.reject,
+            stats.mean_time_s.unwrap_or(f64::NAN),
+            stats.mean_pushes.unwrap_or(f64::NAN),
+            stats.max_pushes.unwrap_or(0),
+            stats.mean_final_e_um.unwrap_or(f64::NAN),
+        ));
+        }
+        match &a.out {
+            Some(p) => io::write_atomic(p, text.as_bytes()),
+            None => {
+                io::emit(&text);
+                Ok(())
+            }
+        }
+    }
+}

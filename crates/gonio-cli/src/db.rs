@@ -1,0 +1,20 @@
+//! The results store for the commands: opening it by path or URL with a one-line error, and
+//! the software version written into every record.
+
+use anyhow::{Result, anyhow};
+use gonio_store::Store;
+
+/// The software that writes records (`gonio 0.1.0`).
+pub fn software_version() -> String {
+    format!("gonio {}", env!("CARGO_PKG_VERSION"))
+}
+
+/// Opens the store at `location` (a SQLite path or a `postgres://` URL), migrating it.
+pub fn open(location: &str) -> Result<Box<dyn Store>> {
+    gonio_store::open(location).map_err(|e| {
+        anyhow!(
+            "results store {}: {e}",
+            gonio_store::display_location(location)
+        )
+    })
+}
