@@ -23,6 +23,7 @@ mod error;
 pub mod migrate;
 mod pg;
 pub mod record;
+pub mod scratch;
 mod sql;
 mod sqlite;
 pub mod time;

@@ -69,7 +69,15 @@ fn params(p: &[Value]) -> Vec<&(dyn ToSql + Sync)> {
 fn err(e: postgres::Error) -> StoreError {
     let msg = match e.as_db_error() {
         Some(d) => format!("{}: {}", d.code().code(), d.message()),
-        None => e.to_string(),
+        None => {
+            let mut m = e.to_string();
+            let mut src = std::error::Error::source(&e);
+            while let Some(c) = src {
+                m.push_str(&format!(": {c}"));
+                src = c.source();
+            }
+            m
+        }
     };
     StoreError::db("postgres", msg)
 }
@@ -77,6 +85,7 @@ fn err(e: postgres::Error) -> StoreError {
 fn cell(row: &postgres::Row, i: usize) -> Result<Value, StoreError> {
     let ty = row.columns()[i].type_().clone();
     let v = match ty {
+        Type::VOID => return Ok(Value::Null),
         Type::INT8 => row.try_get::<_, Option<i64>>(i).map(|v| v.map(Value::Int)),
         Type::INT4 => row
             .try_get::<_, Option<i32>>(i)
