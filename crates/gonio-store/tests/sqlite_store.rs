@@ -57,3 +57,21 @@ fn a_missing_directory_is_an_open_error_naming_the_path() {
         "{m}"
     );
 }
+
+#[test]
+fn writers_on_several_connections_share_one_file() {
+    // Four connections (as four station processes would) write 10 parts each into one file:
+    // WAL and the busy timeout serialise the transactions, nothing is lost or mixed.
+    let d = tempfile::tempdir().unwrap();
+    let loc = d.path().join("shared.sqlite").to_str().unwrap().to_string();
+    let handles: Vec<_> = (0..4)
+        .map(|w| {
+            let loc = loc.clone();
+            std::thread::spawn(move || common::write_batch(&loc, &format!("w{w}"), 10))
+        })
+        .collect();
+    for h in handles {
+        assert_eq!(h.join().unwrap().len(), 10);
+    }
+    common::check_batches(&loc, 4, 10);
+}
