@@ -17,6 +17,9 @@ pub struct TurnView {
     /// Eccentricity, µm.
     #[serde(default)]
     pub e_um: Option<f64>,
+    /// Why the turn was measured (`initial`, `verify`, `remeasure`), if recorded.
+    #[serde(default)]
+    pub kind: Option<String>,
 }
 
 /// One push.

@@ -5,7 +5,7 @@
 //! colour-vision deficiencies).
 
 use crate::ReportError;
-use crate::batch::{BatchView, PartView};
+use crate::batch::{BatchView, PartView, TurnView};
 use crate::font::{self, FAMILY};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::compare::Comparison;
@@ -1015,7 +1015,7 @@ fn trim(a: f64) -> String {
     s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
-fn part_turn(p: &PartView) -> Option<&crate::batch::TurnView> {
+fn part_turn(p: &PartView) -> Option<&TurnView> {
     p.turns.iter().find(|t| t.samples.len() >= 8)
 }
 
@@ -1024,21 +1024,70 @@ fn part_turn(p: &PartView) -> Option<&crate::batch::TurnView> {
 /// # Errors
 /// [`ReportError::Plot`] if drawing fails.
 pub fn batch_c_theta(b: &BatchView) -> Result<Option<Figure>, ReportError> {
-    let parts: Vec<&PartView> = b
+    let panels: Vec<(String, &TurnView)> = b
         .parts
         .iter()
-        .filter(|p| part_turn(p).is_some())
+        .filter_map(|p| part_turn(p).map(|t| (p, t)))
         .take(4)
+        .map(|(p, t)| {
+            (
+                format!("{}: e = {:.1} µm", p.serial, t.e_um.unwrap_or(f64::NAN)),
+                t,
+            )
+        })
         .collect();
-    if parts.is_empty() {
+    if panels.is_empty() {
         return Ok(None);
     }
-    let rows = parts.len().div_ceil(2) as u32;
+    Ok(Some(Figure {
+        id: "c-theta".into(),
+        title: "Ring column c(θ) over one turn, with the fit".into(),
+        caption: "The first measuring turn of the first parts: the detector's ring column at each frame (blue) and the eccentricity fit c₀ + e·cos(θ − θ_max) + roundness (red).".into(),
+        svg: c_theta_grid("c-theta", &panels)?,
+    }))
+}
+
+/// c(θ) of every measuring turn of one part (initial, verify and re-measured turns), each with
+/// its fit: the part's page in the dashboard.
+///
+/// # Errors
+/// [`ReportError::Plot`] if drawing fails.
+pub fn part_c_theta(p: &PartView) -> Result<Option<Figure>, ReportError> {
+    let panels: Vec<(String, &TurnView)> = p
+        .turns
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.samples.len() >= 8)
+        .map(|(i, t)| {
+            (
+                format!(
+                    "turn {} ({}): e = {:.2} µm",
+                    i + 1,
+                    t.kind.as_deref().unwrap_or("turn"),
+                    t.e_um.unwrap_or(f64::NAN)
+                ),
+                t,
+            )
+        })
+        .collect();
+    if panels.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(Figure {
+        id: "part-c-theta".into(),
+        title: format!("{}: ring column c(θ) of every turn, with the fit", p.serial),
+        caption: "Each measuring turn of the part: the detector's ring column at each valid frame (blue) and the eccentricity fit c₀ + e·cos(θ − θ_max) + roundness (red).".into(),
+        svg: c_theta_grid("part-c-theta", &panels)?,
+    }))
+}
+
+/// Panels of c(θ) with their fits, two per row.
+fn c_theta_grid(id: &str, panels: &[(String, &TurnView)]) -> Result<String, ReportError> {
+    let rows = panels.len().div_ceil(2) as u32;
     let size = (SIZE.0, 320 * rows);
-    let svg = render("c-theta", size, |root| {
+    render(id, size, |root| {
         let areas = root.split_evenly((rows as usize, 2));
-        for (area, part) in areas.iter().zip(&parts) {
-            let turn = part_turn(part).expect("filtered");
+        for (area, (caption, turn)) in areas.iter().zip(panels) {
             let s = &turn.samples;
             let fit = gonio_station::fit::fit(s, &gonio_station::fit::FitOptions::default()).ok();
             let (y0, y1) = range(s.iter().map(|q| q.c_px), 0.12);
@@ -1046,18 +1095,11 @@ pub fn batch_c_theta(b: &BatchView) -> Result<Option<Figure>, ReportError> {
             let mut chart = ChartBuilder::on(area)
                 .margin(10)
                 .margin_right(18)
-                .caption(
-                    format!(
-                        "{}: e = {:.1} µm",
-                        part.serial,
-                        turn.e_um.unwrap_or(f64::NAN)
-                    ),
-                    bold(TICK),
-                )
+                .caption(caption, bold(TICK))
                 .x_label_area_size(46)
                 .y_label_area_size(74)
                 .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(err("c-theta"))?;
+                .map_err(err(id))?;
             chart
                 .configure_mesh()
                 .x_desc("servo angle θ / °")
@@ -1071,7 +1113,7 @@ pub fn batch_c_theta(b: &BatchView) -> Result<Option<Figure>, ReportError> {
                 .x_label_formatter(&|v| format!("{v:.0}"))
                 .y_label_formatter(&|v| fixed(*v, decimals(y1 - y0, 6)))
                 .draw()
-                .map_err(err("c-theta"))?;
+                .map_err(err(id))?;
             let keep = decimate(&s.iter().map(|q| q.c_px).collect::<Vec<_>>(), 1500);
             chart
                 .draw_series(
@@ -1079,7 +1121,7 @@ pub fn batch_c_theta(b: &BatchView) -> Result<Option<Figure>, ReportError> {
                         Circle::new((s[i].theta_deg, s[i].c_px), 2, BLUE.mix(0.6).filled())
                     }),
                 )
-                .map_err(err("c-theta"))?;
+                .map_err(err(id))?;
             if let Some(f) = &fit {
                 chart
                     .draw_series(LineSeries::new(
@@ -1089,17 +1131,11 @@ pub fn batch_c_theta(b: &BatchView) -> Result<Option<Figure>, ReportError> {
                         }),
                         VERMILION.stroke_width(1),
                     ))
-                    .map_err(err("c-theta"))?;
+                    .map_err(err(id))?;
             }
         }
         Ok(())
-    })?;
-    Ok(Some(Figure {
-        id: "c-theta".into(),
-        title: "Ring column c(θ) over one turn, with the fit".into(),
-        caption: "The first measuring turn of the first parts: the detector's ring column at each frame (blue) and the eccentricity fit c₀ + e·cos(θ − θ_max) + roundness (red).".into(),
-        svg,
-    }))
+    })
 }
 
 /// The measured eccentricity before each push and after the last, per part.

@@ -1,0 +1,249 @@
+// The live view: state from /api/live, then server-sent events from /api/events.
+'use strict';
+
+const SVGNS = 'http://www.w3.org/2000/svg';
+const BLUE = '#0072B2', VERMILION = '#D55E00', GREEN = '#009E73', GREY = '#888';
+const $ = (id) => document.getElementById(id);
+
+const live = { serial: null, turn: -1, points: [], fitted: null, pushes: [], c: null, image: null };
+
+function el(tag, attrs, parent, text) {
+  const e = document.createElementNS(SVGNS, tag);
+  for (const k in attrs) e.setAttribute(k, attrs[k]);
+  if (text !== undefined) e.textContent = text;
+  if (parent) parent.appendChild(e);
+  return e;
+}
+
+function fmt(x, d) {
+  return (x === null || x === undefined || !isFinite(x)) ? '—' : Number(x).toFixed(d);
+}
+
+function clear(node) {
+  while (node.firstChild) node.removeChild(node.firstChild);
+}
+
+function ticks(lo, hi, n) {
+  const span = hi - lo || 1;
+  const raw = span / n, mag = Math.pow(10, Math.floor(Math.log10(raw)));
+  const step = [1, 2, 5, 10].map((m) => m * mag).find((s) => span / s <= n) || 10 * mag;
+  const out = [];
+  for (let v = Math.ceil(lo / step) * step; v <= hi + 1e-9; v += step) out.push(v);
+  return { values: out, decimals: Math.max(0, -Math.floor(Math.log10(step))) };
+}
+
+// c(θ): the live trace of the turn in progress, then its stamped samples and the fit.
+function drawCTheta() {
+  const svg = $('ctheta');
+  clear(svg);
+  const W = 720, H = 340, L = 70, R = 14, T = 12, B = 44;
+  const samples = live.fitted ? live.fitted.samples : live.points;
+  const curve = live.fitted ? live.fitted.curve : [];
+  const ys = samples.map((p) => p[1]).concat(curve.map((p) => p[1]));
+  let y0 = Math.min(...ys), y1 = Math.max(...ys);
+  if (!ys.length) { y0 = 700; y1 = 740; }
+  const pad = (y1 - y0) * 0.08 || 1;
+  y0 -= pad; y1 += pad;
+  const x = (v) => L + (W - L - R) * v / 360;
+  const y = (v) => T + (H - T - B) * (1 - (v - y0) / (y1 - y0));
+  el('rect', { x: L, y: T, width: W - L - R, height: H - T - B, fill: '#fff', stroke: '#ccc' }, svg);
+  for (const v of [0, 60, 120, 180, 240, 300, 360]) {
+    el('line', { x1: x(v), x2: x(v), y1: T, y2: H - B, stroke: '#eee' }, svg);
+    el('text', { x: x(v), y: H - B + 16, 'text-anchor': 'middle', 'font-size': 12 }, svg, String(v));
+  }
+  const yt = ticks(y0, y1, 6);
+  for (const v of yt.values) {
+    el('line', { x1: L, x2: W - R, y1: y(v), y2: y(v), stroke: '#eee' }, svg);
+    el('text', { x: L - 6, y: y(v) + 4, 'text-anchor': 'end', 'font-size': 12 }, svg, v.toFixed(yt.decimals));
+  }
+  el('text', { x: (L + W - R) / 2, y: H - 6, 'text-anchor': 'middle', 'font-size': 13 }, svg, 'angle turned since the first frame / °');
+  el('text', { x: 16, y: (T + H - B) / 2, 'text-anchor': 'middle', 'font-size': 13, transform: `rotate(-90 16 ${(T + H - B) / 2})` }, svg, 'ring column c / px');
+  const g = el('g', {}, svg);
+  for (const p of samples) {
+    el('circle', { cx: x(p[0]).toFixed(1), cy: y(p[1]).toFixed(1), r: 2.2, fill: BLUE, 'fill-opacity': 0.65 }, g);
+  }
+  if (curve.length) {
+    el('polyline', { points: curve.map((p) => `${x(p[0]).toFixed(1)},${y(p[1]).toFixed(1)}`).join(' '), fill: 'none', stroke: VERMILION, 'stroke-width': 1.6 }, svg);
+  }
+  svg.dataset.points = String(samples.length);
+  svg.dataset.fitted = curve.length ? '1' : '0';
+  const note = live.fitted
+    ? `turn ${live.fitted.turn + 1} (${live.fitted.kind}): e = ${fmt(live.fitted.e_um, 2)} µm at ${fmt(live.fitted.theta_max_deg, 1)}°, ${live.fitted.valid_frames} of ${live.fitted.frames_taken} frames` +
+      (live.fitted.trusted === false ? ' — failed the quality gate' : live.fitted.trusted === null ? ' — ring lost' : '')
+    : (live.turn >= 0 ? `turn ${live.turn + 1}: ${samples.length} frames so far` : '');
+  $('turn-note').textContent = note;
+}
+
+// The frame: the image (full fidelity) or a schematic of the window with the ring's edges.
+function drawThumb() {
+  const svg = $('thumb');
+  clear(svg);
+  const W = 360, H = 135, s = W / 1440;
+  if (live.image) {
+    el('image', { href: live.image.src, x: 0, y: 0, width: W, height: H, preserveAspectRatio: 'none' }, svg);
+    for (const c of live.image.edges_px) {
+      el('line', { x1: c * W / live.image.width, x2: c * W / live.image.width, y1: 0, y2: H, stroke: VERMILION, 'stroke-width': 1.5 }, svg);
+    }
+    $('frame-note').textContent = 'rendered frame, detected edges in red';
+    return;
+  }
+  el('rect', { x: 0, y: 0, width: W, height: H, fill: '#2b2b2b' }, svg);
+  for (let k = 0; k < 40; k++) {
+    el('line', { x1: k * 9, x2: k * 9, y1: 0, y2: H, stroke: '#3a3a3a', 'stroke-width': 3 }, svg);
+  }
+  if (live.c !== null && live.c !== undefined) {
+    const cx = live.c * s, half = 5.3 * s;
+    el('rect', { x: cx - half, y: 0, width: 2 * half, height: H, fill: '#e8e8e8' }, svg);
+    el('line', { x1: cx - half, x2: cx - half, y1: 0, y2: H, stroke: VERMILION, 'stroke-width': 1.5 }, svg);
+    el('line', { x1: cx + half, x2: cx + half, y1: 0, y2: H, stroke: VERMILION, 'stroke-width': 1.5 }, svg);
+    $('frame-note').textContent = `ring at c = ${fmt(live.c, 2)} px (schematic: the fast simulation renders no image)`;
+  } else {
+    el('text', { x: W / 2, y: H / 2, fill: '#ddd', 'text-anchor': 'middle', 'font-size': 13 }, svg, 'no ring in this frame');
+    $('frame-note').textContent = '';
+  }
+}
+
+function drawPushes() {
+  const body = $('pushes').tBodies[0];
+  clear(body);
+  live.pushes.forEach((p, i) => {
+    const tr = body.insertRow();
+    for (const v of [i + 1, fmt(p.e_before_um, 2), fmt(p.commanded_um, 2), fmt(p.angle_deg, 1), p.approach, fmt(p.predicted_e_after_um, 2)]) {
+      tr.insertCell().textContent = String(v);
+    }
+  });
+  // Each push as an arrow from the eccentricity it started from toward the centre.
+  const svg = $('pushplot');
+  clear(svg);
+  const cx = 180, cy = 100, R = 88;
+  el('circle', { cx, cy, r: R, fill: '#fff', stroke: '#ccc' }, svg);
+  el('line', { x1: cx - R, x2: cx + R, y1: cy, y2: cy, stroke: '#eee' }, svg);
+  el('line', { x1: cx, x2: cx, y1: cy - R, y2: cy + R, stroke: '#eee' }, svg);
+  el('circle', { cx, cy, r: 2.5, fill: GREY }, svg);
+  const emax = Math.max(1, ...live.pushes.map((p) => p.e_before_um || 0));
+  el('text', { x: cx + R + 4, y: cy + 4, 'font-size': 11 }, svg, `${fmt(emax, 0)} µm`);
+  const colours = [BLUE, VERMILION, GREEN, '#E69F00', '#CC79A7'];
+  live.pushes.forEach((p, i) => {
+    const a = (p.angle_deg || 0) * Math.PI / 180, r = R * (p.e_before_um || 0) / emax;
+    const x0 = cx + r * Math.cos(a), y0 = cy - r * Math.sin(a);
+    const c = colours[i % colours.length];
+    el('line', { x1: x0, y1: y0, x2: cx, y2: cy, stroke: c, 'stroke-width': 2 }, svg);
+    el('circle', { cx: x0, cy: y0, r: 4, fill: c }, svg);
+    el('text', { x: x0 + 6, y: y0 - 4, 'font-size': 11, fill: c }, svg, String(i + 1));
+  });
+}
+
+function setPhase(p) {
+  $('phase').textContent = p;
+}
+
+async function getJSON(url) {
+  const r = await fetch(url);
+  if (!r.ok) throw new Error(`${url}: ${r.status}`);
+  return r.json();
+}
+
+async function refreshCounters() {
+  const s = await getJSON('/api/stats');
+  const st = s.store, pa = s.paper;
+  const rows = [
+    ['parts', st.parts, pa.parts],
+    ['pass / reject', `${st.pass} / ${st.reject}`, '—'],
+    ['mean time / s', fmt(st.mean_time_s, 1), fmt(pa.mean_time_s, 1)],
+    ['mean pushes (max)', st.mean_pushes === null ? '—' : `${fmt(st.mean_pushes, 2)} (${st.max_pushes})`, `${fmt(pa.mean_pushes, 1)} (${pa.max_pushes})`],
+    ['mean final e / µm', fmt(st.mean_final_e_um, 2), fmt(pa.mean_final_e_um, 1)],
+  ];
+  const body = $('counters').tBodies[0];
+  clear(body);
+  for (const r of rows) {
+    const tr = body.insertRow();
+    r.forEach((v, i) => { const td = tr.insertCell(); td.textContent = String(v); if (i === 0) td.className = 'l'; });
+  }
+  $('paper-head').textContent = pa.source;
+}
+
+async function refreshRecent() {
+  const parts = await getJSON('/api/parts?view=summary&limit=10');
+  const body = $('recent').tBodies[0];
+  clear(body);
+  for (const p of parts.reverse()) {
+    const tr = body.insertRow();
+    const a = document.createElement('a');
+    a.href = `/parts/${p.part}`;
+    a.textContent = String(p.part);
+    tr.insertCell().appendChild(a);
+    const cells = [[p.serial, 'l'], [p.started_at.slice(0, 19).replace('T', ' '), 'l'], [fmt(p.initial_e_um, 1)], [fmt(p.final_e_um, 2)], [p.pushes], [fmt(p.time_s, 1)], [p.result, 'l ' + p.verdict]];
+    for (const [v, cls] of cells) {
+      const td = tr.insertCell();
+      td.textContent = String(v);
+      if (cls) td.className = cls;
+    }
+  }
+}
+
+async function refreshTiming() {
+  const s = await getJSON('/api/status');
+  const t = s.frame_timing;
+  $('timing').textContent = (t && t.frames)
+    ? `frame loop: ${t.frames} frames, lateness p50 ${fmt(t.p50_late_ms, 2)} ms, p99 ${fmt(t.p99_late_ms, 2)} ms, max ${fmt(t.max_late_ms, 1)} ms; ${t.late_frames} frames later than one period (${fmt(t.period_ms, 1)} ms)`
+    : (s.station ? '' : 'no station attached: history only');
+}
+
+function loadState(st) {
+  live.serial = st.serial;
+  live.turn = st.turn;
+  live.points = st.points || [];
+  live.fitted = st.last_turn && st.last_turn.turn === st.turn ? st.last_turn : null;
+  live.pushes = st.pushes || [];
+  live.c = st.c_px;
+  live.image = st.image;
+  $('serial').textContent = st.serial || '—';
+  setPhase(st.phase);
+  drawCTheta();
+  drawThumb();
+  drawPushes();
+}
+
+function report(e) {
+  $('conn').textContent = `error: ${e.message}`;
+}
+
+const handlers = {
+  part(d) {
+    live.serial = d.serial; live.turn = -1; live.points = []; live.fitted = null; live.pushes = [];
+    $('serial').textContent = d.serial;
+    drawCTheta(); drawPushes();
+  },
+  phase(d) { setPhase(d.phase); },
+  frames(d) {
+    if (d.turn !== live.turn) { live.turn = d.turn; live.points = []; live.fitted = null; }
+    live.points.push(...d.points);
+    live.c = d.c_px;
+    drawCTheta(); if (!live.image) drawThumb();
+  },
+  turn(d) { live.fitted = d; live.turn = d.turn; drawCTheta(); },
+  push(d) { live.pushes.push(d); drawPushes(); },
+  image(d) { live.image = d; drawThumb(); },
+  finished() { setPhase('idle'); },
+  stored() { refreshCounters().catch(report); refreshRecent().catch(report); refreshTiming().catch(report); },
+  batch(d) { setPhase('idle'); $('conn').textContent = d.message; },
+  resync() { getJSON('/api/live').then(loadState).catch(report); },
+};
+
+function connect() {
+  const es = new EventSource('/api/events');
+  es.onopen = () => { $('conn').textContent = 'live'; };
+  es.onerror = () => { $('conn').textContent = 'reconnecting…'; };
+  for (const name in handlers) {
+    es.addEventListener(name, (ev) => {
+      try { handlers[name](JSON.parse(ev.data)); } catch (e) { report(e); }
+    });
+  }
+}
+
+getJSON('/api/live').then(loadState).catch(report);
+refreshCounters().catch(report);
+refreshRecent().catch(report);
+refreshTiming().catch(report);
+connect();
+setInterval(() => { refreshTiming().catch(report); }, 2000);

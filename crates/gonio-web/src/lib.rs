@@ -1,0 +1,95 @@
+//! The station's dashboard: a live view of the station at work (the current frame, c(θ)
+//! filling in as the turn proceeds and then its fit, each push, the counters beside the figures
+//! of Yu et al., 2024), the history of parts with a page per part (the report's plots), the
+//! calibration certificates, and a read-only JSON API with server-sent events.
+//!
+//! - `GET /` live view, `/history`, `/parts/{id}`, `/calibrations`, `/calibrations/{id}`;
+//! - `GET /api/parts` (the same array as `gonio parts --json`, with the same filters as query
+//!   parameters: `since`, `verdict`, `serial`, `batch`, `limit`; `view=summary` for table rows),
+//!   `/api/parts/{id}`, `/api/stats`, `/api/calibrations`, `/api/calibrations/{id}`,
+//!   `/api/live` (the live view's state), `/api/status` (the station's frame timing),
+//!   `/api/events` (server-sent events).
+//!
+//! Everything is read-only (only `GET`), and every asset is built into the binary: no CDN, no
+//! network. The station publishes through [`live::LiveObserver`]; the web layer never calls
+//! the station.
+//!
+//! ```no_run
+//! # async fn doc() -> Result<(), gonio_web::WebError> {
+//! let hub = gonio_web::live::Hub::new(false);
+//! let app = gonio_web::router("results.sqlite", hub)?;
+//! let listener = tokio::net::TcpListener::bind("127.0.0.1:8080").await.unwrap();
+//! axum::serve(listener, app).await.unwrap();
+//! # Ok(()) }
+//! ```
+#![deny(missing_docs)]
+
+mod api;
+mod assets;
+pub mod live;
+mod pages;
+
+use std::sync::Arc;
+use thiserror::Error;
+
+pub use api::router;
+
+/// An error of the dashboard.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum WebError {
+    /// The results store failed.
+    #[error("results store: {0}")]
+    Store(#[from] gonio_store::StoreError),
+    /// The address cannot be bound.
+    #[error("cannot listen on {addr}: {message}")]
+    Bind {
+        /// The address.
+        addr: String,
+        /// Why.
+        message: String,
+    },
+    /// The server failed.
+    #[error("server: {message}")]
+    Serve {
+        /// Why.
+        message: String,
+    },
+}
+
+/// Serves the dashboard on `listener` until Ctrl-C (or SIGTERM); `ready` is called with the
+/// bound address first.
+///
+/// # Errors
+/// [`WebError::Store`] when the store cannot be opened; [`WebError::Serve`].
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    store_location: &str,
+    hub: Arc<live::Hub>,
+) -> Result<(), WebError> {
+    let app = router(store_location, hub)?;
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown())
+        .await
+        .map_err(|e| WebError::Serve {
+            message: e.to_string(),
+        })
+}
+
+async fn shutdown() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+}

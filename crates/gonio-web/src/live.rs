@@ -1,0 +1,308 @@
+//! The live view's feed: a [`Hub`] that the station's thread publishes to through a
+//! [`LiveObserver`] (a `gonio_station::observe::Observer`: the controller knows nothing of the
+//! web), holding the current state for a page that connects mid-part and broadcasting every
+//! event to the connected pages. Publishing never blocks the station: a page that falls behind
+//! loses events and is told to reload the state.
+
+use gonio_station::fit::EccentricityFit;
+use gonio_station::observe::{LiveFrame, Observer, Phase};
+use gonio_station::record::{PartRecord, PushRecord, TurnRecord};
+use serde::Serialize;
+use serde_json::{Value, json};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio::sync::broadcast;
+
+/// One event for the pages: its SSE name and its JSON data.
+#[derive(Debug, Clone)]
+pub struct Event {
+    /// SSE event name (`part`, `phase`, `frames`, `turn`, `push`, `finished`, `stored`, `image`).
+    pub name: &'static str,
+    /// The data, JSON.
+    pub data: String,
+}
+
+/// What a page needs to draw the live view when it connects.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct LiveState {
+    /// Whether a station is attached to this dashboard.
+    pub station: bool,
+    /// The part being mounted.
+    pub serial: Option<String>,
+    /// What the station is doing (`focus`, `measure`, `push`, `idle`).
+    pub phase: String,
+    /// Index of the turn in progress within the part.
+    pub turn: usize,
+    /// The live points of the turn in progress: (angle turned since its first frame °, c px).
+    pub points: Vec<[f64; 2]>,
+    /// Frames of the turn so far and in all.
+    pub frames: [usize; 2],
+    /// The last evaluated turn: its samples and fitted curve.
+    pub last_turn: Option<Value>,
+    /// The pushes of the part so far.
+    pub pushes: Vec<Value>,
+    /// The last frame's ring column, px (the thumbnail).
+    pub c_px: Option<f64>,
+    /// The last frame image with its detected edges (full-fidelity frames only).
+    pub image: Option<Value>,
+    /// Events published so far.
+    pub events: u64,
+}
+
+/// Where the station's events meet the pages.
+pub struct Hub {
+    tx: broadcast::Sender<Arc<Event>>,
+    state: Mutex<LiveState>,
+    status: Mutex<Option<StatusSource>>,
+}
+
+/// What `/api/status` reports about the station itself.
+pub type StatusSource = Box<dyn Fn() -> Value + Send>;
+
+impl std::fmt::Debug for Hub {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Hub").finish_non_exhaustive()
+    }
+}
+
+impl Hub {
+    /// A hub; `station`: whether a station will publish to it.
+    pub fn new(station: bool) -> Arc<Hub> {
+        let (tx, _) = broadcast::channel(1024);
+        Arc::new(Hub {
+            tx,
+            state: Mutex::new(LiveState {
+                station,
+                phase: "idle".into(),
+                ..LiveState::default()
+            }),
+            status: Mutex::new(None),
+        })
+    }
+
+    /// Subscribes to the events from now on.
+    pub fn subscribe(&self) -> broadcast::Receiver<Arc<Event>> {
+        self.tx.subscribe()
+    }
+
+    /// The current state.
+    pub fn state(&self) -> LiveState {
+        self.state.lock().map(|s| s.clone()).unwrap_or_default()
+    }
+
+    /// Sets where `/api/status` reads the station's own figures (its frame timing).
+    pub fn set_status_source(&self, f: StatusSource) {
+        if let Ok(mut s) = self.status.lock() {
+            *s = Some(f);
+        }
+    }
+
+    /// The station's own figures (`null` without a source).
+    pub fn station_status(&self) -> Value {
+        self.status
+            .lock()
+            .ok()
+            .and_then(|s| s.as_ref().map(|f| f()))
+            .unwrap_or(Value::Null)
+    }
+
+    /// Publishes an event after updating the state with `update`.
+    pub fn publish(&self, name: &'static str, data: Value, update: impl FnOnce(&mut LiveState)) {
+        if let Ok(mut s) = self.state.lock() {
+            update(&mut s);
+            s.events += 1;
+        }
+        // No receiver is not an error: nobody is watching.
+        let _ = self.tx.send(Arc::new(Event {
+            name,
+            data: data.to_string(),
+        }));
+    }
+
+    /// A part was committed to the store with id `part` (the history can show it).
+    pub fn part_stored(&self, part: i64, serial: &str, result: &str) {
+        self.publish(
+            "stored",
+            json!({"part": part, "serial": serial, "result": result}),
+            |_| {},
+        );
+    }
+
+    /// The station has finished its batch.
+    pub fn batch_finished(&self, message: &str) {
+        self.publish("batch", json!({"message": message}), |s| {
+            s.phase = "idle".into();
+            s.serial = None;
+        });
+    }
+
+    /// A frame image (full fidelity): a PNG data URL, its size and the detected edge columns.
+    pub fn image(&self, png_data_url: String, width: u32, height: u32, edges_px: Vec<f64>) {
+        let v =
+            json!({"src": png_data_url, "width": width, "height": height, "edges_px": edges_px});
+        self.publish("image", v.clone(), |s| s.image = Some(v));
+    }
+}
+
+/// Publishes the station's events to a [`Hub`]. Frames are sent in small batches (at most
+/// every 40 ms of wall time) so a fast simulation does not flood the pages.
+#[derive(Debug)]
+pub struct LiveObserver {
+    hub: Arc<Hub>,
+    pending: Vec<[f64; 2]>,
+    first_deg: Option<f64>,
+    last_flush: Instant,
+    frame: (usize, usize, usize),
+    last_c: Option<f64>,
+}
+
+impl LiveObserver {
+    /// An observer publishing to `hub`.
+    pub fn new(hub: Arc<Hub>) -> Self {
+        LiveObserver {
+            hub,
+            pending: Vec::new(),
+            first_deg: None,
+            last_flush: Instant::now(),
+            frame: (0, 0, 0),
+            last_c: None,
+        }
+    }
+
+    fn flush(&mut self) {
+        let (turn, index, frames) = self.frame;
+        let pts = std::mem::take(&mut self.pending);
+        let c = self.last_c;
+        self.last_flush = Instant::now();
+        self.hub.publish(
+            "frames",
+            json!({"turn": turn, "index": index, "frames": frames, "points": pts, "c_px": c}),
+            |s| {
+                if s.turn != turn {
+                    s.turn = turn;
+                    s.points.clear();
+                }
+                s.points.extend_from_slice(&pts);
+                s.frames = [index + 1, frames];
+                s.c_px = c;
+            },
+        );
+    }
+}
+
+fn num(x: f64) -> Value {
+    if x.is_finite() { json!(x) } else { Value::Null }
+}
+
+/// A turn for the live view: samples and the fitted curve, in the angle turned since the
+/// turn's first sample (so the live trace and the evaluated turn share one axis).
+pub fn turn_json(index: usize, t: &TurnRecord, fit: Option<&EccentricityFit>) -> Value {
+    let theta0 = t.samples.first().map_or(0.0, |s| s.theta_deg);
+    let samples: Vec<[f64; 2]> = t
+        .samples
+        .iter()
+        .map(|s| [s.theta_deg - theta0, s.c_px])
+        .collect();
+    let curve: Vec<[f64; 2]> = fit
+        .map(|f| {
+            (0..=120)
+                .map(|i| {
+                    let x = 3.0 * i as f64;
+                    [x, f.model_px(theta0 + x)]
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    json!({
+        "turn": index,
+        "kind": t.kind,
+        "frames_taken": t.frames_taken,
+        "valid_frames": t.samples.len(),
+        "e_um": num(t.e_um),
+        "theta_max_deg": num(t.theta_max_deg),
+        "residual_rms_px": num(t.residual_rms_px),
+        "trusted": t.quality.as_ref().map(|q| q.ok),
+        "reasons": t.quality.as_ref().map(|q| q.reasons()).unwrap_or_default(),
+        "samples": samples,
+        "curve": curve,
+    })
+}
+
+fn push_json(p: &PushRecord) -> Value {
+    json!({
+        "e_before_um": num(p.e_before_um),
+        "commanded_um": num(p.commanded_um),
+        "angle_deg": num(p.angle_deg),
+        "approach": p.approach,
+        "steps": p.steps,
+        "predicted_e_after_um": num(p.predicted_e_after_um),
+        "duration_s": num(p.duration_s),
+    })
+}
+
+impl Observer for LiveObserver {
+    fn part_started(&mut self, serial: &str) {
+        let serial = serial.to_string();
+        self.hub.publish("part", json!({"serial": serial}), |s| {
+            s.serial = Some(serial.clone());
+            s.points.clear();
+            s.pushes.clear();
+            s.last_turn = None;
+            s.turn = 0;
+            s.frames = [0, 0];
+        });
+    }
+
+    fn phase(&mut self, phase: Phase) {
+        let name = match phase {
+            Phase::Focus => "focus",
+            Phase::Measure(_) => "measure",
+            Phase::Push => "push",
+        };
+        self.hub
+            .publish("phase", json!({"phase": name}), |s| s.phase = name.into());
+    }
+
+    fn frame(&mut self, f: &LiveFrame) {
+        if f.index == 0 {
+            self.first_deg = Some(f.turn_deg);
+            self.pending.clear();
+        }
+        let x = f.turn_deg - self.first_deg.unwrap_or(f.turn_deg);
+        if let Some(c) = f.c_px {
+            self.pending.push([x, c]);
+        }
+        self.last_c = f.c_px;
+        self.frame = (f.turn, f.index, f.frames);
+        if f.index + 1 == f.frames || self.last_flush.elapsed() >= Duration::from_millis(40) {
+            self.flush();
+        }
+    }
+
+    fn turn(&mut self, turn: &TurnRecord, fit: Option<&EccentricityFit>) {
+        let index = self.frame.0;
+        let v = turn_json(index, turn, fit);
+        self.hub
+            .publish("turn", v.clone(), |s| s.last_turn = Some(v.clone()));
+    }
+
+    fn push(&mut self, push: &PushRecord) {
+        let v = push_json(push);
+        self.hub.publish("push", v.clone(), |s| s.pushes.push(v));
+    }
+
+    fn part_finished(&mut self, r: &PartRecord) {
+        self.hub.publish(
+            "finished",
+            json!({
+                "serial": r.serial,
+                "result": r.result.name(),
+                "final_e_um": num(r.final_e_um),
+                "pushes": r.pushes,
+                "time_s": num(r.time_s),
+                "reject_reason": r.reject_reason,
+            }),
+            |s| s.phase = "idle".into(),
+        );
+    }
+}
