@@ -7,6 +7,7 @@ mod cmd;
 mod db;
 mod formats;
 mod io;
+mod station;
 mod table;
 
 use clap::{Parser, Subcommand};
@@ -56,6 +57,8 @@ enum Command {
     Detect(cmd::detect::Args),
     /// Query the mounted parts in a results store (SQLite file or PostgreSQL).
     Parts(cmd::parts::Args),
+    /// The station's dashboard in the browser: live view, history, calibrations, JSON API.
+    Serve(cmd::serve::Args),
 }
 
 fn main() {
@@ -75,6 +78,7 @@ fn main() {
         Command::Mount(a) => cmd::mount::run(a),
         Command::Detect(a) => cmd::detect::run(a),
         Command::Parts(a) => cmd::parts::run(a),
+        Command::Serve(a) => cmd::serve::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ".

@@ -94,3 +94,31 @@ impl<T: Observer + ?Sized> Observer for &mut T {
         (**self).part_finished(record)
     }
 }
+
+/// Two observers, both told everything (first `.0`, then `.1`).
+impl<A: Observer, B: Observer> Observer for (A, B) {
+    fn part_started(&mut self, serial: &str) {
+        self.0.part_started(serial);
+        self.1.part_started(serial);
+    }
+    fn phase(&mut self, phase: Phase) {
+        self.0.phase(phase);
+        self.1.phase(phase);
+    }
+    fn frame(&mut self, frame: &LiveFrame) {
+        self.0.frame(frame);
+        self.1.frame(frame);
+    }
+    fn turn(&mut self, turn: &TurnRecord, fit: Option<&EccentricityFit>) {
+        self.0.turn(turn, fit);
+        self.1.turn(turn, fit);
+    }
+    fn push(&mut self, push: &PushRecord) {
+        self.0.push(push);
+        self.1.push(push);
+    }
+    fn part_finished(&mut self, record: &PartRecord) {
+        self.0.part_finished(record);
+        self.1.part_finished(record);
+    }
+}

@@ -41,14 +41,6 @@ pub enum WebError {
     /// The results store failed.
     #[error("results store: {0}")]
     Store(#[from] gonio_store::StoreError),
-    /// The address cannot be bound.
-    #[error("cannot listen on {addr}: {message}")]
-    Bind {
-        /// The address.
-        addr: String,
-        /// Why.
-        message: String,
-    },
     /// The server failed.
     #[error("server: {message}")]
     Serve {
@@ -74,6 +66,31 @@ pub async fn serve(
         .map_err(|e| WebError::Serve {
             message: e.to_string(),
         })
+}
+
+/// As [`serve`] on a listener bound by the caller (`std`), on a runtime of its own: for a
+/// program without one. Blocks until Ctrl-C (or SIGTERM).
+///
+/// # Errors
+/// As [`serve`]; [`WebError::Serve`] when the runtime cannot start.
+pub fn serve_blocking(
+    listener: std::net::TcpListener,
+    store_location: &str,
+    hub: Arc<live::Hub>,
+) -> Result<(), WebError> {
+    let serve_err = |e: std::io::Error| WebError::Serve {
+        message: e.to_string(),
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(serve_err)?;
+    rt.block_on(async move {
+        listener.set_nonblocking(true).map_err(serve_err)?;
+        let listener = tokio::net::TcpListener::from_std(listener).map_err(serve_err)?;
+        serve(listener, store_location, hub).await
+    })
 }
 
 async fn shutdown() {

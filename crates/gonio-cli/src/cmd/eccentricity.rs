@@ -1,7 +1,7 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
-use crate::cmd::mount::load_recipe;
 use crate::io::{CsvTable, write_json};
+use crate::station::load_recipe;
 use anyhow::{Result, anyhow};
 use gonio_station::fit::{FitMethod, FitOptions, Sample, fit_judged, validate};
 use gonio_station::quality::{QualityMetrics, QualitySettings};

@@ -12,5 +12,6 @@ pub mod mount;
 pub mod parts;
 pub mod report;
 pub mod selfcal;
+pub mod serve;
 pub mod shift_angle;
 pub mod simulate;

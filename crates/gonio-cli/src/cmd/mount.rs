@@ -1,55 +1,15 @@
 //! `gonio mount`: mount a batch of gratings on the (simulated) automatic mounting station.
 
-use crate::db;
 use crate::formats::frames::load_scene;
-use crate::io::{read_text, write_json};
-use anyhow::{Result, anyhow, bail};
+use crate::io::write_json;
+use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
+use anyhow::{Result, bail};
 use gonio_sim::frames::{GratingScene, ScenePreset};
-use gonio_sim::station::{
-    BatchConfig, BatchReport, Fidelity, PartDone, RunOptions, run_batch_observed,
-};
-use gonio_station::observe::Observer;
-use gonio_station::strategy::Learned;
-use gonio_station::{Recipe, StationError, Strategy};
-use gonio_store::{BatchStatus, NewBatch, NewPart, Store};
+use gonio_sim::station::{BatchConfig, BatchReport, PartDone};
+use gonio_station::Recipe;
+use gonio_station::observe::NoObserver;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::cell::RefCell;
-use std::ops::ControlFlow;
-use std::path::{Path, PathBuf};
-use std::rc::Rc;
-
-/// Push strategy on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum StrategyArg {
-    /// The station of Yu et al., 2024: extreme-point fit, push by e.
-    Paper,
-    /// Least-squares fit, push by e.
-    LeastSquares,
-    /// Least squares + push model + learned gain and angle offset (default).
-    Learned,
-    /// Push under live-baseline feedback.
-    Live,
-}
-
-impl From<StrategyArg> for Strategy {
-    fn from(s: StrategyArg) -> Self {
-        match s {
-            StrategyArg::Paper => Strategy::Paper,
-            StrategyArg::LeastSquares => Strategy::LeastSquares,
-            StrategyArg::Learned => Strategy::Learned,
-            StrategyArg::Live => Strategy::Live,
-        }
-    }
-}
-
-/// Frame fidelity on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum FidelityArg {
-    /// Ring column from the geometry plus detector noise.
-    Fast,
-    /// Frames rendered and run through the real detector.
-    Frames,
-}
+use std::path::PathBuf;
 
 /// The scene rendered at `--fidelity frames`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -138,92 +98,6 @@ pub struct Args {
     pub station_name: String,
 }
 
-/// The batch's identity in the store: what was asked for, so `--resume` finds the same batch.
-fn batch_config_json(cfg: &BatchConfig, seed: u64) -> Result<String> {
-    Ok(serde_json::to_string(&serde_json::json!({
-        "seed": seed,
-        "config": cfg,
-    }))?)
-}
-
-/// Notes the wall-clock start of each part (for its record in the store).
-struct WallClock {
-    started_at: Rc<RefCell<String>>,
-}
-
-impl Observer for WallClock {
-    fn part_started(&mut self, _serial: &str) {
-        *self.started_at.borrow_mut() = gonio_store::time::now_utc();
-    }
-}
-
-/// Where a batch writes its parts.
-struct Sink<'a> {
-    store: &'a mut dyn Store,
-    batch: i64,
-    station: &'a str,
-    recipe: &'a Recipe,
-    version: String,
-    error: Option<anyhow::Error>,
-}
-
-impl Sink<'_> {
-    fn commit(&mut self, d: &PartDone, started_at: &str) -> ControlFlow<()> {
-        let ended_at = gonio_store::time::now_utc();
-        let r = self.store.insert_part(&NewPart {
-            batch: self.batch,
-            batch_index: d.index,
-            station: self.station,
-            software_version: &self.version,
-            recipe: self.recipe,
-            started_at,
-            ended_at: &ended_at,
-            record: &d.part.record,
-            learned: d.learned,
-            truth: Some((d.part.true_initial_e_um, d.part.true_final_e_um)),
-        });
-        match r {
-            Ok(_) => ControlFlow::Continue(()),
-            Err(e) => {
-                self.error = Some(anyhow!(
-                    "storing part {} ({}): {e}",
-                    d.index + 1,
-                    d.part.record.serial
-                ));
-                ControlFlow::Break(())
-            }
-        }
-    }
-}
-
-/// Reads a recipe file; errors name the file, line and column.
-pub fn load_recipe(path: &Path) -> Result<Recipe> {
-    let text = read_text(path)?;
-    Recipe::from_toml(&text).map_err(|e| match e {
-        StationError::Recipe {
-            line,
-            column,
-            message,
-        } if line > 0 => anyhow!("{}:{}:{}: {}", path.display(), line, column, message),
-        StationError::RecipeValue {
-            key,
-            value,
-            expected,
-            line,
-            column,
-        } if line > 0 => anyhow!(
-            "{}:{}:{}: {} = {}: expected {}",
-            path.display(),
-            line,
-            column,
-            key,
-            value,
-            expected
-        ),
-        other => anyhow!("{}: {}", path.display(), other),
-    })
-}
-
 /// Runs `gonio mount`.
 pub fn run(a: Args) -> Result<()> {
     if !a.sim {
@@ -245,119 +119,58 @@ pub fn run(a: Args) -> Result<()> {
     let cfg = BatchConfig {
         parts: a.parts,
         strategy: a.strategy.into(),
-        fidelity: match a.fidelity {
-            FidelityArg::Fast => Fidelity::Fast,
-            FidelityArg::Frames => Fidelity::Frames,
-        },
+        fidelity: a.fidelity.into(),
         scene: Some(scene),
         recipe,
         ..BatchConfig::default()
     };
     let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
-    let mut store = match &a.db {
-        Some(loc) => Some(db::open(loc)?),
-        None => None,
+    let target = station::Target {
+        db: a.db.as_deref(),
+        resume: a.resume,
+        station: &a.station_name,
     };
-    let config_json = batch_config_json(&cfg, a.seed)?;
-    let mut opts = RunOptions::default();
-    let mut batch = None;
-    if let Some(st) = store.as_mut() {
-        let loc = gonio_store::display_location(a.db.as_deref().unwrap_or_default());
-        if a.resume {
-            let info = st
-                .latest_batch(&a.station_name, &config_json)
-                .map_err(|e| anyhow!("{loc}: {e}"))?
-                .ok_or_else(|| {
-                    anyhow!(
-                        "{loc}: no batch of station {} with these settings (seed {}, {} parts, strategy {}, recipe {}) to resume: start it without --resume",
-                        a.station_name,
-                        a.seed,
-                        a.parts,
-                        cfg.strategy.name(),
-                        cfg.recipe.name
-                    )
-                })?;
-            if info.next_index() >= info.parts_planned {
-                eprintln!(
-                    "batch {} in {loc} is complete ({} of {} parts stored): nothing to resume",
-                    info.batch, info.parts_stored, info.parts_planned
-                );
-                return Ok(());
-            }
-            eprintln!(
-                "resuming batch {} in {loc} at part {} of {} ({} stored)",
-                info.batch,
-                info.next_index() + 1,
-                info.parts_planned,
-                info.parts_stored
-            );
-            opts.first_part = info.next_index();
-            opts.learned = info.learned.unwrap_or_else(Learned::default);
-            batch = Some(info.batch);
-        } else {
-            batch = Some(
-                st.begin_batch(&NewBatch {
-                    station: &a.station_name,
-                    seed: Some(a.seed),
-                    config_json: &config_json,
-                    parts_planned: a.parts,
-                    software_version: &db::software_version(),
-                })
-                .map_err(|e| anyhow!("{loc}: {e}"))?,
-            );
+    let prepared = match station::prepare(&cfg, a.seed, &target)? {
+        station::Start::Run(p) => p,
+        station::Start::Complete(note) => {
+            eprintln!("{note}");
+            return Ok(());
         }
+    };
+    if let Some(note) = &prepared.note {
+        eprintln!("{note}");
     }
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    bar.set_position(opts.first_part as u64);
-    let started = Rc::new(RefCell::new(gonio_store::time::now_utc()));
-    let mut clock = WallClock {
-        started_at: started.clone(),
-    };
-    let mut sink = match (store.as_mut(), batch) {
-        (Some(st), Some(b)) => Some(Sink {
-            store: st.as_mut(),
-            batch: b,
+    bar.set_position(prepared.first_part as u64);
+    let report = station::run(
+        *prepared,
+        &cfg,
+        a.seed,
+        station::Run {
+            observer: &mut NoObserver,
+            pace: None,
             station: &a.station_name,
-            recipe: &cfg.recipe,
-            version: db::software_version(),
-            error: None,
-        }),
-        _ => None,
-    };
-    opts.observer = Some(&mut clock);
-    let report = run_batch_observed(&cfg, a.seed, opts, &mut |d: &PartDone| {
-        bar.inc(1);
-        bar.set_message(format!(
-            "{} {}",
-            d.part.record.serial,
-            d.part.record.result.name()
-        ));
-        match sink.as_mut() {
-            Some(s) => s.commit(d, &started.borrow()),
-            None => ControlFlow::Continue(()),
+        },
+        &mut |d: &PartDone, _| {
+            bar.inc(1);
+            bar.set_message(format!(
+                "{} {}",
+                d.part.record.serial,
+                d.part.record.result.name()
+            ));
+        },
+    );
+    let report = match report {
+        Ok(r) => r,
+        Err(e) => {
+            bar.abandon();
+            return Err(e);
         }
-    })
-    .map_err(|e| anyhow!("simulated station: {e}"))?;
-    if let Some(e) = sink.and_then(|s| s.error) {
-        bar.abandon();
-        return Err(e);
-    }
-    if let (Some(st), Some(b)) = (store.as_mut(), batch) {
-        let (status, reason) = match &report.stopped {
-            Some(why) => (BatchStatus::Stopped, Some(why.as_str())),
-            None => (BatchStatus::Complete, None),
-        };
-        st.end_batch(b, status, reason).map_err(|e| {
-            anyhow!(
-                "{}: {e}",
-                gonio_store::display_location(a.db.as_deref().unwrap_or_default())
-            )
-        })?;
-    }
+    };
     bar.finish_and_clear();
     print_and_write(&a, &report, to_stdout)
 }

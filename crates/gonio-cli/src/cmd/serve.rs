@@ -1,0 +1,218 @@
+//! `gonio serve`: the station's dashboard in the browser (live view, history, calibrations,
+//! JSON API), optionally with the simulated station running and publishing to it.
+
+use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
+use anyhow::{Context, Result, bail};
+use gonio_sim::station::{BatchConfig, FrameTiming, Pace, PartDone};
+use gonio_station::Recipe;
+use gonio_web::live::{Hub, LiveObserver};
+use std::net::{SocketAddr, TcpListener};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A station to run under the dashboard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StationArg {
+    /// The simulated station (the digital twin), paced to the wall clock.
+    Sim,
+}
+
+/// Arguments of `gonio serve`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Serves the dashboard of a results store: a live view of the station (the current frame with the
+ring's detected edges, the ring column c(θ) filling in as the turn proceeds and then its fit,
+each push as it happens, counters beside the figures of Yu et al., 2024), the history of parts
+with filters and a page per part with its plots, the calibration certificates, and a read-only
+JSON API:
+  GET /api/parts         the same array as `gonio parts --json` (filters: since, verdict,
+                         serial, batch, limit)
+  GET /api/parts/{id}    one part
+  GET /api/events        server-sent events (part, phase, frames, turn, push, finished, stored)
+  GET /api/stats, /api/calibrations, /api/calibrations/{id}, /api/live, /api/status
+
+The dashboard only reads: nothing in it changes the station or the store. It listens on
+127.0.0.1 (this machine only) unless --allow-remote is given with another address.
+
+With --station sim, the simulated station mounts --parts parts (seed --seed) in step with the
+wall clock (--speed times real time), committing each part to --db as it finishes, exactly as
+`gonio mount --sim --db` does; the dashboard stays up after the batch until Ctrl-C.
+
+Examples:
+  gonio serve --db results.sqlite
+  gonio serve --db results.sqlite --station sim --parts 25 --seed 7
+  gonio serve --db results.sqlite --station sim --parts 100 --seed 7 --speed 4 --addr 127.0.0.1:9000
+  gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8080 --allow-remote")]
+pub struct Args {
+    /// The results store: a SQLite file (created if missing) or a postgres:// URL.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: String,
+    /// Address to listen on (port 0: any free port, printed at start).
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    pub addr: String,
+    /// Allow listening on an address other than loopback (the dashboard is then reachable
+    /// from the network, without authentication).
+    #[arg(long)]
+    pub allow_remote: bool,
+    /// Run this station and show it live.
+    #[arg(long, value_enum)]
+    pub station: Option<StationArg>,
+    /// Parts the station mounts.
+    #[arg(long, default_value_t = 25, requires = "station")]
+    pub parts: usize,
+    /// Seed of the simulated station (same seed, same records).
+    #[arg(long, default_value_t = 1, requires = "station")]
+    pub seed: u64,
+    /// Push strategy.
+    #[arg(long, value_enum, default_value = "learned", requires = "station")]
+    pub strategy: StrategyArg,
+    /// Frame fidelity of the simulation.
+    #[arg(long, value_enum, default_value = "fast", requires = "station")]
+    pub fidelity: FidelityArg,
+    /// Recipe (TOML) for the grating type.
+    #[arg(long, requires = "station")]
+    pub recipe: Option<PathBuf>,
+    /// Simulated seconds per wall-clock second (1: real time, as the station runs).
+    #[arg(long, default_value_t = 1.0, requires = "station")]
+    pub speed: f64,
+    /// The station's name in the results store.
+    #[arg(long, default_value = "sim", value_name = "NAME", requires = "station")]
+    pub station_name: String,
+    /// Continue the station's interrupted batch with these settings (as `gonio mount --resume`).
+    #[arg(long, requires = "station")]
+    pub resume: bool,
+}
+
+/// Binds `addr`: loopback, or another address only with `allow_remote` (and a warning).
+fn bind(addr: &str, allow_remote: bool) -> Result<TcpListener> {
+    let sa: SocketAddr = addr.parse().with_context(|| {
+        format!("--addr {addr}: expected HOST:PORT with an IP address, e.g. 127.0.0.1:8080")
+    })?;
+    if !sa.ip().is_loopback() {
+        if !allow_remote {
+            bail!(
+                "--addr {addr}: not a loopback address; the dashboard has no authentication, so listening on the network needs --allow-remote"
+            );
+        }
+        eprintln!(
+            "warning: listening on {sa}: the dashboard (read-only, no authentication) is reachable from the network"
+        );
+    }
+    TcpListener::bind(sa).with_context(|| format!("--addr {addr}: cannot listen"))
+}
+
+/// Runs `gonio serve`.
+pub fn run(a: Args) -> Result<()> {
+    if !(a.speed.is_finite() && a.speed > 0.0) {
+        bail!("--speed {}: expected a positive number", a.speed);
+    }
+    if a.parts == 0 {
+        bail!("--parts 0: expected at least 1");
+    }
+    let recipe = match &a.recipe {
+        Some(p) => load_recipe(p)?,
+        None => Recipe::default(),
+    };
+    // Open (and migrate) the store before anything listens: a bad --db fails here.
+    drop(crate::db::open(&a.db)?);
+    let listener = bind(&a.addr, a.allow_remote)?;
+    let bound = listener.local_addr()?;
+    let hub = Hub::new(a.station.is_some());
+    let station = match a.station {
+        Some(StationArg::Sim) => {
+            let cfg = BatchConfig {
+                parts: a.parts,
+                strategy: a.strategy.into(),
+                fidelity: a.fidelity.into(),
+                recipe,
+                ..BatchConfig::default()
+            };
+            let prepared = station::prepare(
+                &cfg,
+                a.seed,
+                &station::Target {
+                    db: Some(&a.db),
+                    resume: a.resume,
+                    station: &a.station_name,
+                },
+            )?;
+            Some(spawn_station(prepared, cfg, &a, hub.clone()))
+        }
+        None => None,
+    };
+    eprintln!(
+        "gonio dashboard on http://{bound}/ (read-only{}); Ctrl-C stops",
+        if a.station.is_some() {
+            ", simulated station running"
+        } else {
+            ""
+        }
+    );
+    let served = gonio_web::serve_blocking(listener, &a.db, hub);
+    drop(station);
+    served.map_err(|e| anyhow::anyhow!("dashboard: {e}"))
+}
+
+/// Runs the station on a thread of its own, publishing to `hub` and committing to the store.
+fn spawn_station(
+    prepared: station::Start,
+    cfg: BatchConfig,
+    a: &Args,
+    hub: Arc<Hub>,
+) -> std::thread::JoinHandle<()> {
+    let timing = FrameTiming::shared();
+    {
+        let timing = timing.clone();
+        hub.set_status_source(Box::new(move || {
+            timing
+                .lock()
+                .map(|t| serde_json::to_value(t.summary()).unwrap_or_default())
+                .unwrap_or_default()
+        }));
+    }
+    let pace = Pace::new(a.speed, timing);
+    let (seed, name) = (a.seed, a.station_name.clone());
+    std::thread::spawn(move || {
+        let p = match prepared {
+            station::Start::Run(p) => p,
+            station::Start::Complete(note) => {
+                eprintln!("{note}");
+                hub.batch_finished(&note);
+                return;
+            }
+        };
+        if let Some(note) = &p.note {
+            eprintln!("{note}");
+        }
+        let mut live = LiveObserver::new(hub.clone());
+        let h = hub.clone();
+        let report = station::run(
+            *p,
+            &cfg,
+            seed,
+            station::Run {
+                observer: &mut live,
+                pace: Some(pace),
+                station: &name,
+            },
+            &mut |d: &PartDone, id| {
+                if let Some(id) = id {
+                    h.part_stored(id, &d.part.record.serial, d.part.record.result.name());
+                }
+            },
+        );
+        let message = match report {
+            Ok(r) => match &r.stopped {
+                Some(why) => format!("the batch {why} (recipe on_device_error = \"stop\")"),
+                None => format!("batch done: {} parts mounted", r.parts.len()),
+            },
+            Err(e) => {
+                let m = format!("station stopped: {}", crate::io::one_line(&e));
+                eprintln!("error: {m}");
+                m
+            }
+        };
+        eprintln!("{message}; the dashboard stays up until Ctrl-C");
+        hub.batch_finished(&message);
+    })
+}
