@@ -33,8 +33,16 @@ async function load() {
     }
   }
   const pass = data.filter((p) => p.verdict === 'pass').length;
-  $('summary').textContent = `${data.length} parts shown: ${pass} pass, ${data.length - pass} reject`;
+  $('summary').textContent = `${data.length} part${data.length === 1 ? '' : 's'} shown: ${pass} pass, ${data.length - pass} reject`;
 }
 
-$('filters').addEventListener('submit', (e) => { e.preventDefault(); load().catch((err) => { $('summary').textContent = err.message; }); });
+$('filters').addEventListener('submit', (e) => { e.preventDefault(); load().catch((err) => { $('summary').textContent = err.message; });
+// New parts appear as the station stores them.
+new EventSource('/api/events').addEventListener('stored', () => {
+  load().catch((err) => { $('summary').textContent = err.message; });
+}); });
 load().catch((err) => { $('summary').textContent = err.message; });
+// New parts appear as the station stores them.
+new EventSource('/api/events').addEventListener('stored', () => {
+  load().catch((err) => { $('summary').textContent = err.message; });
+});

@@ -5,7 +5,7 @@ const SVGNS = 'http://www.w3.org/2000/svg';
 const BLUE = '#0072B2', VERMILION = '#D55E00', GREEN = '#009E73', GREY = '#888';
 const $ = (id) => document.getElementById(id);
 
-const live = { serial: null, turn: -1, points: [], fitted: null, pushes: [], c: null, image: null };
+const live = { serial: null, turn: -1, points: [], fitted: null, pushes: [], c: null, image: null, draws: 0 };
 
 function el(tag, attrs, parent, text) {
   const e = document.createElementNS(SVGNS, tag);
@@ -66,9 +66,10 @@ function drawCTheta() {
     el('polyline', { points: curve.map((p) => `${x(p[0]).toFixed(1)},${y(p[1]).toFixed(1)}`).join(' '), fill: 'none', stroke: VERMILION, 'stroke-width': 1.6 }, svg);
   }
   svg.dataset.points = String(samples.length);
+  svg.dataset.draws = String(++live.draws);
   svg.dataset.fitted = curve.length ? '1' : '0';
   const note = live.fitted
-    ? `turn ${live.fitted.turn + 1} (${live.fitted.kind}): e = ${fmt(live.fitted.e_um, 2)} µm at ${fmt(live.fitted.theta_max_deg, 1)}°, ${live.fitted.valid_frames} of ${live.fitted.frames_taken} frames` +
+    ? (live.fitted.previous ? `${live.fitted.previous}, last turn: ` : '') + `turn ${live.fitted.turn + 1} (${live.fitted.kind}): e = ${fmt(live.fitted.e_um, 2)} µm at ${fmt(live.fitted.theta_max_deg, 1)}°, ${live.fitted.valid_frames} of ${live.fitted.frames_taken} frames` +
       (live.fitted.trusted === false ? ' — failed the quality gate' : live.fitted.trusted === null ? ' — ring lost' : '')
     : (live.turn >= 0 ? `turn ${live.turn + 1}: ${samples.length} frames so far` : '');
   $('turn-note').textContent = note;
@@ -210,7 +211,10 @@ function report(e) {
 
 const handlers = {
   part(d) {
-    live.serial = d.serial; live.turn = -1; live.points = []; live.fitted = null; live.pushes = [];
+    // The last fitted turn stays on the plot, marked as the previous part's, until the new
+    // part's first frames arrive.
+    if (live.fitted) live.fitted.previous = live.serial;
+    live.serial = d.serial; live.turn = -1; live.points = []; live.pushes = [];
     $('serial').textContent = d.serial;
     drawCTheta(); drawPushes();
   },

@@ -17,6 +17,7 @@ fn nav(title: &str, body: &str) -> String {
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\
          <title>{} · gonio</title><link rel=\"stylesheet\" href=\"/static/style.css\">\
+         <link rel=\"icon\" href=\"/static/icon.svg\" type=\"image/svg+xml\">\
          <style>{}</style></head><body>\
          <nav><a href=\"/\">Live</a><a href=\"/history\">History</a>\
          <a href=\"/calibrations\">Calibrations</a><span class=\"ro\">read-only</span></nav>\
@@ -266,7 +267,7 @@ pub(crate) async fn calibration_page(
     }
     let page = r.render().replacen(
         "<body>",
-        "<body><nav style=\"margin-bottom:16px\"><a href=\"/\">Live</a> · <a href=\"/history\">History</a> · <a href=\"/calibrations\">Calibrations</a></nav>",
+        "<body><link rel=\"icon\" href=\"/static/icon.svg\" type=\"image/svg+xml\"><nav style=\"margin-bottom:16px\"><a href=\"/\">Live</a> · <a href=\"/history\">History</a> · <a href=\"/calibrations\">Calibrations</a></nav>",
         1,
     );
     Html(page).into_response()
