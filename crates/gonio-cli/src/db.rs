@@ -18,3 +18,18 @@ pub fn open(location: &str) -> Result<Box<dyn Store>> {
         )
     })
 }
+
+/// Stores a calibration certificate whole in the store at `location`, saying so on standard
+/// error; `source` names where it came from (the readings).
+pub fn store_certificate(
+    location: &str,
+    cert: &gonio_calib::certificate::Certificate,
+    source: &str,
+) -> Result<i64> {
+    let loc = gonio_store::display_location(location);
+    let id = open(location)?
+        .insert_calibration(cert, source, &software_version())
+        .map_err(|e| anyhow!("results store {loc}: {e}"))?;
+    eprintln!("stored as calibration {id} in {loc}");
+    Ok(id)
+}

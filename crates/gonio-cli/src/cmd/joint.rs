@@ -2,6 +2,7 @@
 
 use crate::cmd::selfcal::{load_heads, locate, read_readings as read_heads};
 use crate::cmd::shift_angle::read_readings as read_polygon;
+use crate::db;
 use crate::formats;
 use crate::io::{self, CsvTable};
 use anyhow::{Context, Result, anyhow, bail};
@@ -84,6 +85,11 @@ pub struct Args {
     /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
+    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
+    /// dashboard (`gonio serve`) lists it.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: Option<String>,
     /// Certificate metadata (TOML, ISO/IEC 17025 §7.8), carried in the certificate. See
     /// examples/certificate-meta.toml.
     #[arg(long)]
@@ -170,6 +176,17 @@ pub fn run(args: Args) -> Result<()> {
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
     if let Some(p) = &args.json {
         io::write_json(p, &cert).context("writing the certificate")?;
+    }
+    if let Some(loc) = &args.db {
+        db::store_certificate(
+            loc,
+            &cert,
+            &format!(
+                "{} + {}",
+                args.readings.display(),
+                args.heads_readings.display()
+            ),
+        )?;
     }
     if let Some(p) = &args.compensation {
         let rows: Vec<Vec<String>> = cert

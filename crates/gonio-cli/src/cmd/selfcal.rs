@@ -1,5 +1,6 @@
 //! `gonio selfcal`: self-calibration of an encoder from several read heads (EDA, SelfA, Fourier).
 
+use crate::db;
 use crate::formats;
 use crate::io::{self, CsvTable};
 use anyhow::{Context, Result, anyhow, bail};
@@ -63,6 +64,11 @@ pub struct Args {
     /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
+    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
+    /// dashboard (`gonio serve`) lists it.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: Option<String>,
     /// Certificate metadata (TOML, ISO/IEC 17025 §7.8), carried in the certificate. See
     /// examples/certificate-meta.toml.
     #[arg(long)]
@@ -334,6 +340,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(p) = &args.json {
         io::write_json(p, &cert)?;
+    }
+    if let Some(loc) = &args.db {
+        db::store_certificate(loc, &cert, &args.readings.display().to_string())?;
     }
     if args.json.as_deref() != Some(Path::new("-")) {
         print_summary(&cert);

@@ -1,5 +1,6 @@
 //! `gonio shift-angle`: calibrate an encoder from polygon + autocollimator readings.
 
+use crate::db;
 use crate::formats;
 use crate::io::{self, CsvTable};
 use anyhow::{Context, Result, anyhow};
@@ -44,6 +45,11 @@ pub struct Args {
     /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
+    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
+    /// dashboard (`gonio serve`) lists it.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: Option<String>,
     /// Certificate metadata (TOML, ISO/IEC 17025 §7.8: laboratory, customer, item, dates …),
     /// carried in the certificate. See examples/certificate-meta.toml.
     #[arg(long)]
@@ -188,6 +194,9 @@ pub fn run(args: Args) -> Result<()> {
         if !to_stdout {
             eprintln!("wrote {}", p.display());
         }
+    }
+    if let Some(loc) = &args.db {
+        db::store_certificate(loc, &cert, &args.readings.display().to_string())?;
     }
     if let Some(p) = &args.compensation {
         let rows: Vec<Vec<String>> = cert
