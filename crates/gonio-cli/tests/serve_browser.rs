@@ -7,79 +7,15 @@
 //! Chromium is Debian's `chromium` (`.ci/run` installs it); if it cannot be started the test
 //! fails with the reason. `GONIO_CHROMIUM` names another binary.
 
+mod support;
+
 use base64::Engine;
 use serde_json::{Value, json};
-use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// Kills a child process when dropped (the test never leaves one running).
-struct Guard(Child);
-
-impl Drop for Guard {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// The first line of `child`'s standard error that contains `marker`, within `limit`; the
-/// rest of its standard error is drained in the background (and kept for messages).
-fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -> String {
-    let err = child.stderr.take().expect("stderr piped");
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let mut sent = false;
-        for line in BufReader::new(err).lines().map_while(Result::ok) {
-            if !sent && line.contains(marker) {
-                let _ = tx.send(line);
-                sent = true;
-            }
-        }
-    });
-    rx.recv_timeout(limit)
-        .unwrap_or_else(|_| panic!("no line with {marker:?} within {limit:?}"))
-}
-
-/// `GET path` on `host:port` over plain HTTP/1.1: (status, body). Reads the body by its
-/// `Content-Length`.
-fn http_get(addr: &str, path: &str) -> (u16, String) {
-    let s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
-    s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
-    (&s).write_all(
-        format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes(),
-    )
-    .unwrap();
-    let mut r = BufReader::new(&s);
-    let mut status_line = String::new();
-    r.read_line(&mut status_line)
-        .unwrap_or_else(|e| panic!("GET {path}: {e}"));
-    let status = status_line
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or_else(|| panic!("GET {path}: {status_line:?}"));
-    let mut length = 0usize;
-    loop {
-        let mut h = String::new();
-        r.read_line(&mut h).unwrap();
-        if h.trim().is_empty() {
-            break;
-        }
-        if let Some((k, v)) = h.split_once(':') {
-            if k.eq_ignore_ascii_case("content-length") {
-                length = v.trim().parse().unwrap();
-            }
-        }
-    }
-    let mut body = vec![0; length];
-    r.read_exact(&mut body)
-        .unwrap_or_else(|e| panic!("GET {path}: body of {length} bytes: {e}"));
-    (status, String::from_utf8_lossy(&body).into_owned())
-}
+use support::{Guard, http_get, start_serve, wait_for_line};
 
 /// A DevTools-protocol session on one page.
 struct Page {
@@ -215,10 +151,13 @@ fn the_dashboard_in_headless_chromium() {
     let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
 
     // The station at 3× real time: a turn of 200 frames takes 0.67 s, a part about 8 s.
-    let mut serve = Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(["serve", "--db"])
-        .arg(&db)
-        .args([
+    let db = db.display().to_string();
+    let (_serve, host) = start_serve(
+        env!("CARGO_BIN_EXE_gonio"),
+        &[
+            "serve",
+            "--db",
+            &db,
             "--station",
             "sim",
             "--parts",
@@ -229,24 +168,9 @@ fn the_dashboard_in_headless_chromium() {
             "3",
             "--addr",
             "127.0.0.1:0",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("gonio serve starts");
-    let line = wait_for_line(
-        &mut serve,
-        "gonio dashboard on http://",
-        Duration::from_secs(30),
+        ],
     );
-    let _serve = Guard(serve);
-    let base = line
-        .split_whitespace()
-        .find(|w| w.starts_with("http://"))
-        .expect("the address")
-        .trim_end_matches('/')
-        .to_string();
-    let host = base.trim_start_matches("http://").to_string();
+    let base = format!("http://{host}");
 
     let browser = Command::new(chromium())
         .args([

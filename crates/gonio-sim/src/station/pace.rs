@@ -9,7 +9,7 @@
 //! let mut pace = Pace::new(1000.0, timing.clone()); // 1000× real time
 //! pace.rebase(0.0);
 //! for k in 1..=10 {
-//!     pace.frame_at(k as f64 * 0.01); // a frame every 10 ms of simulated time
+//!     pace.frame_at(k as f64 * 0.01, 0.01); // a frame every 10 ms of simulated time
 //! }
 //! let s = timing.lock().unwrap().summary();
 //! assert_eq!(s.frames, 10);
@@ -115,7 +115,6 @@ impl FrameTiming {
 pub struct Pace {
     speed_up: f64,
     anchor: Option<(Instant, f64)>,
-    last_frame_s: Option<f64>,
     timing: Arc<Mutex<FrameTiming>>,
 }
 
@@ -129,7 +128,6 @@ impl Pace {
                 1.0
             },
             anchor: None,
-            last_frame_s: None,
             timing,
         }
     }
@@ -137,7 +135,6 @@ impl Pace {
     /// Ties simulated time `sim_s` to now (at a new part, whose clock starts afresh).
     pub fn rebase(&mut self, sim_s: f64) {
         self.anchor = Some((Instant::now(), sim_s));
-        self.last_frame_s = None;
     }
 
     fn due(&mut self, sim_s: f64) -> Instant {
@@ -154,18 +151,17 @@ impl Pace {
         }
     }
 
-    /// A frame ends at simulated time `sim_s`: waits for it and records how late it came.
-    pub fn frame_at(&mut self, sim_s: f64) {
+    /// A frame ends at simulated time `sim_s`, one frame period `period_sim_s` (simulated) after
+    /// its slot opened: waits for it and records how late it came. A frame later than one period
+    /// on the wall clock has missed its slot.
+    pub fn frame_at(&mut self, sim_s: f64, period_sim_s: f64) {
         let due = self.due(sim_s);
         let now = Instant::now();
         if due > now {
             std::thread::sleep(due - now);
         }
         let late = Instant::now().saturating_duration_since(due).as_secs_f64();
-        let period = self
-            .last_frame_s
-            .map_or(0.0, |p| ((sim_s - p) / self.speed_up).max(0.0));
-        self.last_frame_s = Some(sim_s);
+        let period = (period_sim_s / self.speed_up).max(0.0);
         if let Ok(mut t) = self.timing.lock() {
             t.record(late, period);
         }

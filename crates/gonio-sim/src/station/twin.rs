@@ -331,7 +331,7 @@ impl Twin {
         self.t_s += 1.0 / self.fps;
         let t = self.t_s;
         if let Some(p) = self.pace.as_mut() {
-            p.frame_at(t);
+            p.frame_at(t, 1.0 / self.fps);
         }
         e
     }
