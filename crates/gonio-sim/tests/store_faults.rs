@@ -10,6 +10,7 @@ use gonio_station::hal::{
 };
 use gonio_station::{DeviceErrorPolicy, Recipe};
 use gonio_store::{NewBatch, NewPart, PartQuery, StoredPart};
+use gonio_vision::InvalidReason;
 use std::cell::Cell;
 use std::ops::ControlFlow;
 use std::rc::Rc;
@@ -96,7 +97,7 @@ impl Camera for Cam {
         if self.inj.pushed.get() && self.inj.fault != Fault::RodOverload {
             self.inj.struck.set(self.inj.struck.get() + 1);
             f.c_px = None;
-            f.invalid_reason = "no ring (injected)".into();
+            f.invalid_reason = Some(InvalidReason::NoRing);
             if self.inj.fault == Fault::FocusLost {
                 f.focus_measure = 1.0;
             }
@@ -138,8 +139,12 @@ fn run(fault: Fault, policy: DeviceErrorPolicy) -> (Vec<StoredPart>, String, usi
         &cfg,
         SEED,
         RunOptions::default(),
-        None,
-        |c| Cam { inner: c, inj: ic },
+        |t| {
+            Ok(Cam {
+                inner: SimCamera(t),
+                inj: ic,
+            })
+        },
         |r| Rod { inner: r, inj: ir },
         &mut |d: &PartDone| {
             store
