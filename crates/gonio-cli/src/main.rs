@@ -7,6 +7,7 @@ mod cmd;
 mod db;
 mod formats;
 mod io;
+mod recorder;
 mod station;
 mod table;
 
@@ -59,6 +60,8 @@ enum Command {
     Parts(cmd::parts::Args),
     /// The station's dashboard in the browser: live view, history, calibrations, JSON API.
     Serve(cmd::serve::Args),
+    /// Re-run a recorded part's detection and fit (gonio mount --record) and compare with its record.
+    Replay(cmd::replay::Args),
 }
 
 fn main() {
@@ -79,6 +82,7 @@ fn main() {
         Command::Detect(a) => cmd::detect::run(a),
         Command::Parts(a) => cmd::parts::run(a),
         Command::Serve(a) => cmd::serve::run(a),
+        Command::Replay(a) => cmd::replay::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ".

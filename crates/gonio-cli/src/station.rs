@@ -6,7 +6,7 @@ use crate::db;
 use crate::io::read_text;
 use anyhow::{Result, anyhow};
 use gonio_sim::station::{
-    BatchConfig, BatchReport, Fidelity, Pace, PartDone, RunOptions, run_batch_observed,
+    BatchConfig, BatchReport, Fidelity, FrameTap, Pace, PartDone, RunOptions, run_batch_observed,
 };
 use gonio_station::observe::Observer;
 use gonio_station::strategy::Learned;
@@ -253,6 +253,8 @@ pub struct Run<'a> {
     pub observer: &'a mut dyn Observer,
     /// In step with the wall clock (a live view); `None`: as fast as possible.
     pub pace: Option<Pace>,
+    /// Told every rendered frame (full fidelity): a recorder, the live thumbnail.
+    pub frame_tap: Option<FrameTap<'a>>,
     /// The station's name in the store.
     pub station: &'a str,
 }
@@ -299,6 +301,9 @@ pub fn run(
         learned,
         observer: Some(&mut both),
         pace: run.pace,
+        // A shorter lifetime for the tap, as for the observers (a trait object's lifetime
+        // shortens by coercion even behind `&mut`).
+        frame_tap: run.frame_tap.map(|t| t as FrameTap<'_>),
     };
     let report = run_batch_observed(cfg, seed, opts, &mut |d: &PartDone| match sink.as_mut() {
         Some(s) => match s.commit(d, &started.borrow()) {

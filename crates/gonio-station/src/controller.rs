@@ -504,6 +504,7 @@ impl Controller {
         }
         d.servo.stop().map_err(dev("servo"))?;
         let log = d.servo.angle_log(t_start).map_err(dev("servo"))?;
+        obs.turn_inputs(&frames, &log);
         let (rec, fit) = evaluate_turn(
             &self.recipe,
             self.strategy,

@@ -35,6 +35,7 @@ pub mod observe;
 pub mod quality;
 pub mod recipe;
 pub mod record;
+pub mod replay;
 pub mod spline;
 pub mod strategy;
 pub mod turn;

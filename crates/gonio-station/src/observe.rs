@@ -19,6 +19,8 @@
 //! ```
 
 use crate::fit::EccentricityFit;
+use crate::hal::CameraFrame;
+use crate::interval::AngleSample;
 use crate::record::{PartRecord, PushRecord, TurnKind, TurnRecord};
 use serde::Serialize;
 
@@ -60,6 +62,9 @@ pub trait Observer {
     fn phase(&mut self, _phase: Phase) {}
     /// A frame of a measuring turn arrived.
     fn frame(&mut self, _frame: &LiveFrame) {}
+    /// A measuring turn's inputs, before it is evaluated: every frame the camera gave and the
+    /// servo's angle log (what a recorder keeps for a replay).
+    fn turn_inputs(&mut self, _frames: &[CameraFrame], _log: &[AngleSample]) {}
     /// A measuring turn was evaluated; `fit` is `None` when the ring was lost.
     fn turn(&mut self, _turn: &TurnRecord, _fit: Option<&EccentricityFit>) {}
     /// A push was made (its verify turn follows).
@@ -83,6 +88,9 @@ impl<T: Observer + ?Sized> Observer for &mut T {
     }
     fn frame(&mut self, frame: &LiveFrame) {
         (**self).frame(frame)
+    }
+    fn turn_inputs(&mut self, frames: &[CameraFrame], log: &[AngleSample]) {
+        (**self).turn_inputs(frames, log)
     }
     fn turn(&mut self, turn: &TurnRecord, fit: Option<&EccentricityFit>) {
         (**self).turn(turn, fit)
@@ -108,6 +116,10 @@ impl<A: Observer, B: Observer> Observer for (A, B) {
     fn frame(&mut self, frame: &LiveFrame) {
         self.0.frame(frame);
         self.1.frame(frame);
+    }
+    fn turn_inputs(&mut self, frames: &[CameraFrame], log: &[AngleSample]) {
+        self.0.turn_inputs(frames, log);
+        self.1.turn_inputs(frames, log);
     }
     fn turn(&mut self, turn: &TurnRecord, fit: Option<&EccentricityFit>) {
         self.0.turn(turn, fit);

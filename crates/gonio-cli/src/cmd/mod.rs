@@ -10,6 +10,7 @@ pub mod import;
 pub mod joint;
 pub mod mount;
 pub mod parts;
+pub mod replay;
 pub mod report;
 pub mod selfcal;
 pub mod serve;

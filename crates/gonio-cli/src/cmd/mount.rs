@@ -2,10 +2,11 @@
 
 use crate::formats::frames::load_scene;
 use crate::io::write_json;
+use crate::recorder::{self, Recorder};
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Result, bail};
 use gonio_sim::frames::{GratingScene, ScenePreset};
-use gonio_sim::station::{BatchConfig, BatchReport, PartDone};
+use gonio_sim::station::{BatchConfig, BatchReport, FrameTap, PartDone, SeenFrame};
 use gonio_station::Recipe;
 use gonio_station::observe::NoObserver;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -96,6 +97,14 @@ pub struct Args {
     /// The station's name in the results store.
     #[arg(long, default_value = "sim", value_name = "NAME")]
     pub station_name: String,
+    /// Record the parts' measuring turns here for `gonio replay`: their raw frames (the raw
+    /// stream format of `detect --raw`), stamps, live detector results and angle logs, and the
+    /// station's record (needs --fidelity frames).
+    #[arg(long, value_name = "DIR")]
+    pub record: Option<PathBuf>,
+    /// Record only these parts (1-based, e.g. 3,17); default: every part.
+    #[arg(long, value_name = "N,N,…", requires = "record")]
+    pub record_parts: Option<String>,
 }
 
 /// Runs `gonio mount`.
@@ -124,6 +133,14 @@ pub fn run(a: Args) -> Result<()> {
         recipe,
         ..BatchConfig::default()
     };
+    if a.record.is_some() && a.fidelity != FidelityArg::Frames {
+        bail!("--record needs --fidelity frames: the fast fidelity renders no frames to record");
+    }
+    let record_parts = a
+        .record_parts
+        .as_deref()
+        .map(|s| recorder::parse_parts(s, a.parts))
+        .transpose()?;
     let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
     let target = station::Target {
         db: a.db.as_deref(),
@@ -146,13 +163,37 @@ pub fn run(a: Args) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.set_position(prepared.first_part as u64);
+    let recorder = match &a.record {
+        Some(dir) => Some(Recorder::new(recorder::Plan {
+            dir: dir.clone(),
+            parts: record_parts,
+            first_part: prepared.first_part,
+            seed: a.seed,
+            recipe: cfg.recipe.clone(),
+            strategy: cfg.strategy,
+            software_version: crate::db::software_version(),
+        })?),
+        None => None,
+    };
+    let mut tap_to = recorder.clone();
+    let mut tap = |f: &SeenFrame<'_>| {
+        if let Some(r) = tap_to.as_mut() {
+            r.tap(f);
+        }
+    };
+    let mut observer = recorder.clone();
+    let mut none = NoObserver;
     let report = station::run(
         *prepared,
         &cfg,
         a.seed,
         station::Run {
-            observer: &mut NoObserver,
+            observer: match observer.as_mut() {
+                Some(r) => r,
+                None => &mut none,
+            },
             pace: None,
+            frame_tap: recorder.is_some().then_some(&mut tap as FrameTap<'_>),
             station: &a.station_name,
         },
         &mut |d: &PartDone, _| {
@@ -172,6 +213,20 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     bar.finish_and_clear();
+    drop(observer);
+    if let Some(r) = recorder {
+        let (written, error) = r.finish();
+        if let Some(e) = error {
+            return Err(e);
+        }
+        if let Some(dir) = &a.record {
+            eprintln!(
+                "recorded {} part(s) in {dir} (gonio replay {dir} re-runs them)",
+                written.len(),
+                dir = dir.display()
+            );
+        }
+    }
     print_and_write(&a, &report, to_stdout)
 }
 

@@ -193,6 +193,7 @@ fn spawn_station(
             station::Run {
                 observer: &mut live,
                 pace: Some(pace),
+                frame_tap: None,
                 station: &name,
             },
             &mut |d: &PartDone, id| {

@@ -6,6 +6,7 @@ pub mod frames;
 pub mod instrument;
 pub mod meta;
 pub mod plan;
+pub mod replay;
 pub mod report;
 
 use anyhow::anyhow;

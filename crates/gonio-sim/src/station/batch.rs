@@ -1,7 +1,7 @@
 //! A batch of parts mounted on the simulated station, with the station's records and the
 //! simulation's ground truth side by side.
 
-use super::frames::frame_camera;
+use super::frames::{FrameTap, TappedCamera, frame_camera};
 use super::pace::Pace;
 use super::plant::{PartTruth, PlantConfig, StationTruth};
 use super::twin::{Faults, Shared, SimCamera, SimClock, SimFocus, SimRod, SimServo, Twin};
@@ -192,22 +192,31 @@ pub fn run_batch(
 pub fn run_batch_observed(
     cfg: &BatchConfig,
     seed: u64,
-    opts: RunOptions<'_>,
+    mut opts: RunOptions<'_>,
     on_part: &mut dyn FnMut(&PartDone) -> ControlFlow<()>,
 ) -> Result<BatchReport, StationError> {
-    match cfg.fidelity {
-        Fidelity::Fast => run_batch_from(cfg, seed, opts, |t| Ok(SimCamera(t)), |r| r, on_part),
-        Fidelity::Frames => run_batch_from(
+    let setup = |e: crate::SimError| StationError::Device {
+        device: "camera",
+        kind: gonio_station::hal::DeviceErrorKind::Other,
+        message: format!("cannot set up the renderer and detector: {e}"),
+    };
+    match (cfg.fidelity, opts.frame_tap.take()) {
+        (Fidelity::Fast, _) => {
+            run_batch_from(cfg, seed, opts, |t| Ok(SimCamera(t)), |r| r, on_part)
+        }
+        (Fidelity::Frames, None) => run_batch_from(
             cfg,
             seed,
             opts,
-            |t| {
-                frame_camera(t, cfg.scene.clone()).map_err(|e| StationError::Device {
-                    device: "camera",
-                    kind: gonio_station::hal::DeviceErrorKind::Other,
-                    message: format!("cannot set up the renderer and detector: {e}"),
-                })
-            },
+            |t| frame_camera(t, cfg.scene.clone()).map_err(setup),
+            |r| r,
+            on_part,
+        ),
+        (Fidelity::Frames, Some(tap)) => run_batch_from(
+            cfg,
+            seed,
+            opts,
+            |t| TappedCamera::new(t, cfg.scene.clone(), tap).map_err(setup),
             |r| r,
             on_part,
         ),
@@ -266,6 +275,9 @@ pub struct RunOptions<'a> {
     pub observer: Option<&'a mut dyn Observer>,
     /// Run in step with the wall clock (a live view); `None`: as fast as possible.
     pub pace: Option<Pace>,
+    /// Told every rendered frame with the detector's result (full fidelity only; see
+    /// [`run_batch_observed`]): a recorder, the live view's thumbnail.
+    pub frame_tap: Option<FrameTap<'a>>,
 }
 
 impl std::fmt::Debug for RunOptions<'_> {
@@ -275,6 +287,7 @@ impl std::fmt::Debug for RunOptions<'_> {
             .field("learned", &self.learned)
             .field("observed", &self.observer.is_some())
             .field("pace", &self.pace)
+            .field("tapped", &self.frame_tap.is_some())
             .finish()
     }
 }

@@ -6,9 +6,9 @@
 use super::twin::{DeviceId, Shared, SimDeviceError};
 use crate::SimError;
 use crate::frames::{GratingRenderer, GratingScene, ScenePreset};
-use gonio_station::DetectorCamera;
-use gonio_station::hal::DeviceErrorKind;
-use gonio_vision::{FrameHeader, FrameSource, FrameStamp, Optics};
+use gonio_station::hal::{Camera, CameraFrame, DeviceErrorKind};
+use gonio_station::{DetectorCamera, DetectorCameraError};
+use gonio_vision::{FrameHeader, FrameResult, FrameSource, FrameStamp, Optics};
 
 /// The twin's camera sensor at full fidelity: renders the grating as the twin has it at each
 /// exposure (servo angle at mid-exposure, the part's offset, defocus), a ring-less grating once
@@ -96,4 +96,98 @@ pub fn frame_camera(twin: Shared, scene: Option<GratingScene>) -> Result<FrameCa
     let frames = TwinFrames::new(twin, &optics, scene)?;
     DetectorCamera::new(frames, &optics)
         .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))
+}
+
+/// A rendered frame as the station's camera saw it: the pixels its detector ran on, their size
+/// and stamp, and the detector's whole result (edges, score, reason).
+#[derive(Debug, Clone, Copy)]
+pub struct SeenFrame<'a> {
+    /// Width, px.
+    pub width: usize,
+    /// Height, px.
+    pub height: usize,
+    /// 8-bit grey pixels, row-major (the raw stream format of `gonio detect --raw`).
+    pub pixels: &'a [u8],
+    /// When it was taken.
+    pub stamp: FrameStamp,
+    /// What the detector found.
+    pub result: &'a FrameResult,
+}
+
+/// Told every frame the full-fidelity camera takes (a recorder, the live view's thumbnail).
+pub type FrameTap<'a> = &'a mut dyn FnMut(&SeenFrame<'_>);
+
+/// [`TwinFrames`] keeping a copy of its last frame for a tap.
+#[derive(Debug)]
+pub struct KeptFrames {
+    inner: TwinFrames,
+    pixels: Vec<u8>,
+    header: Option<FrameHeader>,
+}
+
+impl FrameSource for KeptFrames {
+    type Error = SimDeviceError;
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, SimDeviceError> {
+        let h = self.inner.next_frame(pixels)?;
+        self.pixels.clear();
+        self.pixels.extend_from_slice(pixels);
+        self.header = h;
+        Ok(h)
+    }
+}
+
+/// The full-fidelity camera with a tap: every frame is handed to the tap with the detector's
+/// result after it is detected. What the station gets is exactly what [`FrameCamera`] gives.
+pub struct TappedCamera<'a> {
+    cam: DetectorCamera<KeptFrames>,
+    tap: FrameTap<'a>,
+}
+
+impl std::fmt::Debug for TappedCamera<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TappedCamera")
+            .field("cam", &self.cam)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> TappedCamera<'a> {
+    /// As [`frame_camera`], telling `tap` every frame.
+    ///
+    /// # Errors
+    /// As [`frame_camera`].
+    pub fn new(
+        twin: Shared,
+        scene: Option<GratingScene>,
+        tap: FrameTap<'a>,
+    ) -> Result<Self, SimError> {
+        let optics = Optics::default();
+        let scene = scene.unwrap_or_else(|| GratingScene::preset(ScenePreset::Realistic));
+        let frames = KeptFrames {
+            inner: TwinFrames::new(twin, &optics, scene)?,
+            pixels: Vec::new(),
+            header: None,
+        };
+        let cam = DetectorCamera::new(frames, &optics)
+            .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))?;
+        Ok(TappedCamera { cam, tap })
+    }
+}
+
+impl Camera for TappedCamera<'_> {
+    type Error = DetectorCameraError<SimDeviceError>;
+    fn capture(&mut self) -> Result<CameraFrame, Self::Error> {
+        let f = self.cam.capture()?;
+        let src = self.cam.source();
+        if let (Some(h), Some(r)) = (src.header, self.cam.last_result()) {
+            (self.tap)(&SeenFrame {
+                width: h.width,
+                height: h.height,
+                pixels: &src.pixels,
+                stamp: h.stamp,
+                result: r,
+            });
+        }
+        Ok(f)
+    }
 }

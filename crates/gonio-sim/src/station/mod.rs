@@ -26,7 +26,9 @@ pub use batch::{
     BatchConfig, BatchReport, BatchSummary, Fidelity, PartDone, RunOptions, SimPartRecord,
     run_batch, run_batch_from, run_batch_observed, run_batch_on, run_batch_with,
 };
-pub use frames::{FrameCamera, TwinFrames, frame_camera};
+pub use frames::{
+    FrameCamera, FrameTap, KeptFrames, SeenFrame, TappedCamera, TwinFrames, frame_camera,
+};
 pub use pace::{FrameTiming, Pace, TimingSummary};
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
 pub use twin::{

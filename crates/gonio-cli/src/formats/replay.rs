@@ -1,0 +1,244 @@
+//! The record of a mounted part for a replay (`gonio mount --record DIR`, `gonio replay DIR`):
+//! one directory per part, `DIR/part-0003/`, holding
+//!
+//! - `part.json` (`gonio.replay/1`): the part's serial and place in its batch, the recipe, the
+//!   strategy, the optics, the frames' size, and the station's record of the part (turns,
+//!   pushes, verdict);
+//! - per measuring turn `turn-N.raw`: the turn's frames as the camera gave them, 8-bit grey,
+//!   width × height bytes each, back to back (the raw stream format of `gonio detect --raw`);
+//! - per turn `turn-N.json`: when each frame was taken and what the detector found live, the
+//!   servo's angle log of the turn, the turn's start, kind and focus.
+//!
+//! Numbers are written so that they read back bit for bit (JSON with round-trip floats).
+
+use crate::formats::json_error;
+use crate::io::read_text;
+use anyhow::{Context, Result, anyhow, bail};
+use gonio_station::hal::{CameraFrame, DeviceError, DeviceErrorKind};
+use gonio_station::replay::RecordedTurn;
+use gonio_station::{PartRecord, Recipe, Strategy};
+use gonio_vision::{FrameHeader, FrameSource, FrameStamp, Optics, RawFrames, RawFramesError};
+use serde::{Deserialize, Serialize};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// The format name in `part.json`.
+pub const FORMAT: &str = "gonio.replay/1";
+
+/// One turn's files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TurnFiles {
+    /// The frames (raw), relative to the part's directory.
+    pub raw: String,
+    /// The stamps, live results and angle log ([`RecordedTurn`]).
+    pub data: String,
+    /// Frames in the raw file.
+    pub frames: usize,
+}
+
+/// `part.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartFile {
+    /// [`FORMAT`].
+    pub format: String,
+    /// The part's serial.
+    pub serial: String,
+    /// 0-based position of the part in its batch.
+    pub batch_index: usize,
+    /// The seed of a simulated station.
+    pub seed: Option<u64>,
+    /// The software that recorded it.
+    pub software_version: String,
+    /// The recipe it was mounted with.
+    pub recipe: Recipe,
+    /// The push strategy (its fit method).
+    pub strategy: Strategy,
+    /// The camera's optics (the detector's parameters).
+    pub optics: Optics,
+    /// Frame width, px.
+    pub width: usize,
+    /// Frame height, px.
+    pub height: usize,
+    /// Every measuring turn, in order.
+    pub turns: Vec<TurnFiles>,
+    /// The station's record of the part.
+    pub record: PartRecord,
+}
+
+/// The directory of part `index` (0-based) in a record directory.
+pub fn part_dir(dir: &Path, index: usize) -> PathBuf {
+    dir.join(format!("part-{:04}", index + 1))
+}
+
+/// The part directories under `dir` (or `dir` itself when it holds a `part.json`), in order.
+///
+/// # Errors
+/// `dir` cannot be read or holds no recorded part.
+pub fn part_dirs(dir: &Path) -> Result<Vec<PathBuf>> {
+    if dir.join("part.json").is_file() {
+        return Ok(vec![dir.to_path_buf()]);
+    }
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("{}: cannot read the record directory", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("part.json").is_file())
+        .collect();
+    v.sort();
+    if v.is_empty() {
+        bail!(
+            "{}: no recorded part (expected part-NNNN/part.json, written by gonio mount --record)",
+            dir.display()
+        );
+    }
+    Ok(v)
+}
+
+/// Reads `part.json` of a part directory.
+///
+/// # Errors
+/// A one-line error naming the file, line and column.
+pub fn read_part(dir: &Path) -> Result<PartFile> {
+    let p = dir.join("part.json");
+    let text = read_text(&p)?;
+    let f: PartFile = serde_json::from_str(&text)
+        .map_err(|e| json_error(&p, &e, "a gonio.replay/1 part record"))?;
+    if f.format != FORMAT {
+        bail!(
+            "{}: format {:?}: expected {FORMAT:?}",
+            p.display(),
+            f.format
+        );
+    }
+    Ok(f)
+}
+
+/// Reads a turn's data file.
+///
+/// # Errors
+/// A one-line error naming the file, line and column.
+pub fn read_turn(dir: &Path, t: &TurnFiles) -> Result<RecordedTurn> {
+    let p = dir.join(&t.data);
+    let text = read_text(&p)?;
+    let r: RecordedTurn = serde_json::from_str(&text).map_err(|e| {
+        json_error(
+            &p,
+            &e,
+            "a recorded turn: t_start_s, kind, focus_um, frames, log",
+        )
+    })?;
+    if r.frames.len() != t.frames {
+        bail!(
+            "{}: {} frames, part.json says {}",
+            p.display(),
+            r.frames.len(),
+            t.frames
+        );
+    }
+    Ok(r)
+}
+
+/// Why a recorded frame cannot be read.
+#[derive(Debug)]
+pub struct RecordedFramesError(String);
+
+impl std::fmt::Display for RecordedFramesError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for RecordedFramesError {}
+
+impl DeviceError for RecordedFramesError {
+    fn kind(&self) -> DeviceErrorKind {
+        DeviceErrorKind::Other
+    }
+}
+
+/// A turn's raw frames, each stamped with the time it was taken (from the turn's data): what
+/// the camera's detector runs on again in a replay.
+pub struct RecordedFrames<R> {
+    raw: RawFrames<R>,
+    path: PathBuf,
+    stamps: Vec<(f64, f64)>,
+}
+
+impl<R: Read> RecordedFrames<R> {
+    /// Frames of `width` × `height` from `reader` (the file `path`), stamped by `frames`.
+    pub fn new(
+        reader: R,
+        path: &Path,
+        width: usize,
+        height: usize,
+        frames: &[CameraFrame],
+    ) -> Self {
+        RecordedFrames {
+            raw: RawFrames::new(reader, width, height),
+            path: path.to_path_buf(),
+            stamps: frames.iter().map(|f| (f.start_s, f.exposure_s)).collect(),
+        }
+    }
+}
+
+impl<R: Read> FrameSource for RecordedFrames<R> {
+    type Error = RecordedFramesError;
+    fn next_frame(
+        &mut self,
+        pixels: &mut Vec<u8>,
+    ) -> Result<Option<FrameHeader>, RecordedFramesError> {
+        let err = |e: RawFramesError| RecordedFramesError(format!("{}: {e}", self.path.display()));
+        let Some(h) = self.raw.next_frame(pixels).map_err(err)? else {
+            return Ok(None);
+        };
+        let i = h.stamp.index as usize;
+        let &(start_s, exposure_s) = self.stamps.get(i).ok_or_else(|| {
+            RecordedFramesError(format!(
+                "{}: frame {} has no stamp ({} recorded)",
+                self.path.display(),
+                i,
+                self.stamps.len()
+            ))
+        })?;
+        Ok(Some(FrameHeader {
+            stamp: FrameStamp {
+                start_s: Some(start_s),
+                exposure_s: Some(exposure_s),
+                ..h.stamp
+            },
+            ..h
+        }))
+    }
+}
+
+/// Opens a turn's raw frames, checking their size against the recorded frame count.
+///
+/// # Errors
+/// The file is missing or not `frames` × width × height bytes.
+pub fn open_raw(
+    dir: &Path,
+    part: &PartFile,
+    t: &TurnFiles,
+    rec: &RecordedTurn,
+) -> Result<RecordedFrames<std::io::BufReader<std::fs::File>>> {
+    let p = dir.join(&t.raw);
+    let f = std::fs::File::open(&p).with_context(|| format!("{}: cannot open", p.display()))?;
+    let len = f.metadata().map(|m| m.len()).unwrap_or(0);
+    let want = (t.frames * part.width * part.height) as u64;
+    if len != want {
+        return Err(anyhow!(
+            "{}: {len} bytes: expected {} frames of {}x{} ({want} bytes)",
+            p.display(),
+            t.frames,
+            part.width,
+            part.height
+        ));
+    }
+    Ok(RecordedFrames::new(
+        std::io::BufReader::with_capacity(1 << 20, f),
+        &p,
+        part.width,
+        part.height,
+        &rec.frames,
+    ))
+}

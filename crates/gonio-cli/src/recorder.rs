@@ -1,0 +1,330 @@
+//! `gonio mount --record DIR`: writes the chosen parts' measuring turns for a replay (the format
+//! in [`crate::formats::replay`]). It listens to the station as an observer (turn boundaries,
+//! each turn's frames as the camera reported them and the servo's angle log, the finished
+//! record) and to the camera's frames through the simulation's frame tap (the pixels). A part
+//! is written into a temporary directory and renamed into place when it is finished, so a
+//! recorded part is whole or absent.
+
+use crate::formats::replay::{FORMAT, PartFile, TurnFiles, part_dir};
+use anyhow::{Context, Result, anyhow};
+use gonio_sim::station::SeenFrame;
+use gonio_station::fit::EccentricityFit;
+use gonio_station::hal::CameraFrame;
+use gonio_station::interval::AngleSample;
+use gonio_station::observe::{Observer, Phase};
+use gonio_station::record::TurnRecord;
+use gonio_station::replay::RecordedTurn;
+use gonio_station::{PartRecord, Recipe, Strategy};
+use gonio_vision::Optics;
+use std::cell::RefCell;
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::PathBuf;
+use std::rc::Rc;
+
+/// What is recorded and where.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The record directory.
+    pub dir: PathBuf,
+    /// 1-based part numbers to record (`None`: every part).
+    pub parts: Option<BTreeSet<usize>>,
+    /// 0-based index of the first part the batch mounts (a resumed batch starts later).
+    pub first_part: usize,
+    /// The batch's seed.
+    pub seed: u64,
+    /// The recipe.
+    pub recipe: Recipe,
+    /// The strategy.
+    pub strategy: Strategy,
+    /// The software.
+    pub software_version: String,
+}
+
+struct Part {
+    index: usize,
+    serial: String,
+    tmp: tempfile::TempDir,
+    turns: Vec<TurnFiles>,
+    raw: Option<std::io::BufWriter<std::fs::File>>,
+    raw_frames: usize,
+    size: Option<(usize, usize)>,
+    /// The last ended turn, until its record gives its start, kind and focus.
+    pending: Option<RecordedTurn>,
+}
+
+struct State {
+    plan: Plan,
+    next: usize,
+    measuring: bool,
+    part: Option<Part>,
+    error: Option<anyhow::Error>,
+    written: Vec<PathBuf>,
+}
+
+/// The recorder: an observer of the station (see [`Recorder::tap`] for the frames).
+#[derive(Clone)]
+pub struct Recorder(Rc<RefCell<State>>);
+
+/// `--record-parts 3,17`: 1-based part numbers within `1..=parts`.
+///
+/// # Errors
+/// A number that is not a whole number in range.
+pub fn parse_parts(s: &str, parts: usize) -> Result<BTreeSet<usize>> {
+    let mut set = BTreeSet::new();
+    for tok in s.split(',').map(str::trim) {
+        let n: usize = tok.parse().map_err(|_| {
+            anyhow!("--record-parts {s}: {tok:?} is not a part number; expected 1-based part numbers separated by commas, e.g. 3,17")
+        })?;
+        if n == 0 || n > parts {
+            return Err(anyhow!(
+                "--record-parts {s}: part {n} is not in the batch (1 to {parts})"
+            ));
+        }
+        set.insert(n);
+    }
+    Ok(set)
+}
+
+impl Recorder {
+    /// A recorder writing into `plan.dir` (created if missing).
+    ///
+    /// # Errors
+    /// The directory cannot be created.
+    pub fn new(plan: Plan) -> Result<Recorder> {
+        std::fs::create_dir_all(&plan.dir).with_context(|| {
+            format!(
+                "--record {}: cannot create the directory",
+                plan.dir.display()
+            )
+        })?;
+        let next = plan.first_part;
+        Ok(Recorder(Rc::new(RefCell::new(State {
+            plan,
+            next,
+            measuring: false,
+            part: None,
+            error: None,
+            written: Vec::new(),
+        }))))
+    }
+
+    /// Takes a camera frame (pixels and the detector's result): kept when a recorded part is
+    /// measuring a turn.
+    pub fn tap(&self, f: &SeenFrame<'_>) {
+        let mut s = self.0.borrow_mut();
+        if !s.measuring || s.error.is_some() {
+            return;
+        }
+        let r = match s.part.as_mut() {
+            Some(p) => p.frame(f),
+            None => return,
+        };
+        if let Err(e) = r {
+            s.fail(e);
+        }
+    }
+
+    /// The directories written, and the first error (recording stopped there).
+    pub fn finish(self) -> (Vec<PathBuf>, Option<anyhow::Error>) {
+        let mut s = self.0.borrow_mut();
+        (std::mem::take(&mut s.written), s.error.take())
+    }
+}
+
+impl Part {
+    fn frame(&mut self, f: &SeenFrame<'_>) -> Result<()> {
+        match self.size {
+            None => self.size = Some((f.width, f.height)),
+            Some(wh) if wh != (f.width, f.height) => {
+                return Err(anyhow!(
+                    "frame of {}x{} after frames of {}x{}",
+                    f.width,
+                    f.height,
+                    wh.0,
+                    wh.1
+                ));
+            }
+            Some(_) => {}
+        }
+        if self.raw.is_none() {
+            let name = format!("turn-{}.raw", self.turns.len() + 1);
+            let file = std::fs::File::create(self.tmp.path().join(&name))
+                .with_context(|| format!("creating {name}"))?;
+            self.raw = Some(std::io::BufWriter::with_capacity(1 << 20, file));
+            self.raw_frames = 0;
+        }
+        if let Some(w) = self.raw.as_mut() {
+            w.write_all(f.pixels).context("writing frames")?;
+        }
+        self.raw_frames += 1;
+        Ok(())
+    }
+
+    fn end_turn(&mut self, frames: &[CameraFrame], log: &[AngleSample]) -> Result<()> {
+        let n = self.turns.len() + 1;
+        let raw = format!("turn-{n}.raw");
+        match self.raw.take() {
+            Some(mut w) => w.flush().with_context(|| format!("writing {raw}"))?,
+            None => {
+                // A turn without rendered frames (none reached the tap): an empty file.
+                std::fs::File::create(self.tmp.path().join(&raw))
+                    .with_context(|| format!("creating {raw}"))?;
+                self.raw_frames = 0;
+            }
+        }
+        if self.raw_frames != frames.len() {
+            return Err(anyhow!(
+                "turn {n}: {} frames rendered, {} reported by the camera",
+                self.raw_frames,
+                frames.len()
+            ));
+        }
+        let data = format!("turn-{n}.json");
+        // Start, kind and focus are filled in from the turn's record (Observer::turn).
+        let turn = RecordedTurn {
+            t_start_s: f64::NAN,
+            kind: gonio_station::record::TurnKind::Initial,
+            focus_um: f64::NAN,
+            frames: frames.to_vec(),
+            log: log.to_vec(),
+        };
+        self.pending = Some(turn);
+        self.turns.push(TurnFiles {
+            raw,
+            data,
+            frames: frames.len(),
+        });
+        Ok(())
+    }
+}
+
+impl State {
+    fn fail(&mut self, e: anyhow::Error) {
+        let what = match &self.part {
+            Some(p) => format!("recording part {} ({})", p.index + 1, p.serial),
+            None => "recording".into(),
+        };
+        self.error = Some(e.context(what));
+        self.part = None;
+    }
+
+    fn write_turn(&mut self, t: &TurnRecord) -> Result<()> {
+        let Some(p) = self.part.as_mut() else {
+            return Ok(());
+        };
+        let Some(mut turn) = p.pending.take() else {
+            return Ok(());
+        };
+        turn.t_start_s = t.t_start_s;
+        turn.kind = t.kind;
+        turn.focus_um = t.focus_um;
+        let files = p.turns.last().expect("a turn was ended");
+        let text = serde_json::to_string(&turn)?;
+        std::fs::write(p.tmp.path().join(&files.data), text)
+            .with_context(|| format!("writing {}", files.data))?;
+        Ok(())
+    }
+
+    fn finish_part(&mut self, record: &PartRecord) -> Result<()> {
+        let Some(p) = self.part.take() else {
+            return Ok(());
+        };
+        let (width, height) = p.size.unwrap_or((0, 0));
+        let file = PartFile {
+            format: FORMAT.into(),
+            serial: p.serial.clone(),
+            batch_index: p.index,
+            seed: Some(self.plan.seed),
+            software_version: self.plan.software_version.clone(),
+            recipe: self.plan.recipe.clone(),
+            strategy: self.plan.strategy,
+            optics: Optics::default(),
+            width,
+            height,
+            turns: p.turns.clone(),
+            record: record.clone(),
+        };
+        std::fs::write(
+            p.tmp.path().join("part.json"),
+            serde_json::to_string_pretty(&file)?,
+        )
+        .context("writing part.json")?;
+        let dest = part_dir(&self.plan.dir, p.index);
+        if dest.exists() {
+            std::fs::remove_dir_all(&dest)
+                .with_context(|| format!("replacing {}", dest.display()))?;
+        }
+        let tmp = p.tmp.keep();
+        std::fs::rename(&tmp, &dest)
+            .with_context(|| format!("moving the record into {}", dest.display()))?;
+        self.written.push(dest);
+        Ok(())
+    }
+}
+
+impl Observer for Recorder {
+    fn part_started(&mut self, serial: &str) {
+        let mut s = self.0.borrow_mut();
+        let index = s.next;
+        s.next += 1;
+        s.measuring = false;
+        let wanted = s
+            .plan
+            .parts
+            .as_ref()
+            .is_none_or(|set| set.contains(&(index + 1)));
+        if !wanted || s.error.is_some() {
+            s.part = None;
+            return;
+        }
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".part-{:04}-", index + 1))
+            .tempdir_in(&s.plan.dir);
+        match tmp {
+            Ok(tmp) => {
+                s.part = Some(Part {
+                    index,
+                    serial: serial.to_string(),
+                    tmp,
+                    turns: Vec::new(),
+                    raw: None,
+                    raw_frames: 0,
+                    size: None,
+                    pending: None,
+                })
+            }
+            Err(e) => s.fail(anyhow!(e).context("creating a temporary directory")),
+        }
+    }
+
+    fn phase(&mut self, phase: Phase) {
+        self.0.borrow_mut().measuring = matches!(phase, Phase::Measure(_));
+    }
+
+    fn turn_inputs(&mut self, frames: &[CameraFrame], log: &[AngleSample]) {
+        let mut s = self.0.borrow_mut();
+        s.measuring = false;
+        let r = match s.part.as_mut() {
+            Some(p) => p.end_turn(frames, log),
+            None => return,
+        };
+        if let Err(e) = r {
+            s.fail(e);
+        }
+    }
+
+    fn turn(&mut self, turn: &TurnRecord, _fit: Option<&EccentricityFit>) {
+        let mut s = self.0.borrow_mut();
+        if let Err(e) = s.write_turn(turn) {
+            s.fail(e);
+        }
+    }
+
+    fn part_finished(&mut self, record: &PartRecord) {
+        let mut s = self.0.borrow_mut();
+        if let Err(e) = s.finish_part(record) {
+            s.fail(e);
+        }
+    }
+}
