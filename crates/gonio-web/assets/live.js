@@ -80,14 +80,31 @@ function drawThumb() {
   const svg = $('thumb');
   clear(svg);
   const W = 360, H = 135, s = W / 1440;
+  const zoom = $('zoom');
+  clear(zoom);
   if (live.image) {
-    el('image', { href: live.image.src, x: 0, y: 0, width: W, height: H, preserveAspectRatio: 'none' }, svg);
-    for (const c of live.image.edges_px) {
-      el('line', { x1: c * W / live.image.width, x2: c * W / live.image.width, y1: 0, y2: H, stroke: VERMILION, 'stroke-width': 1.5 }, svg);
+    const im = live.image;
+    el('image', { href: im.src, x: 0, y: 0, width: W, height: H, preserveAspectRatio: 'none' }, svg);
+    for (const c of im.edges_px) {
+      el('line', { x1: c * W / im.width, x2: c * W / im.width, y1: 0, y2: H, stroke: VERMILION, 'stroke-width': 1, 'stroke-opacity': 0.9 }, svg);
     }
-    $('frame-note').textContent = 'rendered frame, detected edges in red';
+    if (im.zoom_src) {
+      // The strip around the ring, one screen unit per frame column.
+      const zs = W / im.zoom_width_px;
+      el('rect', { x: im.zoom_x0_px * W / im.width, y: 0, width: im.zoom_width_px * W / im.width, height: H, fill: 'none', stroke: '#fff', 'stroke-dasharray': '3 2' }, svg);
+      el('image', { href: im.zoom_src, x: 0, y: 0, width: W, height: H, preserveAspectRatio: 'none' }, zoom);
+      for (const c of im.edges_px) {
+        const x = (c - im.zoom_x0_px) * zs;
+        if (x >= 0 && x <= W) el('line', { x1: x, x2: x, y1: 0, y2: H, stroke: VERMILION, 'stroke-width': 1.2 }, zoom);
+      }
+      zoom.style.display = 'block';
+    } else {
+      zoom.style.display = 'none';
+    }
+    $('frame-note').textContent = 'rendered frame; below, the columns around the ring at full resolution; detected edges in red';
     return;
   }
+  zoom.style.display = 'none';
   el('rect', { x: 0, y: 0, width: W, height: H, fill: '#2b2b2b' }, svg);
   for (let k = 0; k < 40; k++) {
     el('line', { x1: k * 9, x2: k * 9, y1: 0, y2: H, stroke: '#3a3a3a', 'stroke-width': 3 }, svg);

@@ -49,6 +49,27 @@ pub struct LiveState {
     pub events: u64,
 }
 
+/// A camera frame for the live view: the whole frame reduced, and a strip around the ring at
+/// full column resolution, with the columns of the edges the detector found.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameImage {
+    /// The whole frame, reduced (a PNG data URL).
+    pub src: String,
+    /// The frame's width, px (the edges' columns are in the frame's pixels).
+    pub width: u32,
+    /// The frame's height, px.
+    pub height: u32,
+    /// The detected edges' columns, px.
+    pub edges_px: Vec<f64>,
+    /// A strip of full-resolution columns around the ring (a PNG data URL), if the ring was
+    /// found.
+    pub zoom_src: Option<String>,
+    /// The strip's first column in the frame, px.
+    pub zoom_x0_px: u32,
+    /// The strip's width, px (frame columns).
+    pub zoom_width_px: u32,
+}
+
 /// Where the station's events meet the pages.
 pub struct Hub {
     tx: broadcast::Sender<Arc<Event>>,
@@ -136,10 +157,9 @@ impl Hub {
         });
     }
 
-    /// A frame image (full fidelity): a PNG data URL, its size and the detected edge columns.
-    pub fn image(&self, png_data_url: String, width: u32, height: u32, edges_px: Vec<f64>) {
-        let v =
-            json!({"src": png_data_url, "width": width, "height": height, "edges_px": edges_px});
+    /// A frame image (full fidelity) with the detector's edges, for the live thumbnail.
+    pub fn image(&self, frame: &FrameImage) {
+        let v = serde_json::to_value(frame).unwrap_or(Value::Null);
         self.publish("image", v.clone(), |s| s.image = Some(v));
     }
 }
