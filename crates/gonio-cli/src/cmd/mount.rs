@@ -45,6 +45,9 @@ the batch is interrupted (the process killed, a device error under on_device_err
 the same command with --resume continues it after its last stored part: no part lost, none
 duplicated, the same records as an uninterrupted run.
 
+With --record DIR (and --fidelity frames), the chosen parts' measuring turns are kept for
+`gonio replay DIR`: raw frames, stamps, live detector results and angle logs, and the record.
+
 Examples:
   gonio mount --sim --seed 1
   gonio mount --sim --parts 200 --strategy paper --seed 7 --json batch.json
@@ -52,7 +55,8 @@ Examples:
   gonio mount --sim --parts 500 --seed 7 --db results.sqlite --resume
   gonio mount --sim --seed 7 --db postgres://gonio@/results?host=/run/postgresql --station-name line3-s2
   gonio mount --sim --recipe examples/recipes/r40-standard.toml --strategy live --seed 3
-  gonio mount --sim --parts 5 --fidelity frames --scene dense --seed 4")]
+  gonio mount --sim --parts 5 --fidelity frames --scene dense --seed 4
+  gonio mount --sim --parts 20 --fidelity frames --seed 4 --record rec --record-parts 3,17")]
 pub struct Args {
     /// Use the simulated station (the digital twin with the default plant).
     #[arg(long)]
