@@ -10,8 +10,8 @@
 //! ```
 //! Every request goes to 127.0.0.1; the request loops are bounded in count and time.
 
-#[path = "../tests/support/mod.rs"]
-mod support;
+#[path = "../tests/common/mod.rs"]
+mod common;
 
 use serde_json::Value;
 use std::io::{Read, Write};
@@ -80,7 +80,7 @@ fn sse_client(addr: String, stop: Arc<AtomicBool>, events: Arc<AtomicU64>) {
 
 /// The station's frame timing from `/api/status`.
 fn timing(addr: &str) -> Value {
-    let (status, body) = support::http_get(addr, "/api/status");
+    let (status, body) = common::http_get(addr, "/api/status");
     assert_eq!(status, 200, "{body}");
     let v: Value = serde_json::from_str(&body).unwrap();
     v["frame_timing"].clone()
@@ -88,13 +88,13 @@ fn timing(addr: &str) -> Value {
 
 /// A store with a history (50 parts mounted before), served with the station running a new
 /// batch in real time.
-fn serve(db: &str) -> (support::Guard, String) {
+fn serve(db: &str) -> (common::Guard, String) {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_gonio"))
         .args(["mount", "--sim", "--parts", "50", "--seed", "3", "--db", db])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    support::start_serve(
+    common::start_serve(
         env!("CARGO_BIN_EXE_gonio"),
         &[
             "serve",
@@ -183,7 +183,7 @@ fn main() {
                     late_starts += 1;
                 }
                 let t = Instant::now();
-                let (status, _) = support::http_get(&a, PATHS[(i % PATHS.len() as u64) as usize]);
+                let (status, _) = common::http_get(&a, PATHS[(i % PATHS.len() as u64) as usize]);
                 lat.push(t.elapsed().as_secs_f64() * 1e3);
                 if status != 200 {
                     errors += 1;

@@ -2,34 +2,11 @@
 //! (the same JSON `--json` writes) with its indexed fields (item, procedure, method, date,
 //! largest |α|, largest U), and the store gives them back.
 
+mod common;
+
+use common::{example, gonio, ok};
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let o = gonio(args);
-    assert!(
-        o.status.success(),
-        "gonio {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
-}
 
 fn s(p: &Path) -> String {
     p.display().to_string()
@@ -96,7 +73,7 @@ fn certificates_are_stored_whole_with_their_index_fields() {
     let db = s(&d.join("results.sqlite"));
     let (sa, sc) = (d.join("sa.json"), d.join("sc.json"));
     let sa_readings = s(&lab.join("readings.csv"));
-    let msg = ok(&[
+    let (_, msg) = ok(&[
         "shift-angle",
         &sa_readings,
         "--meta",

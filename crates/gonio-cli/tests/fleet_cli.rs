@@ -61,6 +61,10 @@ fn two_stations_write_400_parts_into_one_postgres_database() {
     let mut ids: Vec<i64> = all.iter().map(|p| p["part"].as_i64().unwrap()).collect();
     ids.dedup();
     assert_eq!(ids.len(), 400, "distinct ids");
+    eprintln!(
+        "PostgreSQL: two stations wrote {} records concurrently",
+        all.len()
+    );
 
     // Each station's records, against the same batch run alone into SQLite.
     let d = tempfile::tempdir().unwrap();

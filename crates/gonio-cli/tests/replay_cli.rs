@@ -3,16 +3,12 @@
 //! turns through the fit again and finds them bit-identical to the record; a changed angle log
 //! is reported as a difference.
 
+mod common;
+
+use common::gonio;
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
+use std::process::Output;
 
 fn text(o: &Output) -> (String, String) {
     (

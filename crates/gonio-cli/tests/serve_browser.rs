@@ -7,15 +7,15 @@
 //! Chromium is Debian's `chromium` (`.ci/run` installs it); if it cannot be started the test
 //! fails with the reason. `GONIO_CHROMIUM` names another binary.
 
-mod support;
+mod common;
 
 use base64::Engine;
+use common::{Guard, http_get, start_serve, wait_for_line};
 use serde_json::{Value, json};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-use support::{Guard, http_get, start_serve, wait_for_line};
 
 /// A DevTools-protocol session on one page.
 struct Page {

@@ -2,27 +2,18 @@
 //! gives exactly the records of an uninterrupted run (no part lost, none duplicated, every
 //! record identical but for its wall-clock times); `gonio parts` queries it.
 
+mod common;
+
+use common::gonio;
 use gonio_store::PartQuery;
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
+/// Standard output of a successful `gonio` run.
 fn ok(args: &[&str]) -> String {
-    let o = gonio(args);
-    assert!(
-        o.status.success(),
-        "gonio {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    common::ok(args).0
 }
 
 fn s(p: &Path) -> String {
@@ -119,6 +110,11 @@ fn a_batch_killed_mid_way_and_resumed_equals_an_uninterrupted_one() {
 
     let (whole, resumed) = (records(&a), records(&b));
     assert_eq!(resumed.len(), PARTS, "no part lost, none duplicated");
+    eprintln!(
+        "SIGKILL after {before} of {PARTS} parts stored; resumed at part {}; {} records, each equal to the uninterrupted run's",
+        before + 1,
+        resumed.len()
+    );
     for (i, (x, y)) in whole.iter().zip(&resumed).enumerate() {
         assert_eq!(y["batch_index"], i, "in order, once each");
         assert_eq!(y["serial"], format!("SIM-11-{:04}", i + 1));

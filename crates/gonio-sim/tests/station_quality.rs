@@ -328,8 +328,13 @@ fn a_glitch_on_one_turn_costs_one_remeasurement() {
 #[test]
 fn a_rod_at_30_percent_gain_stops_after_one_push() {
     // The rod works for the first 20 push cycles (the controller learns gain ≈ 1), then silently
-    // pushes at 30 %. A part whose predicted move M is large enough for the shortfall 0.7·M to
-    // exceed the tolerance 8 µm + 0.45·M (M > 32 µm) is rejected after that one push.
+    // pushes at 30 %. A part whose verify turn finds it farther than the tolerance from where the
+    // push model put it is rejected after that one push. Nominally that is every part whose
+    // predicted move M leaves a shortfall 0.7·M above the tolerance 8 µm + 0.45·M (M > 32 µm);
+    // but the fast approach's overshoot |N(0, 3 µm)|, the stick-slip U(0, 1.5 µm) and the 8 %
+    // gain scatter also move the part, so near the boundary a part may still land within the
+    // tolerance (SIM-15-0023: M = 54 µm, moved 23 µm instead of 16). With three standard
+    // deviations of each, the shortfall exceeds the tolerance for every M > 60 µm.
     let cfg = config(40, Strategy::Learned);
     let r = run_batch_on(
         &cfg,
@@ -359,7 +364,7 @@ fn a_rod_at_30_percent_gain_stops_after_one_push() {
             Some(f) => f,
             None => continue, // within the threshold from the start
         };
-        if first.predicted_move_um > 32.0 {
+        if first.consistent == Some(false) && first.e_after_um >= cfg.recipe.threshold_um {
             assert_eq!(
                 rec.result,
                 PartResult::PushInconsistent,
@@ -376,8 +381,14 @@ fn a_rod_at_30_percent_gain_stops_after_one_push() {
             assert!(rec.final_e_um > 0.5 * rec.initial_e_um);
             caught += 1;
         } else {
-            // A small part still moves the right way (30 % per push) and ends within the
+            // A smaller part still moves the right way (30 % per push) and ends within the
             // threshold or at the push limit.
+            assert!(
+                first.predicted_move_um <= 60.0,
+                "{}: M = {} µm not caught",
+                rec.serial,
+                first.predicted_move_um
+            );
             assert!(matches!(
                 rec.result,
                 PartResult::Accepted | PartResult::PushInconsistent | PartResult::RejectedMaxPushes

@@ -19,7 +19,7 @@
 //!             start_s: t,
 //!             exposure_s: 0.001,
 //!             c_px: Some(720.0 + 40.0 * th.cos() + 0.05 * (7.0 * th).sin()),
-//!             invalid_reason: String::new(),
+//!             invalid_reason: None,
 //!             focus_measure: 40.0,
 //!         }
 //!     })

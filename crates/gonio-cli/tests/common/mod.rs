@@ -1,7 +1,44 @@
-//! Helpers shared by the CLI tests.
+//! Helpers shared by the CLI tests (and the `serve_load` bench): running `gonio`, the
+//! examples' paths, JSON key paths, and for the dashboard a child process killed when dropped,
+//! a line awaited on its standard error, plain HTTP GETs on loopback.
+#![allow(dead_code)] // each test uses some of them
 
 use serde_json::Value;
 use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Output};
+use std::sync::mpsc;
+use std::time::Duration;
+
+/// Runs the `gonio` binary under test.
+pub fn gonio(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_gonio"))
+        .args(args)
+        .output()
+        .expect("gonio runs")
+}
+
+/// Runs `gonio`, asserting success; its standard output and standard error.
+pub fn ok(args: &[&str]) -> (String, String) {
+    let o = gonio(args);
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    );
+    assert!(o.status.success(), "gonio {args:?}: {err}");
+    (out, err)
+}
+
+/// A file of the repository's `examples/`.
+pub fn example(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+        .display()
+        .to_string()
+}
 
 /// Every key path of a JSON value into `out` (`edges[].slope` for the members of an array's
 /// objects): the shape of an output, for contract tests.
@@ -25,4 +62,92 @@ pub fn key_paths(v: &Value, prefix: &str, out: &mut BTreeSet<String>) {
         }
         _ => {}
     }
+}
+
+/// Kills a child process when dropped (the test never leaves one running).
+pub struct Guard(pub Child);
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The first line of `child`'s standard error that contains `marker`, within `limit`; the
+/// rest of its standard error is drained in the background (and kept for messages).
+pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -> String {
+    let err = child.stderr.take().expect("stderr piped");
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut sent = false;
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if !sent && line.contains(marker) {
+                let _ = tx.send(line);
+                sent = true;
+            }
+        }
+    });
+    rx.recv_timeout(limit)
+        .unwrap_or_else(|_| panic!("no line with {marker:?} within {limit:?}"))
+}
+
+/// `GET path` on `host:port` over plain HTTP/1.1: (status, body). Reads the body by its
+/// `Content-Length`.
+pub fn http_get(addr: &str, path: &str) -> (u16, String) {
+    let s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
+    s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    (&s).write_all(
+        format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes(),
+    )
+    .unwrap();
+    let mut r = BufReader::new(&s);
+    let mut status_line = String::new();
+    r.read_line(&mut status_line)
+        .unwrap_or_else(|e| panic!("GET {path}: {e}"));
+    let status = status_line
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("GET {path}: {status_line:?}"));
+    let mut length = 0usize;
+    loop {
+        let mut h = String::new();
+        r.read_line(&mut h).unwrap();
+        if h.trim().is_empty() {
+            break;
+        }
+        if let Some((k, v)) = h.split_once(':') {
+            if k.eq_ignore_ascii_case("content-length") {
+                length = v.trim().parse().unwrap();
+            }
+        }
+    }
+    let mut body = vec![0; length];
+    r.read_exact(&mut body)
+        .unwrap_or_else(|e| panic!("GET {path}: body of {length} bytes: {e}"));
+    (status, String::from_utf8_lossy(&body).into_owned())
+}
+
+/// Starts `gonio` (the binary at `exe`) with `args` ending in `--addr 127.0.0.1:0`; the child
+/// and the dashboard's address (`127.0.0.1:PORT`) once it listens.
+pub fn start_serve(exe: &str, args: &[&str]) -> (Guard, String) {
+    let mut child = std::process::Command::new(exe)
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("gonio serve starts");
+    let line = wait_for_line(
+        &mut child,
+        "gonio dashboard on http://",
+        Duration::from_secs(30),
+    );
+    let addr = line
+        .split("http://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .expect("the address")
+        .to_string();
+    (Guard(child), addr)
 }
