@@ -14,6 +14,7 @@
 //!
 //! ```
 //! use gonio_vision::morphology::{Disk, Dilate};
+//! use gonio_vision::rows::RowStage;
 //! let mut dil = Dilate::new(8, Disk::new(1));
 //! let rows = [[0u8; 8], [0, 0, 0, 9, 0, 0, 0, 0], [0u8; 8]];
 //! let mut out = [0u8; 8];
@@ -26,7 +27,7 @@
 //! assert_eq!(got, vec![[0, 0, 9, 9, 9, 0, 0, 0]; 3]);
 //! ```
 
-use crate::rows::RowLag;
+use crate::rows::{RowLag, RowStage, StageObserver};
 
 /// A discrete disk of radius r: the pixels (dx, dy) with dx² + dy² ≤ r² + r, i.e. within
 /// r + ½ of the centre. Diameter 2r + 1 (r = 11: 23×23; r = 2: 5×5 without its corners).
@@ -85,9 +86,10 @@ enum Source {
 /// Columns per block of the vertical combination (four AVX2 registers of running extremes).
 const BLOCK: usize = 256;
 
-/// Streaming dilation (`MAX = true`) or erosion (`MAX = false`) by a disk; lag r rows.
+/// The chord kernel of a dilation (`MAX = true`) or an erosion (`MAX = false`) by a disk: the
+/// chord-class rows of the last 2r + 1 input rows and their vertical combination.
 #[derive(Debug, Clone)]
-pub struct Morph<const MAX: bool> {
+struct MorphCore<const MAX: bool> {
     width: usize,
     radius: usize,
     pad: usize,
@@ -104,25 +106,17 @@ pub struct Morph<const MAX: bool> {
     stride: usize,
     /// Ring offsets of the rows combined for the current output row.
     offs: Vec<usize>,
-    rows: RowLag,
 }
-
-/// Streaming dilation (maximum over a disk).
-pub type Dilate = Morph<true>;
-/// Streaming erosion (minimum over a disk).
-pub type Erode = Morph<false>;
 
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
     if MAX { a.max(b) } else { a.min(b) }
 }
 
-impl<const MAX: bool> Morph<MAX> {
+impl<const MAX: bool> MorphCore<MAX> {
     const NEUTRAL: u8 = if MAX { 0 } else { 255 };
 
-    /// A filter for rows of `width` pixels. Allocates all its memory here:
-    /// (2r + 1) × (distinct chord widths) rows plus a pyramid of a few rows.
-    pub fn new(width: usize, disk: Disk) -> Self {
+    fn new(width: usize, disk: &Disk) -> Self {
         let r = disk.radius;
         let mut class_half: Vec<usize> = Vec::new();
         let mut class_of_dy = Vec::with_capacity(r + 1);
@@ -168,7 +162,7 @@ impl<const MAX: bool> Morph<MAX> {
         // whole blocks from `pad` on (columns past w are ignored).
         let stride = (pad + width.div_ceil(BLOCK) * BLOCK).max(2 * pad + width);
         let stride = stride.div_ceil(64) * 64;
-        Morph {
+        MorphCore {
             width,
             radius: r,
             pad,
@@ -179,56 +173,25 @@ impl<const MAX: bool> Morph<MAX> {
             class_half,
             class_of_dy,
             offs: Vec::with_capacity(2 * r + 1),
-            rows: RowLag::new(r),
         }
     }
 
-    /// Lag in rows between an input row and the output row of the same index.
-    pub fn lag(&self) -> usize {
-        self.radius
-    }
-
-    /// Starts a new frame.
-    pub fn reset(&mut self) {
-        self.rows.reset();
-    }
-
     #[inline(always)]
-    fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
+    fn slot_start(&self, row: usize, class: usize) -> usize {
         let nc = self.class_half.len();
-        let s = ((row % self.rows.depth()) * nc + class) * self.stride + self.pad;
-        s..s + self.width
+        ((row % (2 * self.radius + 1)) * nc + class) * self.stride + self.pad
     }
 
-    /// Pushes one input row (`width` pixels); writes output row `pushed − 1 − r` into `out` and
-    /// returns true once enough rows have arrived.
-    pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if crate::simd::avx2() {
-            // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
-            #[allow(unsafe_code)]
-            return unsafe { self.push_row_avx2(row, out) };
-        }
-        self.push_row_impl(row, out)
-    }
-
-    /// The same code compiled with AVX2 (bit-exact: integer max/min only).
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    #[target_feature(enable = "avx2")]
-    unsafe fn push_row_avx2(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        self.push_row_impl(row, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    #[target_feature(enable = "avx2")]
-    unsafe fn emit_avx2(&mut self, out: &mut [u8]) {
-        self.emit(out)
+    /// Makes the chord-class rows of input row `n` (`width` pixels).
+    fn add_row(&mut self, row: &[u8], n: usize) {
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.add_row_impl(row, n),
+        )
     }
 
     #[inline(always)]
-    fn push_row_impl(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+    fn add_row_impl(&mut self, row: &[u8], n: usize) {
         debug_assert_eq!(row.len(), self.width);
         let (w, p) = (self.width, self.pad);
         // Level 1 (max of 2) straight from the row: no copy into the padded level 0 (a
@@ -251,10 +214,10 @@ impl<const MAX: bool> Morph<MAX> {
             self.levels[0][p..p + w].copy_from_slice(row);
             1
         };
-        let n = w + 2 * p;
+        let n_pad = w + 2 * p;
         for k in first..self.levels.len() {
             let s = 1usize << (k - 1);
-            let len = n + 1 - (1usize << k);
+            let len = n_pad + 1 - (1usize << k);
             let (lo, hi) = self.levels.split_at_mut(k);
             let src = &lo[k - 1];
             let dst = &mut hi[0][..len];
@@ -262,7 +225,7 @@ impl<const MAX: bool> Morph<MAX> {
                 *d = ext::<MAX>(a, b);
             }
         }
-        let row0 = self.rows.input_slot() * self.class_half.len();
+        let row0 = (n % (2 * self.radius + 1)) * self.class_half.len();
         let (r, stride) = (self.radius, self.stride);
         for &(c, src) in &self.plan {
             let hw = self.class_half[c];
@@ -299,43 +262,26 @@ impl<const MAX: bool> Morph<MAX> {
                 }
             }
         }
-        if self.rows.pushed() {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
     }
 
-    /// After the frame's last row: writes the next pending output row, false when none is left.
-    pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-        if self.rows.pending() {
-            #[cfg(target_arch = "x86_64")]
-            if crate::simd::avx2() {
-                // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
-                #[allow(unsafe_code)]
-                unsafe {
-                    self.emit_avx2(out)
-                };
-                return true;
-            }
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+    /// Output row `y` from the class rows of input rows y − r … y + r that exist (rows 0 …
+    /// `n` − 1; the others are outside the frame).
+    fn combine(&mut self, y: usize, n: usize, out: &mut [u8]) {
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.combine_impl(y, n, out),
+        )
     }
 
     #[inline(always)]
-    fn emit(&mut self, out: &mut [u8]) {
-        let y = self.rows.output_row() as isize;
-        let r = self.radius as isize;
+    fn combine_impl(&mut self, y: usize, n: usize, out: &mut [u8]) {
+        let (y, r) = (y as isize, self.radius as isize);
         let lo = (y - r).max(0);
-        let hi = (y + r).min(self.rows.received() as isize - 1);
+        let hi = (y + r).min(n as isize - 1);
         self.offs.clear();
         for yy in lo..=hi {
             let c = self.class_of_dy[(yy - y).unsigned_abs()];
-            let start = self.slot(yy as usize, c).start;
+            let start = self.slot_start(yy as usize, c);
             self.offs.push(start);
         }
         // Blocks of BLOCK columns: the running extreme stays in registers while the rows stream
@@ -361,126 +307,140 @@ impl<const MAX: bool> Morph<MAX> {
             }
             x0 += B;
         }
-        self.rows.advance();
     }
+}
+
+/// Streaming dilation (`MAX = true`) or erosion (`MAX = false`) by a disk; lag r rows.
+#[derive(Debug, Clone)]
+pub struct Morph<const MAX: bool> {
+    core: MorphCore<MAX>,
+    input: Vec<u8>,
+    rows: RowLag,
+}
+
+/// Streaming dilation (maximum over a disk).
+pub type Dilate = Morph<true>;
+/// Streaming erosion (minimum over a disk).
+pub type Erode = Morph<false>;
+
+impl<const MAX: bool> Morph<MAX> {
+    /// A filter for rows of `width` pixels. Allocates all its memory here:
+    /// (2r + 1) × (distinct chord widths) rows plus a pyramid of a few rows.
+    pub fn new(width: usize, disk: Disk) -> Self {
+        Morph {
+            core: MorphCore::new(width, &disk),
+            input: vec![0; width],
+            rows: RowLag::new(disk.radius),
+        }
+    }
+}
+
+impl<const MAX: bool> RowStage for Morph<MAX> {
+    type In = [u8];
+    type Out = [u8];
+    fn rows(&self) -> &RowLag {
+        &self.rows
+    }
+    fn rows_mut(&mut self) -> &mut RowLag {
+        &mut self.rows
+    }
+    fn input(&mut self) -> &mut [u8] {
+        &mut self.input
+    }
+    fn accept(&mut self) {
+        self.core.add_row(&self.input, self.rows.received());
+    }
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], _: &mut O) {
+        self.core
+            .combine(self.rows.output_row(), self.rows.received(), out);
+    }
+}
+
+/// Two morphological operations by one disk in a row, optionally minus the input: the closing
+/// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
+/// (erode, then dilate); lag 2r. The first operation's rows are made as the second one needs
+/// them; the last 2r + 1 input rows are kept for the subtraction.
+#[derive(Debug, Clone)]
+pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
+    first: MorphCore<FIRST_MAX>,
+    second: MorphCore<SECOND_MAX>,
+    /// The last 2r + 1 input rows.
+    raw: Vec<u8>,
+    /// One row of the first operation.
+    mid: Vec<u8>,
+    /// Rows of the first operation made so far.
+    mid_rows: usize,
+    width: usize,
+    radius: usize,
+    rows: RowLag,
 }
 
 /// Streaming morphological closing (dilate, then erode) by a disk.
-#[derive(Debug, Clone)]
-pub struct Closing {
-    dil: Dilate,
-    ero: Erode,
-    mid: Vec<u8>,
-}
-
-/// Streaming morphological opening (erode, then dilate) by a disk.
-#[derive(Debug, Clone)]
-pub struct Opening {
-    ero: Erode,
-    dil: Dilate,
-    mid: Vec<u8>,
-}
-
-macro_rules! two_stage {
-    ($t:ident, $a:ident, $b:ident) => {
-        impl $t {
-            /// A filter for rows of `width` pixels with the given disk.
-            pub fn new(width: usize, disk: Disk) -> Self {
-                $t {
-                    $a: Morph::new(width, disk.clone()),
-                    $b: Morph::new(width, disk),
-                    mid: vec![0; width],
-                }
-            }
-            /// Lag in rows (2r).
-            pub fn lag(&self) -> usize {
-                self.$a.lag() + self.$b.lag()
-            }
-            /// Starts a new frame.
-            pub fn reset(&mut self) {
-                self.$a.reset();
-                self.$b.reset();
-            }
-            /// Pushes one row; true when `out` holds the next output row.
-            pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-                self.$a.push_row(row, &mut self.mid) && self.$b.push_row(&self.mid, out)
-            }
-            /// After the last row: the next pending output row, false when none is left.
-            pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-                while self.$a.flush_row(&mut self.mid) {
-                    if self.$b.push_row(&self.mid, out) {
-                        return true;
-                    }
-                }
-                self.$b.flush_row(out)
-            }
-        }
-    };
-}
-two_stage!(Closing, dil, ero);
-two_stage!(Opening, ero, dil);
-
+pub type Closing = MorphPair<true, false, false>;
 /// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
-/// bright ones); lag 2r. Holds 2r + 1 input rows to subtract.
-#[derive(Debug, Clone)]
-pub struct BlackTopHat {
-    close: Closing,
-    delay: Vec<u8>,
-    width: usize,
-    slots: usize,
-    n_in: usize,
-    n_out: usize,
+/// bright ones); lag 2r.
+pub type BlackTopHat = MorphPair<true, false, true>;
+/// Streaming morphological opening (erode, then dilate) by a disk.
+pub type Opening = MorphPair<false, true, false>;
+
+impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
+    /// A filter for rows of `width` pixels with the given disk.
+    pub fn new(width: usize, disk: Disk) -> Self {
+        let r = disk.radius;
+        MorphPair {
+            first: MorphCore::new(width, &disk),
+            second: MorphCore::new(width, &disk),
+            raw: vec![0; (2 * r + 1) * width],
+            mid: vec![0; width],
+            mid_rows: 0,
+            width,
+            radius: r,
+            rows: RowLag::new(2 * r),
+        }
+    }
 }
 
-impl BlackTopHat {
-    /// A filter for rows of `width` pixels with the given closing disk.
-    pub fn new(width: usize, disk: Disk) -> Self {
-        let slots = 2 * disk.radius() + 1;
-        BlackTopHat {
-            close: Closing::new(width, disk),
-            delay: vec![0; slots * width],
-            width,
-            slots,
-            n_in: 0,
-            n_out: 0,
+impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S, SUB> {
+    type In = [u8];
+    type Out = [u8];
+    fn rows(&self) -> &RowLag {
+        &self.rows
+    }
+    fn rows_mut(&mut self) -> &mut RowLag {
+        &mut self.rows
+    }
+    fn reset(&mut self) {
+        self.rows.reset();
+        self.mid_rows = 0;
+    }
+    fn input(&mut self) -> &mut [u8] {
+        let s = self.rows.received() % (2 * self.radius + 1) * self.width;
+        &mut self.raw[s..s + self.width]
+    }
+    fn accept(&mut self) {
+        let n = self.rows.received();
+        let s = n % (2 * self.radius + 1) * self.width;
+        self.first.add_row(&self.raw[s..s + self.width], n);
+    }
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
+        let (y, n) = (self.rows.output_row(), self.rows.received());
+        // The second operation at row y needs the first one's rows up to y + r.
+        let need = (y + self.radius).min(n - 1);
+        while self.mid_rows <= need {
+            let z = self.mid_rows;
+            self.first.combine(z, n, &mut self.mid);
+            self.second.add_row(&self.mid, z);
+            self.mid_rows += 1;
         }
-    }
-    /// Lag in rows (2r).
-    pub fn lag(&self) -> usize {
-        self.close.lag()
-    }
-    /// Starts a new frame.
-    pub fn reset(&mut self) {
-        self.close.reset();
-        self.n_in = 0;
-        self.n_out = 0;
-    }
-    fn subtract(&mut self, out: &mut [u8]) {
-        let s = (self.n_out % self.slots) * self.width;
-        for (o, &i) in out.iter_mut().zip(&self.delay[s..s + self.width]) {
-            *o = o.saturating_sub(i);
-        }
-        self.n_out += 1;
-    }
-    /// Pushes one row; true when `out` holds the next output row.
-    pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        let s = (self.n_in % self.slots) * self.width;
-        self.delay[s..s + self.width].copy_from_slice(row);
-        self.n_in += 1;
-        if self.close.push_row(row, out) {
-            self.subtract(out);
-            true
-        } else {
-            false
-        }
-    }
-    /// After the last row: the next pending output row, false when none is left.
-    pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-        if self.close.flush_row(out) {
-            self.subtract(out);
-            true
-        } else {
-            false
+        self.second.combine(y, self.mid_rows, out);
+        if SUB {
+            let s = y % (2 * self.radius + 1) * self.width;
+            for (o, &i) in out.iter_mut().zip(&self.raw[s..s + self.width]) {
+                *o = o.saturating_sub(i);
+            }
+            obs.tophat(out);
+        } else if !F {
+            obs.opened(out);
         }
     }
 }
