@@ -51,17 +51,18 @@ impl Gaussian5 {
         };
         let (a, b, c, d, e) = (r(-2), r(-1), r(0), r(1), r(2));
         let v = &mut self.vsum[2..w + 2];
-        for (i, o) in v.iter_mut().enumerate() {
-            *o = a[i] as u16 + 4 * b[i] as u16 + 6 * c[i] as u16 + 4 * d[i] as u16 + e[i] as u16;
+        for (((((o, &a), &b), &c), &d), &e) in v.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(e) {
+            *o = a as u16 + 4 * b as u16 + 6 * c as u16 + 4 * d as u16 + e as u16;
         }
         let (first, last) = (self.vsum[2], self.vsum[w + 1]);
         self.vsum[..2].fill(first);
         self.vsum[w + 2..].fill(last);
         let v = &self.vsum;
         let (v0, v1, v2, v3, v4) = (&v[..w], &v[1..w + 1], &v[2..w + 2], &v[3..w + 3], &v[4..]);
-        for (i, o) in out[..w].iter_mut().enumerate() {
-            let s = v0[i] + 4 * v1[i] + 6 * v2[i] + 4 * v3[i] + v4[i];
-            *o = ((s + 128) >> 8) as u8;
+        for (((((o, &a), &b), &c), &d), &e) in
+            out[..w].iter_mut().zip(v0).zip(v1).zip(v2).zip(v3).zip(v4)
+        {
+            *o = ((a + 4 * b + 6 * c + 4 * d + e + 128) >> 8) as u8;
         }
     }
 }

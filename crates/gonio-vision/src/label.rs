@@ -651,21 +651,30 @@ impl Labeller {
                 rec,
             });
         }
-        for i in 0..self.cur.len() {
-            let r = self.find(self.cur[i].label);
-            self.cur[i].label = r;
-            // A merge later in the row may have moved the row mark to another root.
-            self.last_row[r as usize] = y;
-            if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
-                let (r0, r1) = self.cur[i].rec;
-                for px in &mut e.pixels[r0 as usize..r1 as usize] {
-                    px.comp = r;
+        // Without a merge in this row every label is still a root (the common case: edges
+        // running down the frame), and nothing needs relabelling.
+        let merges = !self.merged.is_empty();
+        if merges {
+            for i in 0..self.cur.len() {
+                let r = self.find(self.cur[i].label);
+                self.cur[i].label = r;
+                // A merge later in the row may have moved the row mark to another root.
+                self.last_row[r as usize] = y;
+                if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
+                    let (r0, r1) = self.cur[i].rec;
+                    for px in &mut e.pixels[r0 as usize..r1 as usize] {
+                        px.comp = r;
+                    }
                 }
             }
         }
         // Components of the previous row that did not continue are complete.
         for i in 0..self.prev.len() {
-            let r = self.find(self.prev[i].label);
+            let r = if merges {
+                self.find(self.prev[i].label)
+            } else {
+                self.prev[i].label
+            };
             if self.last_row[r as usize] != y {
                 self.last_row[r as usize] = y; // complete once
                 self.complete(r);

@@ -27,7 +27,7 @@
 //! assert_eq!(got, vec![[0, 0, 9, 9, 9, 0, 0, 0]; 3]);
 //! ```
 
-use crate::rows::{RowLag, RowStage, StageObserver};
+use crate::rows::{Aligned, RowLag, RowStage, StageObserver};
 
 /// A discrete disk of radius r: the pixels (dx, dy) with dx² + dy² ≤ r² + r, i.e. within
 /// r + ½ of the centre. Diameter 2r + 1 (r = 11: 23×23; r = 2: 5×5 without its corners).
@@ -83,34 +83,75 @@ enum Source {
     Chain(usize, usize),
 }
 
-/// Columns per block of the vertical combination (four AVX2 registers of running extremes).
+/// Columns per block of the vertical combination (eight AVX2 registers of running extremes).
 const BLOCK: usize = 256;
+
+#[inline(always)]
+fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
+    if MAX { a.max(b) } else { a.min(b) }
+}
+
+/// Bytes per step of a row pass (two AVX2 registers, one AVX-512 register).
+const STEP: usize = 64;
+
+/// `dst[i] = ext(a[i], b[i])` for every i, in fixed steps of [`STEP`] bytes with the last step
+/// overlapping the one before (it writes the same values again): no scalar remainder loop,
+/// which for the morphology's odd pass lengths cost as much as the passes themselves.
+#[inline(always)]
+fn pass<const MAX: bool>(dst: &mut [u8], a: &[u8], b: &[u8]) {
+    let n = dst.len();
+    let (a, b) = (&a[..n], &b[..n]);
+    if n < STEP {
+        for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
+            *d = ext::<MAX>(x, y);
+        }
+        return;
+    }
+    let step = |dst: &mut [u8], a: &[u8], b: &[u8], i: usize| {
+        let d: &mut [u8; STEP] = (&mut dst[i..i + STEP]).try_into().expect("step");
+        let x: &[u8; STEP] = a[i..i + STEP].try_into().expect("step");
+        let y: &[u8; STEP] = b[i..i + STEP].try_into().expect("step");
+        for k in 0..STEP {
+            d[k] = ext::<MAX>(x[k], y[k]);
+        }
+    };
+    let mut i = 0;
+    while i + STEP <= n {
+        step(dst, a, b, i);
+        i += STEP;
+    }
+    if i < n {
+        step(dst, a, b, n - STEP);
+    }
+}
 
 /// The chord kernel of a dilation (`MAX = true`) or an erosion (`MAX = false`) by a disk: the
 /// chord-class rows of the last 2r + 1 input rows and their vertical combination.
+///
+/// Every row (pyramid levels, class rows) has one layout: column x at index `lead + x` of a
+/// 64-byte aligned row of `stride` bytes, so every pass stores whole cache lines and the
+/// vertical combination loads them (a store straddling two lines costs twice, and the passes
+/// are store-bound).
 #[derive(Debug, Clone)]
 struct MorphCore<const MAX: bool> {
     width: usize,
     radius: usize,
-    pad: usize,
     /// Distinct half-widths, and for each |dy| the index of its class.
     class_half: Vec<usize>,
     class_of_dy: Vec<usize>,
     /// How each class row is made, narrowest first.
     plan: Vec<(usize, Source)>,
-    /// Doubling pyramid; level 0 is the padded row.
-    levels: Vec<Vec<u8>>,
-    /// (2r + 1) slots × classes × stride.
-    ring: Vec<u8>,
-    /// Row stride in the ring: width rounded up to whole blocks.
+    /// Columns before column 0 that the passes compute, a multiple of 64 ≥ r.
+    w0: usize,
+    /// Index of column 0 in a row (2·w0) and the row length.
+    lead: usize,
     stride: usize,
+    /// Doubling pyramid, level k at row k (level 0, the row itself, only for radius 0).
+    levels: Aligned<u8>,
+    /// (2r + 1) slots × classes rows.
+    ring: Aligned<u8>,
     /// Ring offsets of the rows combined for the current output row.
     offs: Vec<usize>,
-}
-
-#[inline(always)]
-fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
-    if MAX { a.max(b) } else { a.min(b) }
 }
 
 impl<const MAX: bool> MorphCore<MAX> {
@@ -131,8 +172,6 @@ impl<const MAX: bool> MorphCore<MAX> {
             };
             class_of_dy.push(c);
         }
-        let pad = r;
-        let n = width + 2 * pad;
         // Classes narrowest first; each from the previous one when the step is small enough
         // (one max pass instead of pyramid levels), else from the pyramid.
         let mut order: Vec<usize> = (0..class_half.len()).collect();
@@ -156,30 +195,23 @@ impl<const MAX: bool> MorphCore<MAX> {
                 plan.push((c, Source::Pyramid(k)));
             }
         }
-        let nlev = top_level + 1;
-        // A ring row holds a class row over −(r − h) … w + (r − h) (the wider classes chained
-        // from it need the margin), at `pad` from its start; the vertical combination reads
-        // whole blocks from `pad` on (columns past w are ignored).
-        let stride = (pad + width.div_ceil(BLOCK) * BLOCK).max(2 * pad + width);
+        let w0 = r.max(1).div_ceil(64) * 64;
+        let lead = 2 * w0;
+        let stride = (lead + width + 2 * w0).max(lead + width.div_ceil(BLOCK) * BLOCK);
         let stride = stride.div_ceil(64) * 64;
         MorphCore {
             width,
             radius: r,
-            pad,
-            plan,
-            levels: vec![vec![Self::NEUTRAL; n]; nlev],
-            ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * stride],
+            w0,
+            lead,
             stride,
+            plan,
+            levels: Aligned::new((top_level + 1) * stride, Self::NEUTRAL),
+            ring: Aligned::new((2 * r + 1) * class_half.len() * stride, Self::NEUTRAL),
             class_half,
             class_of_dy,
             offs: Vec::with_capacity(2 * r + 1),
         }
-    }
-
-    #[inline(always)]
-    fn slot_start(&self, row: usize, class: usize) -> usize {
-        let nc = self.class_half.len();
-        ((row % (2 * self.radius + 1)) * nc + class) * self.stride + self.pad
     }
 
     /// Makes the chord-class rows of input row `n` (`width` pixels).
@@ -193,62 +225,47 @@ impl<const MAX: bool> MorphCore<MAX> {
     #[inline(always)]
     fn add_row_impl(&mut self, row: &[u8], n: usize) {
         debug_assert_eq!(row.len(), self.width);
-        let (w, p) = (self.width, self.pad);
-        // Level 1 (max of 2) straight from the row: no copy into the padded level 0 (a
-        // 1.4 kB memcpy per row cost more than the max pass). Level 0 is only read for a chord
-        // of width 1 (radius 0).
-        let first = if p >= 1 && self.levels.len() > 1 && !self.class_half.contains(&0) {
-            let l1 = &mut self.levels[1];
-            for ((d, &a), &b) in l1[p..p + w - 1]
-                .iter_mut()
-                .zip(&row[..w - 1])
-                .zip(&row[1..])
-            {
-                *d = ext::<MAX>(a, b);
-            }
-            // Beside the row the neutral padding leaves the edge pixel itself.
-            l1[p - 1] = row[0];
-            l1[p + w - 1] = row[w - 1];
-            2
+        let (w, r, st, lead, w0) = (self.width, self.radius, self.stride, self.lead, self.w0);
+        let nlev = self.levels.len() / st;
+        if r == 0 {
+            // A single pixel: the class row is the row.
+            self.levels[lead..lead + w].copy_from_slice(row);
         } else {
-            self.levels[0][p..p + w].copy_from_slice(row);
-            1
-        };
-        let n_pad = w + 2 * p;
-        for k in first..self.levels.len() {
-            let s = 1usize << (k - 1);
-            let len = n_pad + 1 - (1usize << k);
-            let (lo, hi) = self.levels.split_at_mut(k);
-            let src = &lo[k - 1];
-            let dst = &mut hi[0][..len];
-            for ((d, &a), &b) in dst.iter_mut().zip(&src[..len]).zip(&src[s..s + len]) {
-                *d = ext::<MAX>(a, b);
+            // Level 1 (max of 2) straight from the row; beside it the neutral padding leaves
+            // the edge pixel itself, and further out the neutral value (never written).
+            let l1 = &mut self.levels[st..2 * st];
+            if w >= 2 {
+                pass::<MAX>(&mut l1[lead..lead + w - 1], &row[..w - 1], &row[1..]);
+            }
+            l1[lead - 1] = row[0];
+            l1[lead + w - 1] = row[w - 1];
+            // Higher levels over whole rows: exact at every column.
+            for k in 2..nlev {
+                let s = 1usize << (k - 1);
+                let (lo, hi) = self.levels.split_at_mut(k * st);
+                let src = &lo[(k - 1) * st..k * st];
+                pass::<MAX>(&mut hi[..st - s], &src[..st - s], &src[s..]);
             }
         }
-        let row0 = (n % (2 * self.radius + 1)) * self.class_half.len();
-        let (r, stride) = (self.radius, self.stride);
+        let row0 = (n % (2 * r + 1)) * self.class_half.len();
         for &(c, src) in &self.plan {
             let hw = self.class_half[c];
             let margin = r - hw;
-            let len = w + 2 * margin;
-            // Ring index of column −margin of this class row.
-            let base = (row0 + c) * stride + p - margin;
+            // Columns −w0 … w + margin − 1; the dst starts on a cache line.
+            let len = w0 + w + margin;
+            let base = (row0 + c) * st + lead - w0;
             match src {
                 Source::Pyramid(k) => {
                     let pk = 1usize << k;
-                    let lev = &self.levels[k];
-                    // Padded column of −margin is p − margin; its window starts at
-                    // p − margin − hw = 0.
-                    let a = &lev[p - margin - hw..p - margin - hw + len];
-                    let b = &lev[p - margin + hw + 1 - pk..p - margin + hw + 1 - pk + len];
-                    let dst = &mut self.ring[base..base + len];
-                    for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
-                        *d = ext::<MAX>(x, y);
-                    }
+                    let lev = &self.levels[k * st..(k + 1) * st];
+                    // Column x's window of 2·hw + 1 is the max of two windows of 2^k.
+                    let a = &lev[lead - w0 - hw..];
+                    let b = &lev[lead - w0 + hw + 1 - pk..];
+                    pass::<MAX>(&mut self.ring[base..base + len], a, b);
                 }
                 Source::Chain(prev, k) => {
-                    // The narrower row starts at column −(margin + k).
-                    let pbase = (row0 + prev) * stride + p - margin - k;
+                    // The narrower row shifted by ±k.
+                    let pbase = (row0 + prev) * st + lead - w0 - k;
                     let (src, dst) = if pbase < base {
                         let (lo, hi) = self.ring.split_at_mut(base);
                         (&lo[pbase..pbase + len + 2 * k], &mut hi[..len])
@@ -256,9 +273,7 @@ impl<const MAX: bool> MorphCore<MAX> {
                         let (lo, hi) = self.ring.split_at_mut(pbase);
                         (&hi[..len + 2 * k], &mut lo[base..base + len])
                     };
-                    for ((d, &x), &y) in dst.iter_mut().zip(&src[..len]).zip(&src[2 * k..]) {
-                        *d = ext::<MAX>(x, y);
-                    }
+                    pass::<MAX>(dst, &src[..len], &src[2 * k..]);
                 }
             }
         }
@@ -279,33 +294,59 @@ impl<const MAX: bool> MorphCore<MAX> {
         let lo = (y - r).max(0);
         let hi = (y + r).min(n as isize - 1);
         self.offs.clear();
+        // Ring slots step by one row (no division per row).
+        let (depth, nc) = (2 * self.radius + 1, self.class_half.len());
+        let mut slot = lo as usize % depth;
         for yy in lo..=hi {
             let c = self.class_of_dy[(yy - y).unsigned_abs()];
-            let start = self.slot_start(yy as usize, c);
-            self.offs.push(start);
+            let class_row = if self.radius == 0 {
+                // Radius 0: the row itself, in level 0 (one slot).
+                usize::MAX
+            } else {
+                slot * nc + c
+            };
+            self.offs.push(class_row);
+            slot = if slot + 1 == depth { 0 } else { slot + 1 };
+        }
+        let (st, lead) = (self.stride, self.lead);
+        let src: &[u8] = if self.radius == 0 {
+            &self.levels
+        } else {
+            &self.ring
+        };
+        for o in self.offs.iter_mut() {
+            *o = if *o == usize::MAX { 0 } else { *o * st } + lead;
         }
         // Blocks of BLOCK columns: the running extreme stays in registers while the rows stream
         // by (one load per row and pixel instead of two loads and a store).
         const B: usize = BLOCK;
         let w = self.width;
-        let ring = &self.ring;
-        let mut x0 = 0;
-        while x0 < w {
+        let block = |x0: usize| {
             let mut acc = [Self::NEUTRAL; B];
             for &o in &self.offs {
-                let src: &[u8; B] = ring[o + x0..o + x0 + B].try_into().expect("block");
+                let s: &[u8; B] = src[o + x0..o + x0 + B].try_into().expect("block");
                 for i in 0..B {
-                    acc[i] = ext::<MAX>(acc[i], src[i]);
+                    acc[i] = ext::<MAX>(acc[i], s[i]);
                 }
             }
-            if x0 + B <= w {
-                // Fixed size: vector stores, not a memcpy call per block.
-                let o: &mut [u8; B] = (&mut out[x0..x0 + B]).try_into().expect("block");
-                *o = acc;
+            acc
+        };
+        let mut x0 = 0;
+        while x0 + B <= w {
+            // Fixed size: vector stores, not a memcpy call per block.
+            let o: &mut [u8; B] = (&mut out[x0..x0 + B]).try_into().expect("block");
+            *o = block(x0);
+            x0 += B;
+        }
+        if x0 < w {
+            if w >= B {
+                // The last block overlaps the one before: the same values again, whole stores.
+                let o: &mut [u8; B] = (&mut out[w - B..w]).try_into().expect("block");
+                *o = block(w - B);
             } else {
+                let acc = block(x0);
                 out[x0..w].copy_from_slice(&acc[..w - x0]);
             }
-            x0 += B;
         }
     }
 }
@@ -314,7 +355,7 @@ impl<const MAX: bool> MorphCore<MAX> {
 #[derive(Debug, Clone)]
 pub struct Morph<const MAX: bool> {
     core: MorphCore<MAX>,
-    input: Vec<u8>,
+    input: Aligned<u8>,
     rows: RowLag,
 }
 
@@ -329,7 +370,7 @@ impl<const MAX: bool> Morph<MAX> {
     pub fn new(width: usize, disk: Disk) -> Self {
         Morph {
             core: MorphCore::new(width, &disk),
-            input: vec![0; width],
+            input: Aligned::new(width, 0),
             rows: RowLag::new(disk.radius),
         }
     }
@@ -364,10 +405,11 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
     first: MorphCore<FIRST_MAX>,
     second: MorphCore<SECOND_MAX>,
-    /// The last 2r + 1 input rows.
-    raw: Vec<u8>,
+    /// The last 2r + 1 input rows, `rstride` apart (cache-line aligned).
+    raw: Aligned<u8>,
+    rstride: usize,
     /// One row of the first operation.
-    mid: Vec<u8>,
+    mid: Aligned<u8>,
     /// Rows of the first operation made so far.
     mid_rows: usize,
     width: usize,
@@ -390,8 +432,9 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         MorphPair {
             first: MorphCore::new(width, &disk),
             second: MorphCore::new(width, &disk),
-            raw: vec![0; (2 * r + 1) * width],
-            mid: vec![0; width],
+            raw: Aligned::new((2 * r + 1) * width.div_ceil(64) * 64, 0),
+            rstride: width.div_ceil(64) * 64,
+            mid: Aligned::new(width, 0),
             mid_rows: 0,
             width,
             radius: r,
@@ -414,12 +457,12 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         self.mid_rows = 0;
     }
     fn input(&mut self) -> &mut [u8] {
-        let s = self.rows.received() % (2 * self.radius + 1) * self.width;
+        let s = self.rows.received() % (2 * self.radius + 1) * self.rstride;
         &mut self.raw[s..s + self.width]
     }
     fn accept(&mut self) {
         let n = self.rows.received();
-        let s = n % (2 * self.radius + 1) * self.width;
+        let s = n % (2 * self.radius + 1) * self.rstride;
         self.first.add_row(&self.raw[s..s + self.width], n);
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
@@ -434,7 +477,7 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         }
         self.second.combine(y, self.mid_rows, out);
         if SUB {
-            let s = y % (2 * self.radius + 1) * self.width;
+            let s = y % (2 * self.radius + 1) * self.rstride;
             for (o, &i) in out.iter_mut().zip(&self.raw[s..s + self.width]) {
                 *o = o.saturating_sub(i);
             }

@@ -136,6 +136,57 @@ pub fn next_set(bytes: &[u8], from: usize) -> usize {
     x.min(bytes.len())
 }
 
+/// A buffer whose first element sits on a 64-byte boundary (a cache line, an AVX-512 register):
+/// vector stores that straddle two cache lines cost the core twice, and the row passes store a
+/// whole row each. Safe code: a few elements more are allocated and the slice starts at the
+/// first aligned one.
+#[derive(Debug)]
+pub struct Aligned<T> {
+    buf: Vec<T>,
+    off: usize,
+    len: usize,
+}
+
+impl<T: Copy> Aligned<T> {
+    /// `len` elements of value `v`, the first one 64-byte aligned.
+    pub fn new(len: usize, v: T) -> Self {
+        let size = std::mem::size_of::<T>().max(1);
+        let buf = vec![v; len + 64 / size];
+        // Elements from the allocation's start to the next 64-byte boundary (T's alignment
+        // divides its size, and its size divides 64 for the types used here).
+        let off = (buf.as_ptr() as usize).wrapping_neg() % 64 / size;
+        Aligned { buf, off, len }
+    }
+}
+
+impl<T: Copy> Clone for Aligned<T> {
+    fn clone(&self) -> Self {
+        let mut c = Aligned::new(self.len, self.buf[0]);
+        c.copy_from_slice(self);
+        c
+    }
+}
+
+impl<T> std::ops::Deref for Aligned<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.buf[self.off..self.off + self.len]
+    }
+}
+
+impl<T> std::ops::DerefMut for Aligned<T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.buf[self.off..self.off + self.len]
+    }
+}
+
+/// Elements of `T` in 64 bytes' worth, at least one: row strides are rounded up to it so that
+/// every row of an [`Aligned`] buffer starts on a cache line.
+pub const fn line<T>() -> usize {
+    let s = std::mem::size_of::<T>();
+    if s == 0 || s >= 64 { 1 } else { 64 / s }
+}
+
 /// A row buffer a row can be copied into (what [`RowStage::push_row`] does with its input).
 pub trait RowBuf {
     /// Copies `src` (of the same width) into this buffer.

@@ -61,6 +61,38 @@ pub fn angle256(gx: i16, gy: i16) -> u8 {
     (a & 255) as u8
 }
 
+/// ⌊n / d⌋ for n < 2²⁴ and 0 < d through one f32 division, which is exact here: n and d are
+/// exact in f32, and the correctly rounded quotient q̃ of q = n/d is off by at most q·2⁻²⁴ < 1/d
+/// (as n < 2²⁴), less than the distance from a non-integer q to the next integer, so q̃ never
+/// reaches it (an integer q is exact). Faster than the integer divider on the segmentation's
+/// per-edge path.
+#[inline(always)]
+fn div_small(n: u32, d: u32) -> u32 {
+    debug_assert!(n < 1 << 24 && d > 0);
+    (n as f32 / d as f32) as u32
+}
+
+/// [`angle256`] with [`div_small`] (the same value for every input: the dividend is below 2²²).
+#[inline(always)]
+fn angle256_fast(gx: i16, gy: i16) -> u8 {
+    let (ax, ay) = (gx.unsigned_abs() as u32, gy.unsigned_abs() as u32);
+    if ax == 0 && ay == 0 {
+        return 0;
+    }
+    let t = if ax >= ay {
+        ATAN64[div_small(ay * 64 + ax / 2, ax) as usize] as i32
+    } else {
+        64 - ATAN64[div_small(ax * 64 + ay / 2, ay) as usize] as i32
+    };
+    let a = match (gx >= 0, gy >= 0) {
+        (true, true) => t,
+        (false, true) => 128 - t,
+        (false, false) => 128 + t,
+        (true, false) => 256 - t,
+    };
+    (a & 255) as u8
+}
+
 /// Signed deviation of a binary angle from the horizontal axis (0° or 180°), in −64 … 63.
 pub fn axial_deviation(dir: u8) -> i32 {
     (dir.wrapping_add(64) % 128) as i32 - 64
@@ -262,6 +294,21 @@ fn sub_offset(a: u16, c: u16, b: u16, step: i32) -> i8 {
     } else {
         div_round(16 * (a as i32 - b as i32), den).clamp(-16, 16) as i8
     }
+}
+
+/// [`sub_offset`] with [`div_small`]: `div_round(n, d)` is ±⌊(|n| + ⌊|d|/2⌋) / |d|⌋, negative
+/// when the signs of n and d differ (Rust's division truncates toward zero), and the dividend
+/// stays below 2²¹ for 16-bit magnitudes.
+#[inline(always)]
+fn sub_offset_fast(a: u16, c: u16, b: u16, step: i32) -> i8 {
+    let den = a as i32 - 2 * c as i32 + b as i32;
+    if step == 0 || den == 0 {
+        return 0;
+    }
+    let num = 16 * (a as i32 - b as i32);
+    let d = den.unsigned_abs();
+    let q = div_small(num.unsigned_abs() + d / 2, d).min(16) as i32;
+    (if (num < 0) != (den < 0) { -q } else { q }) as i8
 }
 
 /// Segments one pixel given its gradient and the magnitudes of its 3×3 neighbourhood
@@ -472,6 +519,8 @@ impl Segmenter {
                 let c = cur.mag[x];
                 let (a, b, step) = if x == 0 || x == w - 1 {
                     across(gx, gy, m3(x))
+                } else if self.consts.horizontal {
+                    (cur.mag[x - 1], cur.mag[x + 1], 1)
                 } else {
                     across_rows(gx, gy, up, &cur.mag, down, x)
                 };
@@ -479,8 +528,8 @@ impl Segmenter {
                     row: y as u16,
                     col: x as u16,
                     class: self.class[x],
-                    dir: angle256(gx, gy),
-                    sub: sub_offset(a, c, b, step),
+                    dir: angle256_fast(gx, gy),
+                    sub: sub_offset_fast(a, c, b, step),
                     mag: c,
                     comp: 0,
                 });
@@ -521,6 +570,47 @@ mod tests {
             let bytes: [u8; 8] = std::array::from_fn(|i| (k / 3u32.pow(i as u32) % 3) as u8);
             let want = (0..8).fold(0u64, |m, i| m | ((bytes[i] != 0) as u64) << i);
             assert_eq!(byte_mask(u64::from_le_bytes(bytes)), want, "{bytes:?}");
+        }
+    }
+
+    #[test]
+    fn fast_divisions_equal_the_integer_ones() {
+        // Every gradient a Sobel of 8-bit rows gives (|Gx|, |Gy| ≤ 1020), and the extremes.
+        for gx in -1020i16..=1020 {
+            for gy in -1020i16..=1020 {
+                assert_eq!(angle256_fast(gx, gy), angle256(gx, gy), "{gx} {gy}");
+            }
+        }
+        for (gx, gy) in [
+            (i16::MIN, i16::MAX),
+            (i16::MAX, 1),
+            (1, i16::MIN),
+            (-32767, 32767),
+        ] {
+            assert_eq!(angle256_fast(gx, gy), angle256(gx, gy));
+        }
+        // Sub-pixel offsets: NMS keeps c ≥ a and c > b; magnitudes up to 2040 (Sobel L1), all
+        // pairs (a, b) for a set of c, and random triples over the whole u16 range.
+        for c in [1u16, 2, 3, 7, 40, 255, 1000, 2039, 2040] {
+            for a in 0..=c {
+                for b in 0..c {
+                    for step in [0, 1] {
+                        assert_eq!(sub_offset_fast(a, c, b, step), sub_offset(a, c, b, step));
+                    }
+                }
+            }
+        }
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..1_000_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let (a, c, b) = (s as u16, (s >> 16) as u16, (s >> 32) as u16);
+            assert_eq!(
+                sub_offset_fast(a, c, b, 1),
+                sub_offset(a, c, b, 1),
+                "{a} {c} {b}"
+            );
         }
     }
 

@@ -47,7 +47,10 @@ fn every_level_gives_the_same_bits() {
         }
         set_level(Level::Avx512);
         let (_, r0, d0) = &runs[0];
-        assert!(d0.filled.class.iter().any(|&c| c != 0), "no edges to compare");
+        assert!(
+            d0.filled.class.iter().any(|&c| c != 0),
+            "no edges to compare"
+        );
         for (l, r, d) in &runs[1..] {
             assert_eq!(r, r0, "{l:?} result");
             assert_eq!(d, d0, "{l:?} stage images");
