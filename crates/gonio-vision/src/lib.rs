@@ -51,6 +51,6 @@ pub use features::{EdgeLine, FrameResult, InvalidReason};
 pub use optics::{Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
 pub use source::{
-    Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError, SourceDetector,
-    SourceError,
+    DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,
+    SourceDetector, SourceError, detect_in_order,
 };
