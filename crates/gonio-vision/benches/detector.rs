@@ -103,10 +103,12 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
         })
     });
     let grads: Vec<GradRow> = (0..p.height)
-        .map(|y| GradRow {
-            gx: d.gx[y * w..(y + 1) * w].to_vec(),
-            gy: d.gy[y * w..(y + 1) * w].to_vec(),
-            mag: d.mag[y * w..(y + 1) * w].to_vec(),
+        .map(|y| {
+            let mut g = GradRow::new(w);
+            g.gx.copy_from_slice(&d.gx[y * w..(y + 1) * w]);
+            g.gy.copy_from_slice(&d.gy[y * w..(y + 1) * w]);
+            g.mag.copy_from_slice(&d.mag[y * w..(y + 1) * w]);
+            g
         })
         .collect();
     let sp = SegmentParams {

@@ -58,7 +58,10 @@ pub fn fill_pixel(class: &[[u8; 3]; 3], dir: &[[u8; 3]; 3]) -> Option<(u8, u8, i
 pub struct EdgeFill {
     width: usize,
     ring: [SparseEdgeRow; 3],
+    /// Each ring row's directions by column (meaningful where its bit is set).
+    dirs: [Vec<u8>; 3],
     empty: SparseEdgeRow,
+    fills: Vec<EdgePixel>,
     rows: RowLag,
 }
 
@@ -81,7 +84,9 @@ impl EdgeFill {
                 SparseEdgeRow::new(width),
                 SparseEdgeRow::new(width),
             ],
+            dirs: [vec![0; width], vec![0; width], vec![0; width]],
             empty: SparseEdgeRow::new(width),
+            fills: Vec::new(),
             rows: RowLag::new(1),
         }
     }
@@ -89,17 +94,19 @@ impl EdgeFill {
     fn emit_impl(&mut self, out: &mut SparseEdgeRow) {
         let w = self.width;
         let y = self.rows.output_row();
-        let cur = &self.ring[self.rows.clamped(0)];
-        let up = self
-            .rows
-            .neighbour(-1)
-            .map_or(&self.empty, |s| &self.ring[s]);
-        let down = self
-            .rows
-            .neighbour(1)
-            .map_or(&self.empty, |s| &self.ring[s]);
-        out.clear();
-        let mut next = 0; // next pixel of `cur` to copy
+        let c_slot = self.rows.clamped(0);
+        let (up_slot, down_slot) = (self.rows.neighbour(-1), self.rows.neighbour(1));
+        let cur = &self.ring[c_slot];
+        let up = up_slot.map_or(&self.empty, |s| &self.ring[s]);
+        let down = down_slot.map_or(&self.empty, |s| &self.ring[s]);
+        let none: &[u8] = &[];
+        let dirs = |s: Option<usize>| s.map_or(none, |s| &self.dirs[s][..]);
+        let rows = [
+            (up, dirs(up_slot)),
+            (cur, &self.dirs[c_slot][..]),
+            (down, dirs(down_slot)),
+        ];
+        self.fills.clear();
         for i in 0..cur.bits.len() {
             let c = cur.bits[i];
             let (cl, cr) = shifted(&cur.bits, i);
@@ -115,21 +122,17 @@ impl EdgeFill {
                 }
                 let mut class = [[NONE; 3]; 3];
                 let mut dir = [[0u8; 3]; 3];
-                for (dy, r) in [up, cur, down].into_iter().enumerate() {
+                for (dy, (r, d)) in rows.iter().enumerate() {
                     for dx in 0..3 {
                         let xx = x + dx;
                         if xx >= 1 && xx <= w && r.has(xx - 1) {
                             class[dy][dx] = WEAK; // any edge class: fill_pixel only tests ≠ NONE
-                            dir[dy][dx] = r.dir[xx - 1];
+                            dir[dy][dx] = d[xx - 1];
                         }
                     }
                 }
                 if let Some((c, d, s)) = fill_pixel(&class, &dir) {
-                    while next < cur.pixels.len() && (cur.pixels[next].col as usize) < x {
-                        out.push(cur.pixels[next]);
-                        next += 1;
-                    }
-                    out.push(EdgePixel {
+                    self.fills.push(EdgePixel {
                         row: y as u16,
                         col: x as u16,
                         class: c,
@@ -141,9 +144,19 @@ impl EdgeFill {
                 }
             }
         }
-        for &p in &cur.pixels[next..] {
-            out.push(p);
+        // The row's own pixels, the filled ones merged in by column.
+        out.pixels.clear();
+        out.bits.copy_from_slice(&cur.bits);
+        let mut next = 0;
+        for f in &self.fills {
+            let x = f.col as usize;
+            let k = next + cur.pixels[next..].partition_point(|p| (p.col as usize) < x);
+            out.pixels.extend_from_slice(&cur.pixels[next..k]);
+            out.pixels.push(*f);
+            out.bits[x / 64] |= 1 << (x % 64);
+            next = k;
         }
+        out.pixels.extend_from_slice(&cur.pixels[next..]);
     }
 }
 
@@ -158,6 +171,13 @@ impl RowStage for EdgeFill {
     }
     fn input(&mut self) -> &mut SparseEdgeRow {
         &mut self.ring[self.rows.input_slot()]
+    }
+    fn accept(&mut self) {
+        let s = self.rows.input_slot();
+        let d = &mut self.dirs[s];
+        for p in &self.ring[s].pixels {
+            d[p.col as usize] = p.dir;
+        }
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut SparseEdgeRow, obs: &mut O) {
         self.emit_impl(out);

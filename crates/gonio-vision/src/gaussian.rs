@@ -15,7 +15,7 @@
 //! assert_eq!(rows, vec![[50u8; 6]; 4]); // a flat image stays flat
 //! ```
 
-use crate::rows::{RowLag, RowStage, StageObserver};
+use crate::rows::{Aligned, RowLag, RowStage, StageObserver, line};
 
 /// The binomial kernel (sums to 16).
 pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];
@@ -24,20 +24,24 @@ pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];
 #[derive(Debug, Clone)]
 pub struct Gaussian5 {
     width: usize,
-    /// The last five input rows.
-    ring: Vec<u8>,
-    /// Vertical sums of the output row, two replicated columns on each side.
-    vsum: Vec<u16>,
+    /// The last five input rows, `stride` apart.
+    ring: Aligned<u8>,
+    stride: usize,
+    /// Vertical sums of the output row: column x at `line + x`, two replicated columns on each
+    /// side.
+    vsum: Aligned<u16>,
     rows: RowLag,
 }
 
 impl Gaussian5 {
     /// A blur for rows of `width` pixels.
     pub fn new(width: usize) -> Self {
+        let stride = width.div_ceil(line::<u8>()) * line::<u8>();
         Gaussian5 {
             width,
-            ring: vec![0; 5 * width],
-            vsum: vec![0; width + 4],
+            ring: Aligned::new(5 * stride, 0),
+            stride,
+            vsum: Aligned::new(line::<u16>() + width + 2, 0),
             rows: RowLag::new(2),
         }
     }
@@ -46,18 +50,19 @@ impl Gaussian5 {
     fn emit_impl(&mut self, out: &mut [u8]) {
         let w = self.width;
         let r = |dy: isize| {
-            let s = self.rows.clamped(dy) * w;
+            let s = self.rows.clamped(dy) * self.stride;
             &self.ring[s..s + w]
         };
         let (a, b, c, d, e) = (r(-2), r(-1), r(0), r(1), r(2));
-        let v = &mut self.vsum[2..w + 2];
+        let l = line::<u16>();
+        let v = &mut self.vsum[l..l + w];
         for (((((o, &a), &b), &c), &d), &e) in v.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(e) {
             *o = a as u16 + 4 * b as u16 + 6 * c as u16 + 4 * d as u16 + e as u16;
         }
-        let (first, last) = (self.vsum[2], self.vsum[w + 1]);
-        self.vsum[..2].fill(first);
-        self.vsum[w + 2..].fill(last);
-        let v = &self.vsum;
+        let (first, last) = (self.vsum[l], self.vsum[l + w - 1]);
+        self.vsum[l - 2..l].fill(first);
+        self.vsum[l + w..l + w + 2].fill(last);
+        let v = &self.vsum[l - 2..];
         let (v0, v1, v2, v3, v4) = (&v[..w], &v[1..w + 1], &v[2..w + 2], &v[3..w + 3], &v[4..]);
         for (((((o, &a), &b), &c), &d), &e) in
             out[..w].iter_mut().zip(v0).zip(v1).zip(v2).zip(v3).zip(v4)
@@ -77,7 +82,7 @@ impl RowStage for Gaussian5 {
         &mut self.rows
     }
     fn input(&mut self) -> &mut [u8] {
-        let s = self.rows.input_slot() * self.width;
+        let s = self.rows.input_slot() * self.stride;
         &mut self.ring[s..s + self.width]
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {

@@ -11,30 +11,30 @@
 //! let ramp = [0u8, 10, 20, 30];
 //! assert!(!s.push_row(&ramp, &mut g));
 //! assert!(s.push_row(&ramp, &mut g));
-//! assert_eq!(g.gx, [40, 80, 80, 40]); // 4·(I(x+1) − I(x−1)), replicated at the ends
-//! assert_eq!(g.gy, [0; 4]);
+//! assert_eq!(g.gx[..], [40, 80, 80, 40]); // 4·(I(x+1) − I(x−1)), replicated at the ends
+//! assert_eq!(g.gy[..], [0; 4]);
 //! ```
 
-use crate::rows::{RowBuf, RowLag, RowStage, StageObserver};
+use crate::rows::{Aligned, RowBuf, RowLag, RowStage, StageObserver, line};
 
 /// One row of gradients.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct GradRow {
     /// Horizontal derivative (positive: brighter to the right).
-    pub gx: Vec<i16>,
+    pub gx: Aligned<i16>,
     /// Vertical derivative (positive: brighter below).
-    pub gy: Vec<i16>,
+    pub gy: Aligned<i16>,
     /// |Gx| + |Gy|.
-    pub mag: Vec<u16>,
+    pub mag: Aligned<u16>,
 }
 
 impl GradRow {
     /// A zeroed row of `width` pixels.
     pub fn new(width: usize) -> Self {
         GradRow {
-            gx: vec![0; width],
-            gy: vec![0; width],
-            mag: vec![0; width],
+            gx: Aligned::new(width, 0),
+            gy: Aligned::new(width, 0),
+            mag: Aligned::new(width, 0),
         }
     }
 }
@@ -51,21 +51,25 @@ impl RowBuf for GradRow {
 #[derive(Debug, Clone)]
 pub struct Sobel {
     width: usize,
-    input: Vec<u8>,
-    /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each.
-    smooth: Vec<i16>,
-    diff: Vec<i16>,
+    input: Aligned<u8>,
+    /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each,
+    /// `stride` apart.
+    smooth: Aligned<i16>,
+    diff: Aligned<i16>,
+    stride: usize,
     rows: RowLag,
 }
 
 impl Sobel {
     /// A gradient for rows of `width` pixels (≥ 2).
     pub fn new(width: usize) -> Self {
+        let stride = width.div_ceil(line::<i16>()) * line::<i16>();
         Sobel {
             width,
-            input: vec![0; width],
-            smooth: vec![0; 3 * width],
-            diff: vec![0; 3 * width],
+            input: Aligned::new(width, 0),
+            smooth: Aligned::new(3 * stride, 0),
+            diff: Aligned::new(3 * stride, 0),
+            stride,
             rows: RowLag::new(1),
         }
     }
@@ -74,7 +78,7 @@ impl Sobel {
     fn accept_impl(&mut self) {
         let w = self.width;
         let row = &self.input;
-        let s = self.rows.input_slot() * w;
+        let s = self.rows.input_slot() * self.stride;
         let sm = &mut self.smooth[s..s + w];
         let df = &mut self.diff[s..s + w];
         sm[0] = 3 * row[0] as i16 + row[1] as i16;
@@ -97,7 +101,7 @@ impl Sobel {
     #[inline(always)]
     fn emit_impl(&mut self, out: &mut GradRow) {
         let w = self.width;
-        let slot = |dy: isize| self.rows.clamped(dy) * w;
+        let slot = |dy: isize| self.rows.clamped(dy) * self.stride;
         let (a, b, c) = (slot(-1), slot(0), slot(1));
         let (sa, sc) = (&self.smooth[a..a + w], &self.smooth[c..c + w]);
         let (da, db, dc) = (

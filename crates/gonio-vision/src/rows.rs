@@ -167,6 +167,20 @@ impl<T: Copy> Clone for Aligned<T> {
     }
 }
 
+impl<T: Copy + Default> Default for Aligned<T> {
+    fn default() -> Self {
+        Aligned::new(0, T::default())
+    }
+}
+
+impl<T: PartialEq> PartialEq for Aligned<T> {
+    fn eq(&self, o: &Self) -> bool {
+        **self == **o
+    }
+}
+
+impl<T: Eq> Eq for Aligned<T> {}
+
 impl<T> std::ops::Deref for Aligned<T> {
     type Target = [T];
     fn deref(&self) -> &[T] {

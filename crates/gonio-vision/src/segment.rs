@@ -23,7 +23,7 @@
 
 use crate::gradient::GradRow;
 use crate::label::EdgePixel;
-use crate::rows::{RowBuf, RowLag, RowStage, StageObserver};
+use crate::rows::{Aligned, RowBuf, RowLag, RowStage, StageObserver};
 
 /// Class of a non-edge pixel.
 pub const NONE: u8 = 0;
@@ -160,15 +160,13 @@ impl RowBuf for EdgeRow {
 }
 
 /// One row of edge pixels, sparse: the pixels in column order (edges are a few percent of a
-/// frame's pixels), a bit per column marking them, and their directions by column.
+/// frame's pixels) and a bit per column marking them.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct SparseEdgeRow {
     /// The edge pixels by increasing column (`comp` unused).
     pub pixels: Vec<EdgePixel>,
     /// Bit x % 64 of word x / 64 is set when column x holds an edge pixel.
     pub bits: Vec<u64>,
-    /// Direction by column, meaningful only where the bit is set.
-    pub dir: Vec<u8>,
 }
 
 impl SparseEdgeRow {
@@ -177,7 +175,6 @@ impl SparseEdgeRow {
         SparseEdgeRow {
             pixels: Vec::with_capacity(width / 4),
             bits: vec![0; width.div_ceil(64)],
-            dir: vec![0; width],
         }
     }
     /// Removes every pixel.
@@ -191,7 +188,6 @@ impl SparseEdgeRow {
         let x = p.col as usize;
         debug_assert!(self.pixels.last().is_none_or(|q| q.col < p.col));
         self.bits[x / 64] |= 1 << (x % 64);
-        self.dir[x] = p.dir;
         self.pixels.push(p);
     }
     /// The edge pixels of a dense row `e` in row `y`.
@@ -226,9 +222,6 @@ impl RowBuf for SparseEdgeRow {
     fn copy_row(&mut self, o: &SparseEdgeRow) {
         self.pixels.clone_from(&o.pixels);
         self.bits.copy_from_slice(&o.bits);
-        for p in &o.pixels {
-            self.dir[p.col as usize] = p.dir;
-        }
     }
 }
 
@@ -442,7 +435,7 @@ pub struct Segmenter {
     consts: ClassConsts,
     ring: [GradRow; 3],
     zero: Vec<u16>,
-    class: Vec<u8>,
+    class: Aligned<u8>,
     rows: RowLag,
 }
 
@@ -459,7 +452,7 @@ impl Segmenter {
                 GradRow::new(width),
             ],
             zero: vec![0; width],
-            class: vec![0; width.div_ceil(8) * 8],
+            class: Aligned::new(width.div_ceil(8) * 8, 0),
             rows: RowLag::new(1),
         }
     }
