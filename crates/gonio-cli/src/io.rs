@@ -44,6 +44,61 @@ pub fn write_atomic(path: &Path, data: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// A file written in pieces that appears whole, or not at all: a temporary file beside it,
+/// renamed on [`AtomicFile::commit`] (dropped without it, the temporary file is removed).
+pub struct AtomicFile {
+    path: PathBuf,
+    out: std::io::BufWriter<tempfile::NamedTempFile>,
+}
+
+impl AtomicFile {
+    /// Starts writing `path`.
+    ///
+    /// # Errors
+    /// When no temporary file can be made in its directory.
+    pub fn create(path: &Path) -> Result<Self> {
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let tmp = tempfile::Builder::new()
+            .prefix(".gonio-")
+            .suffix(".tmp")
+            .tempfile_in(&dir)
+            .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
+        Ok(AtomicFile {
+            path: path.to_path_buf(),
+            out: std::io::BufWriter::with_capacity(1 << 20, tmp),
+        })
+    }
+
+    /// Appends `data`.
+    ///
+    /// # Errors
+    /// When the disk refuses it.
+    pub fn write_all(&mut self, data: &[u8]) -> Result<()> {
+        use std::io::Write;
+        self.out
+            .write_all(data)
+            .with_context(|| format!("cannot write {}", self.path.display()))
+    }
+
+    /// Finishes the file: it appears under its name, whole.
+    ///
+    /// # Errors
+    /// When the last bytes or the rename fail.
+    pub fn commit(self) -> Result<()> {
+        let path = self.path;
+        let tmp = self
+            .out
+            .into_inner()
+            .map_err(|e| anyhow!("cannot write {}: {}", path.display(), e.error()))?;
+        tmp.persist(&path)
+            .map_err(|e| anyhow!("cannot write {}: {}", path.display(), e.error))?;
+        Ok(())
+    }
+}
+
 /// Serialises `value` as pretty JSON (with a final newline) and writes it atomically.
 pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     let mut s = serde_json::to_string_pretty(value)?;

@@ -273,3 +273,80 @@ fn json_lines_keep_every_field_and_add_score_and_margin() {
         assert!(keys.contains(k), "no {k}");
     }
 }
+
+#[test]
+fn threads_keep_frame_order_and_the_same_bytes() {
+    // Frames that differ (the `random` family: rings anywhere, some without one), from files
+    // and as raw frames on standard input, on one, two and three worker threads.
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("frames");
+    let o = gonio(
+        &[
+            "simulate",
+            "frames",
+            "--scene",
+            "random",
+            "--count",
+            "12",
+            "--seed",
+            "3",
+            "--raw",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut pngs: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "png"))
+        .collect();
+    pngs.sort();
+    assert_eq!(pngs.len(), 12);
+    let raw: Vec<u8> = pngs
+        .iter()
+        .flat_map(|p| image::open(p).unwrap().into_luma8().into_raw())
+        .collect();
+    // `--raw` wrote the same pixels back to back.
+    assert!(std::fs::read(out.join("frames.raw")).unwrap() == raw);
+    let dir = out.to_str().unwrap();
+    let run = |threads: &str, from_files: bool| {
+        let o = if from_files {
+            gonio(&["detect", dir, "--threads", threads], None)
+        } else {
+            gonio(
+                &["detect", "--raw", "1440x540", "--threads", threads],
+                Some(&raw),
+            )
+        };
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o.stdout
+    };
+    for from_files in [true, false] {
+        let one = run("1", from_files);
+        let lines = json_lines(&gonio(&["detect", dir, "--threads", "1"], None));
+        let frames: Vec<u64> = lines.iter().map(|l| l["frame"].as_u64().unwrap()).collect();
+        assert_eq!(frames, (0..12).collect::<Vec<_>>());
+        // The frames give different results: the comparison below can see a reordering.
+        let cs: std::collections::BTreeSet<String> =
+            lines.iter().map(|l| l["c_px"].to_string()).collect();
+        assert!(cs.len() >= 6, "{cs:?}");
+        for threads in ["2", "3"] {
+            assert!(
+                run(threads, from_files) == one,
+                "--threads {threads} (files: {from_files}) differs from --threads 1"
+            );
+        }
+    }
+}
+
+#[test]
+fn zero_threads_are_refused() {
+    let o = gonio(
+        &["detect", "--raw", "1440x540", "--threads", "0"],
+        Some(&[]),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--threads"));
+}

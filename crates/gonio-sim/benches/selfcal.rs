@@ -1,13 +1,17 @@
 //! Speed of self-calibration (issue: 12 heads × 36,000 positions through the Fourier method in
 //! under 30 ms on one core).
 
-use criterion::{Criterion, criterion_group, criterion_main};
+#[path = "../../../bench/criterion_on_cpu.rs"]
+mod on_cpu;
+
+use criterion::Criterion;
+use criterion::measurement::{Measurement, WallTime};
 use gonio_calib::selfcal::{Heads, Method, SelfcalOptions, calibrate};
 use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::{SelfcalSimConfig, simulate};
 use std::hint::black_box;
 
-fn benches(c: &mut Criterion) {
+fn benches<M: Measurement + 'static>(c: &mut Criterion<M>) {
     let heads = Heads::selfa12();
     let cfg = SelfcalSimConfig::new(heads.clone(), 1);
     let sim = simulate(&EncoderModel::default_with_seed(1), &cfg).unwrap();
@@ -27,5 +31,7 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(selfcal, benches);
-criterion_main!(selfcal);
+fn main() {
+    // GONIO_BENCH_ON_CPU=1: the thread's on-CPU time (for a machine shared with other work).
+    on_cpu::run(benches::<on_cpu::OnCpu>, benches::<WallTime>);
+}

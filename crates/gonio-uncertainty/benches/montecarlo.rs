@@ -2,7 +2,11 @@
 //! ≤ 0.15 s), through a closure and through the budget's `LinearModel` (what `gonio budget
 //! --monte-carlo` runs), plus the Student-t coverage factor and a nested budget evaluation.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+#[path = "../../../bench/criterion_on_cpu.rs"]
+mod on_cpu;
+
+use criterion::Criterion;
+use criterion::measurement::{Measurement, WallTime};
 use gonio_uncertainty::student::coverage_factor;
 use gonio_uncertainty::{
     InputDistribution, LinearModel, McConfig, McTrials, monte_carlo, parse_budget_file,
@@ -37,7 +41,7 @@ fn ten_inputs() -> Vec<InputDistribution> {
         .collect()
 }
 
-fn bench(c: &mut Criterion) {
+fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
     let inputs = ten_inputs();
     let coef: Vec<f64> = (0..10).map(|i| 1.0 - 0.05 * i as f64).collect();
     let mut g = c.benchmark_group("monte_carlo");
@@ -113,5 +117,7 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench);
-criterion_main!(benches);
+fn main() {
+    // GONIO_BENCH_ON_CPU=1: the thread's on-CPU time (for a machine shared with other work).
+    on_cpu::run(bench::<on_cpu::OnCpu>, bench::<WallTime>);
+}

@@ -1,41 +1,46 @@
-//! Criterion benchmarks: the whole detector on rendered 1440×540 frames, each stage alone
-//! (the per-stage split), and the renderer.
+//! Criterion benchmarks: the whole detector on rendered 1440×540 frames (the default scene and
+//! the dense one), each stage alone on the dense frame (the per-stage split), and the renderer.
+//!
+//! `GONIO_BENCH_ON_CPU=1` measures the benchmark thread's on-CPU time instead of wall time
+//! (for a machine shared with other work; see `bench/criterion_on_cpu.rs`).
 
-use criterion::{Criterion, criterion_group, criterion_main};
+#[path = "../../../bench/criterion_on_cpu.rs"]
+mod on_cpu;
+
+use criterion::Criterion;
+use criterion::measurement::{Measurement, WallTime};
 use gonio_sim::frames::{GratingRenderer, GratingScene, ScenePreset};
+use gonio_vision::features::{RawStats, baseline_features};
 use gonio_vision::fill::EdgeFill;
 use gonio_vision::gaussian::Gaussian5;
 use gonio_vision::gradient::{GradRow, Sobel};
 use gonio_vision::label::Labeller;
 use gonio_vision::morphology::{BlackTopHat, Disk, Opening};
-use gonio_vision::segment::{EdgeRow, SegmentParams, Segmenter};
+use gonio_vision::pipeline::EdgeRowsImage;
+use gonio_vision::rows::RowStage;
+use gonio_vision::segment::{EdgeRow, SegmentParams, Segmenter, SparseEdgeRow};
 use gonio_vision::{Detector, Optics};
 use std::hint::black_box;
 
-fn frame() -> (Optics, Vec<u8>) {
-    let optics = Optics::default();
-    let r = GratingRenderer::new(&optics, GratingScene::default()).unwrap();
+fn render(optics: &Optics, scene: GratingScene) -> Vec<u8> {
+    let r = GratingRenderer::new(optics, scene).unwrap();
     let mut f = vec![0u8; r.frame_len()];
     r.render(33.0, 150.0, 20.0, 0.0, 1, &mut f).unwrap();
-    (optics, f)
+    f
 }
 
-fn bench(c: &mut Criterion) {
-    let (optics, f) = frame();
+fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
+    let optics = Optics::default();
     let p = optics.params().unwrap();
     let w = p.width;
+    let f = render(&optics, GratingScene::default());
     let mut det = Detector::new(&optics).unwrap();
     c.bench_function("detector 1440x540", |b| {
         b.iter(|| det.detect(black_box(&f)).unwrap())
     });
     // The dense scene: track-border groups, incremental lines and code bars close to the ring,
-    // 150 dust specks, a scratch, noise 5: several hundred components a frame.
-    let dense = {
-        let r = GratingRenderer::new(&optics, GratingScene::preset(ScenePreset::Dense)).unwrap();
-        let mut f = vec![0u8; r.frame_len()];
-        r.render(33.0, 150.0, 20.0, 0.0, 1, &mut f).unwrap();
-        f
-    };
+    // 150 dust specks, a scratch, noise 5: over a thousand components a frame.
+    let dense = render(&optics, GratingScene::preset(ScenePreset::Dense));
     let r = det.detect(&dense).unwrap();
     assert!(r.valid, "dense scene: {:?}", r.reason);
     eprintln!("dense scene: {} components", r.components);
@@ -43,19 +48,21 @@ fn bench(c: &mut Criterion) {
         b.iter(|| det.detect(black_box(&dense)).unwrap())
     });
 
-    // Stage inputs from a dump.
+    // Stage inputs from a dump of the dense frame. Each stage runs alone, its input rows copied
+    // in (in the detector a stage writes its rows straight into the next one's ring).
     det.set_dump(true);
-    det.detect(&f).unwrap();
+    det.detect(&dense).unwrap();
     let d = det.dump().unwrap().clone();
     let rows = |v: &Vec<u8>| v.chunks_exact(w).map(|r| r.to_vec()).collect::<Vec<_>>();
 
     let mut g = c.benchmark_group("stage");
     let mut out = vec![0u8; w];
+    let input = rows(&d.input);
     let mut th = BlackTopHat::new(w, Disk::new(p.close_radius_px));
     g.bench_function("black top-hat 23x23", |b| {
         b.iter(|| {
             th.reset();
-            for r in f.chunks_exact(w) {
+            for r in &input {
                 th.push_row(r, &mut out);
             }
             while th.flush_row(&mut out) {}
@@ -96,10 +103,12 @@ fn bench(c: &mut Criterion) {
         })
     });
     let grads: Vec<GradRow> = (0..p.height)
-        .map(|y| GradRow {
-            gx: d.gx[y * w..(y + 1) * w].to_vec(),
-            gy: d.gy[y * w..(y + 1) * w].to_vec(),
-            mag: d.mag[y * w..(y + 1) * w].to_vec(),
+        .map(|y| {
+            let mut g = GradRow::new(w);
+            g.gx.copy_from_slice(&d.gx[y * w..(y + 1) * w]);
+            g.gy.copy_from_slice(&d.gy[y * w..(y + 1) * w]);
+            g.mag.copy_from_slice(&d.mag[y * w..(y + 1) * w]);
+            g
         })
         .collect();
     let sp = SegmentParams {
@@ -108,7 +117,7 @@ fn bench(c: &mut Criterion) {
         tan_q10: p.tan_tolerance_q10,
     };
     let mut se = Segmenter::new(w, sp);
-    let mut er = EdgeRow::new(w);
+    let mut er = SparseEdgeRow::new(w);
     g.bench_function("nms + thresholds + baseline filter", |b| {
         b.iter(|| {
             se.reset();
@@ -118,17 +127,22 @@ fn bench(c: &mut Criterion) {
             while se.flush_row(&mut er) {}
         })
     });
-    let edge_rows = |e: &gonio_vision::pipeline::EdgeRowsImage| {
+    let sparse_rows = |e: &EdgeRowsImage| {
         (0..p.height)
-            .map(|y| EdgeRow {
-                class: e.class[y * w..(y + 1) * w].to_vec(),
-                dir: e.dir[y * w..(y + 1) * w].to_vec(),
-                sub: e.sub[y * w..(y + 1) * w].to_vec(),
-                mag: e.mag[y * w..(y + 1) * w].to_vec(),
+            .map(|y| {
+                let dense = EdgeRow {
+                    class: e.class[y * w..(y + 1) * w].to_vec(),
+                    dir: e.dir[y * w..(y + 1) * w].to_vec(),
+                    sub: e.sub[y * w..(y + 1) * w].to_vec(),
+                    mag: e.mag[y * w..(y + 1) * w].to_vec(),
+                };
+                let mut s = SparseEdgeRow::new(w);
+                s.set_from(&dense, y);
+                s
             })
             .collect::<Vec<_>>()
     };
-    let edges = edge_rows(&d.edges);
+    let edges = sparse_rows(&d.edges);
     let mut fi = EdgeFill::new(w);
     g.bench_function("edge filling", |b| {
         b.iter(|| {
@@ -139,16 +153,30 @@ fn bench(c: &mut Criterion) {
             while fi.flush_row(&mut er) {}
         })
     });
-    let filled = edge_rows(&d.filled);
-    let mut la = Labeller::new(w, p.height, false).min_rows(p.min_fragment_rows);
-    g.bench_function("labelling + features", |b| {
+    let filled = sparse_rows(&d.filled);
+    let mut la = Labeller::new(w, p.height, false)
+        .min_rows(p.min_fragment_rows)
+        .keep_pixels(p.max_edge_pixels);
+    g.bench_function("labelling", |b| {
         b.iter(|| {
             la.reset();
             for r in &filled {
-                la.push_row(r);
+                la.push_sparse(r);
             }
             la.finish();
             black_box(la.candidates().len())
+        })
+    });
+    g.bench_function("labelling + ring selection + features", |b| {
+        b.iter(|| {
+            la.reset();
+            for r in &filled {
+                la.push_sparse(r);
+            }
+            la.finish();
+            let count = la.component_count();
+            let (cands, edges) = la.candidates_and_edges();
+            baseline_features(cands, count, edges, &[], RawStats::default(), &p)
         })
     });
     g.finish();
@@ -165,5 +193,6 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench);
-criterion_main!(benches);
+fn main() {
+    on_cpu::run(bench::<on_cpu::OnCpu>, bench::<WallTime>);
+}

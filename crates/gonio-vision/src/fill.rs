@@ -6,6 +6,11 @@
 //! the two directions and has no sub-pixel position of its own ([`FILLED`]). Filling looks at
 //! the unfilled input only, so it never cascades.
 //!
+//! The streaming [`EdgeFill`] works on sparse rows: the necessary condition (an empty pixel
+//! with some opposite pair of edge neighbours) is a few word operations on the rows' edge bits,
+//! 64 columns at a time; [`fill_pixel`] then decides each pixel it leaves, and the filled pixels
+//! are merged into the row's pixel list.
+//!
 //! ```
 //! use gonio_vision::fill::fill_pixel;
 //! use gonio_vision::segment::{WEAK, STRONG, FILLED};
@@ -18,8 +23,9 @@
 //! assert_eq!(fill_pixel(&class, &dir), None);
 //! ```
 
-use crate::rows::{RowLag, next_set};
-use crate::segment::{EdgeRow, FILLED, NONE, WEAK};
+use crate::label::EdgePixel;
+use crate::rows::{RowLag, RowStage, StageObserver};
+use crate::segment::{FILLED, NONE, SparseEdgeRow, WEAK};
 
 /// Opposite neighbour pairs ((dy, dx) offsets into a 3×3 block), in the order they are tried.
 const PAIRS: [((usize, usize), (usize, usize)); 4] = [
@@ -51,10 +57,21 @@ pub fn fill_pixel(class: &[[u8; 3]; 3], dir: &[[u8; 3]; 3]) -> Option<(u8, u8, i
 #[derive(Debug, Clone)]
 pub struct EdgeFill {
     width: usize,
-    ring: [EdgeRow; 3],
-    empty: EdgeRow,
-    any: Vec<u8>,
+    ring: [SparseEdgeRow; 3],
+    /// Each ring row's directions by column (meaningful where its bit is set).
+    dirs: [Vec<u8>; 3],
+    empty: SparseEdgeRow,
+    fills: Vec<EdgePixel>,
     rows: RowLag,
+}
+
+/// Words `a` shifted so that bit x holds column x − 1 (`left`) and x + 1 (`right`) of the row.
+#[inline(always)]
+fn shifted(bits: &[u64], i: usize) -> (u64, u64) {
+    let w = bits[i];
+    let prev = if i > 0 { bits[i - 1] >> 63 } else { 0 };
+    let next = bits.get(i + 1).map_or(0, |&n| n << 63);
+    ((w << 1) | prev, (w >> 1) | next)
 }
 
 impl EdgeFill {
@@ -63,120 +80,107 @@ impl EdgeFill {
         EdgeFill {
             width,
             ring: [
-                EdgeRow::new(width),
-                EdgeRow::new(width),
-                EdgeRow::new(width),
+                SparseEdgeRow::new(width),
+                SparseEdgeRow::new(width),
+                SparseEdgeRow::new(width),
             ],
-            empty: EdgeRow::new(width),
-            any: vec![0; width],
+            dirs: [vec![0; width], vec![0; width], vec![0; width]],
+            empty: SparseEdgeRow::new(width),
+            fills: Vec::new(),
             rows: RowLag::new(1),
         }
     }
-    /// Lag in rows (1).
-    pub fn lag(&self) -> usize {
-        self.rows.lag()
-    }
-    /// Starts a new frame.
-    pub fn reset(&mut self) {
-        self.rows.reset();
-    }
-    /// Pushes one edge row; true when `out` holds the next output row.
-    pub fn push_row(&mut self, row: &EdgeRow, out: &mut EdgeRow) -> bool {
-        self.ring[self.rows.input_slot()].copy_from(row);
-        let ready = self.rows.pushed();
-        self.emit_if(ready, out)
-    }
-    /// Like [`EdgeFill::push_row`] but takes the row by swapping buffers instead of copying it:
-    /// `row` is left holding stale data for the caller to overwrite.
-    pub fn push_row_swap(&mut self, row: &mut EdgeRow, out: &mut EdgeRow) -> bool {
-        std::mem::swap(&mut self.ring[self.rows.input_slot()], row);
-        let ready = self.rows.pushed();
-        self.emit_if(ready, out)
-    }
-    /// After the last row: the next pending output row, false when none is left.
-    pub fn flush_row(&mut self, out: &mut EdgeRow) -> bool {
-        let ready = self.rows.pending();
-        self.emit_if(ready, out)
-    }
-    fn emit_if(&mut self, ready: bool, out: &mut EdgeRow) -> bool {
-        if ready {
-            crate::simd::dispatch(|| self.emit_impl(out));
-        }
-        ready
-    }
 
-    #[inline(always)]
-    #[allow(clippy::needless_range_loop)]
-    fn emit_impl(&mut self, out: &mut EdgeRow) {
+    fn emit_impl(&mut self, out: &mut SparseEdgeRow) {
         let w = self.width;
-        let cur = &self.ring[self.rows.clamped(0)];
-        let up = self
-            .rows
-            .neighbour(-1)
-            .map_or(&self.empty, |s| &self.ring[s]);
-        let down = self
-            .rows
-            .neighbour(1)
-            .map_or(&self.empty, |s| &self.ring[s]);
-        out.copy_from(cur);
-        // Necessary condition, vectorised over the row: an empty pixel with some opposite pair
-        // of edge neighbours. fill_pixel then decides exactly. The two border pixels are always
-        // checked in full.
-        let (uc, cc, dc) = (&up.class, &cur.class, &down.class);
-        let need = &mut self.any;
-        if w >= 3 {
-            let n = w - 2;
-            let (cl, cm, cr) = (&cc[..n], &cc[1..n + 1], &cc[2..n + 2]);
-            let (ul, um, ur) = (&uc[..n], &uc[1..n + 1], &uc[2..n + 2]);
-            let (dl, dm, dr) = (&dc[..n], &dc[1..n + 1], &dc[2..n + 2]);
-            let nd = &mut need[1..n + 1];
-            for i in 0..n {
-                let e = |v: u8| v != NONE;
-                let pair = (e(cl[i]) & e(cr[i]))
-                    | (e(um[i]) & e(dm[i]))
-                    | (e(ul[i]) & e(dr[i]))
-                    | (e(ur[i]) & e(dl[i]));
-                nd[i] = (!e(cm[i]) & pair) as u8;
-            }
-            need[0] = 1;
-            need[w - 1] = 1;
-        } else {
-            need.fill(1);
-        }
-        let mut x = 0;
-        loop {
-            x = next_set(&self.any, x);
-            if x >= w {
-                break;
-            }
-            {
-                if cur.class[x] == NONE {
-                    let get = |r: &EdgeRow, dx: isize| {
-                        let xx = x as isize + dx;
-                        if xx < 0 || xx >= w as isize {
-                            (0, 0)
-                        } else {
-                            (r.class[xx as usize], r.dir[xx as usize])
+        let y = self.rows.output_row();
+        let c_slot = self.rows.clamped(0);
+        let (up_slot, down_slot) = (self.rows.neighbour(-1), self.rows.neighbour(1));
+        let cur = &self.ring[c_slot];
+        let up = up_slot.map_or(&self.empty, |s| &self.ring[s]);
+        let down = down_slot.map_or(&self.empty, |s| &self.ring[s]);
+        let none: &[u8] = &[];
+        let dirs = |s: Option<usize>| s.map_or(none, |s| &self.dirs[s][..]);
+        let rows = [
+            (up, dirs(up_slot)),
+            (cur, &self.dirs[c_slot][..]),
+            (down, dirs(down_slot)),
+        ];
+        self.fills.clear();
+        for i in 0..cur.bits.len() {
+            let c = cur.bits[i];
+            let (cl, cr) = shifted(&cur.bits, i);
+            let (ul, ur) = shifted(&up.bits, i);
+            let (dl, dr) = shifted(&down.bits, i);
+            let pair = (cl & cr) | (up.bits[i] & down.bits[i]) | (ul & dr) | (ur & dl);
+            let mut need = !c & pair;
+            while need != 0 {
+                let x = i * 64 + need.trailing_zeros() as usize;
+                need &= need - 1;
+                if x >= w {
+                    break;
+                }
+                let mut class = [[NONE; 3]; 3];
+                let mut dir = [[0u8; 3]; 3];
+                for (dy, (r, d)) in rows.iter().enumerate() {
+                    for dx in 0..3 {
+                        let xx = x + dx;
+                        if xx >= 1 && xx <= w && r.has(xx - 1) {
+                            class[dy][dx] = WEAK; // any edge class: fill_pixel only tests ≠ NONE
+                            dir[dy][dx] = d[xx - 1];
                         }
-                    };
-                    let mut class = [[0u8; 3]; 3];
-                    let mut dir = [[0u8; 3]; 3];
-                    for (dy, r) in [up, cur, down].into_iter().enumerate() {
-                        for dx in 0..3 {
-                            let (c, d) = get(r, dx as isize - 1);
-                            class[dy][dx] = c;
-                            dir[dy][dx] = d;
-                        }
-                    }
-                    if let Some((c, d, s)) = fill_pixel(&class, &dir) {
-                        out.class[x] = c;
-                        out.dir[x] = d;
-                        out.sub[x] = s;
                     }
                 }
+                if let Some((c, d, s)) = fill_pixel(&class, &dir) {
+                    self.fills.push(EdgePixel {
+                        row: y as u16,
+                        col: x as u16,
+                        class: c,
+                        dir: d,
+                        sub: s,
+                        mag: 0,
+                        comp: 0,
+                    });
+                }
             }
-            x += 1;
         }
-        self.rows.advance();
+        // The row's own pixels, the filled ones merged in by column.
+        out.pixels.clear();
+        out.bits.copy_from_slice(&cur.bits);
+        let mut next = 0;
+        for f in &self.fills {
+            let x = f.col as usize;
+            let k = next + cur.pixels[next..].partition_point(|p| (p.col as usize) < x);
+            out.pixels.extend_from_slice(&cur.pixels[next..k]);
+            out.pixels.push(*f);
+            out.bits[x / 64] |= 1 << (x % 64);
+            next = k;
+        }
+        out.pixels.extend_from_slice(&cur.pixels[next..]);
+    }
+}
+
+impl RowStage for EdgeFill {
+    type In = SparseEdgeRow;
+    type Out = SparseEdgeRow;
+    fn rows(&self) -> &RowLag {
+        &self.rows
+    }
+    fn rows_mut(&mut self) -> &mut RowLag {
+        &mut self.rows
+    }
+    fn input(&mut self) -> &mut SparseEdgeRow {
+        &mut self.ring[self.rows.input_slot()]
+    }
+    fn accept(&mut self) {
+        let s = self.rows.input_slot();
+        let d = &mut self.dirs[s];
+        for p in &self.ring[s].pixels {
+            d[p.col as usize] = p.dir;
+        }
+    }
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut SparseEdgeRow, obs: &mut O) {
+        self.emit_impl(out);
+        obs.filled(out);
     }
 }

@@ -5,39 +5,42 @@
 //!
 //! ```
 //! use gonio_vision::gradient::{GradRow, Sobel};
+//! use gonio_vision::rows::RowStage;
 //! let mut s = Sobel::new(4);
 //! let mut g = GradRow::new(4);
 //! let ramp = [0u8, 10, 20, 30];
 //! assert!(!s.push_row(&ramp, &mut g));
 //! assert!(s.push_row(&ramp, &mut g));
-//! assert_eq!(g.gx, [40, 80, 80, 40]); // 4·(I(x+1) − I(x−1)), replicated at the ends
-//! assert_eq!(g.gy, [0; 4]);
+//! assert_eq!(g.gx[..], [40, 80, 80, 40]); // 4·(I(x+1) − I(x−1)), replicated at the ends
+//! assert_eq!(g.gy[..], [0; 4]);
 //! ```
 
-use crate::rows::RowLag;
+use crate::rows::{Aligned, RowBuf, RowLag, RowStage, StageObserver, line};
 
 /// One row of gradients.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct GradRow {
     /// Horizontal derivative (positive: brighter to the right).
-    pub gx: Vec<i16>,
+    pub gx: Aligned<i16>,
     /// Vertical derivative (positive: brighter below).
-    pub gy: Vec<i16>,
+    pub gy: Aligned<i16>,
     /// |Gx| + |Gy|.
-    pub mag: Vec<u16>,
+    pub mag: Aligned<u16>,
 }
 
 impl GradRow {
     /// A zeroed row of `width` pixels.
     pub fn new(width: usize) -> Self {
         GradRow {
-            gx: vec![0; width],
-            gy: vec![0; width],
-            mag: vec![0; width],
+            gx: Aligned::new(width, 0),
+            gy: Aligned::new(width, 0),
+            mag: Aligned::new(width, 0),
         }
     }
-    /// Copies another row into this one.
-    pub fn copy_from(&mut self, o: &GradRow) {
+}
+
+impl RowBuf for GradRow {
+    fn copy_row(&mut self, o: &GradRow) {
         self.gx.copy_from_slice(&o.gx);
         self.gy.copy_from_slice(&o.gy);
         self.mag.copy_from_slice(&o.mag);
@@ -48,39 +51,34 @@ impl GradRow {
 #[derive(Debug, Clone)]
 pub struct Sobel {
     width: usize,
-    /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each.
-    smooth: Vec<i16>,
-    diff: Vec<i16>,
+    input: Aligned<u8>,
+    /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each,
+    /// `stride` apart.
+    smooth: Aligned<i16>,
+    diff: Aligned<i16>,
+    stride: usize,
     rows: RowLag,
 }
 
 impl Sobel {
     /// A gradient for rows of `width` pixels (≥ 2).
     pub fn new(width: usize) -> Self {
+        let stride = width.div_ceil(line::<i16>()) * line::<i16>();
         Sobel {
             width,
-            smooth: vec![0; 3 * width],
-            diff: vec![0; 3 * width],
+            input: Aligned::new(width, 0),
+            smooth: Aligned::new(3 * stride, 0),
+            diff: Aligned::new(3 * stride, 0),
+            stride,
             rows: RowLag::new(1),
         }
     }
-    /// Lag in rows (1).
-    pub fn lag(&self) -> usize {
-        self.rows.lag()
-    }
-    /// Starts a new frame.
-    pub fn reset(&mut self) {
-        self.rows.reset();
-    }
-    /// Pushes one row; true when `out` holds the next output row.
-    pub fn push_row(&mut self, row: &[u8], out: &mut GradRow) -> bool {
-        crate::simd::dispatch(|| self.push_row_impl(row, out))
-    }
 
     #[inline(always)]
-    fn push_row_impl(&mut self, row: &[u8], out: &mut GradRow) -> bool {
+    fn accept_impl(&mut self) {
         let w = self.width;
-        let s = self.rows.input_slot() * w;
+        let row = &self.input;
+        let s = self.rows.input_slot() * self.stride;
         let sm = &mut self.smooth[s..s + w];
         let df = &mut self.diff[s..s + w];
         sm[0] = 3 * row[0] as i16 + row[1] as i16;
@@ -98,24 +96,12 @@ impl Sobel {
         }
         sm[w - 1] = row[w - 2] as i16 + 3 * row[w - 1] as i16;
         df[w - 1] = row[w - 1] as i16 - row[w - 2] as i16;
-        let ready = self.rows.pushed();
-        if ready {
-            self.emit(out);
-        }
-        ready
     }
-    /// After the last row: the next pending output row, false when none is left.
-    pub fn flush_row(&mut self, out: &mut GradRow) -> bool {
-        let ready = self.rows.pending();
-        if ready {
-            crate::simd::dispatch(|| self.emit(out));
-        }
-        ready
-    }
+
     #[inline(always)]
-    fn emit(&mut self, out: &mut GradRow) {
+    fn emit_impl(&mut self, out: &mut GradRow) {
         let w = self.width;
-        let slot = |dy: isize| self.rows.clamped(dy) * w;
+        let slot = |dy: isize| self.rows.clamped(dy) * self.stride;
         let (a, b, c) = (slot(-1), slot(0), slot(1));
         let (sa, sc) = (&self.smooth[a..a + w], &self.smooth[c..c + w]);
         let (da, db, dc) = (
@@ -139,6 +125,32 @@ impl Sobel {
             *oy = gy;
             *om = gx.unsigned_abs() + gy.unsigned_abs();
         }
-        self.rows.advance();
+    }
+}
+
+impl RowStage for Sobel {
+    type In = [u8];
+    type Out = GradRow;
+    fn rows(&self) -> &RowLag {
+        &self.rows
+    }
+    fn rows_mut(&mut self) -> &mut RowLag {
+        &mut self.rows
+    }
+    fn input(&mut self) -> &mut [u8] {
+        &mut self.input
+    }
+    fn accept(&mut self) {
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.accept_impl(),
+        );
+    }
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut GradRow, obs: &mut O) {
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.emit_impl(out),
+        );
+        obs.gradient(out);
     }
 }

@@ -25,8 +25,8 @@
 //! assert_eq!(l.candidates()[0].pixels, 3);
 //! ```
 
-use crate::rows::next_set;
-use crate::segment::{EdgeRow, FILLED, NONE, STRONG, axial_deviation};
+use crate::rows::{RowSink, StageObserver};
+use crate::segment::{EdgeRow, FILLED, STRONG, SparseEdgeRow, axial_deviation};
 
 /// The sums of one connected component. Position sums use only pixels with their own sub-pixel
 /// position (not filled ones); columns are in 1/32 px.
@@ -128,26 +128,28 @@ impl Component {
         self.first_index = self.first_index.min(row as u64 * width as u64 + col as u64);
     }
 
-    /// Adds a run of pixels `a ..= b` of one row (the same sums as [`Component::add_pixel`] on
-    /// each, with the row's powers multiplied once per run).
+    /// Adds a run of pixels of one row, consecutive columns (the same sums as
+    /// [`Component::add_pixel`] on each, with the row's powers multiplied once per run).
     #[inline]
-    pub fn add_run(&mut self, row: u32, a: usize, b: usize, width: usize, e: &EdgeRow) {
-        let (mut n, mut strong, mut dev, mut gx_pos) = (0u64, 0u64, 0i64, 0u64);
+    pub fn add_run(&mut self, row: u32, run: &[EdgePixel], width: usize) {
+        let (Some(first), Some(last)) = (run.first(), run.last()) else {
+            return;
+        };
+        let (mut strong, mut dev, mut gx_pos) = (0u64, 0i64, 0u64);
         let (mut pn, mut sc, mut scc, mut sm) = (0i64, 0i64, 0i64, 0u64);
-        for x in a..=b {
-            let (class, dir, sub) = (e.class[x], e.dir[x], e.sub[x]);
-            n += 1;
-            strong += (class == STRONG) as u64;
-            dev += axial_deviation(dir) as i64;
-            gx_pos += (dir.wrapping_add(64) < 128) as u64;
-            if sub != FILLED {
-                let c = x as i64 * 32 + sub as i64;
+        for p in run {
+            strong += (p.class == STRONG) as u64;
+            dev += axial_deviation(p.dir) as i64;
+            gx_pos += (p.dir.wrapping_add(64) < 128) as u64;
+            if p.sub != FILLED {
+                let c = p.col as i64 * 32 + p.sub as i64;
                 pn += 1;
                 sc += c;
                 scc += c * c;
-                sm += e.mag[x] as u64;
+                sm += p.mag as u64;
             }
         }
+        let n = run.len() as u64;
         self.pixels += n;
         self.strong += strong;
         self.weak += n - strong;
@@ -167,8 +169,9 @@ impl Component {
             self.sum_col32_sq += scc as i128;
             self.sum_mag += sm;
         }
-        self.min_col = self.min_col.min(a as u32);
-        self.max_col = self.max_col.max(b as u32);
+        let (a, b) = (first.col as u32, last.col as u32);
+        self.min_col = self.min_col.min(a);
+        self.max_col = self.max_col.max(b);
         self.min_row = self.min_row.min(row);
         self.max_row = self.max_row.max(row);
         self.first_index = self.first_index.min(row as u64 * width as u64 + a as u64);
@@ -441,6 +444,8 @@ pub struct Labeller {
     all: Vec<Component>,
     edges: Option<EdgeList>,
     row: u32,
+    /// The row being pushed (sparse).
+    input: SparseEdgeRow,
 }
 
 impl Labeller {
@@ -466,6 +471,7 @@ impl Labeller {
             all: Vec::with_capacity(if record_all { height_hint * 4 } else { 0 }),
             edges: None,
             row: 0,
+            input: SparseEdgeRow::new(width),
         };
         l.reset();
         l
@@ -553,9 +559,17 @@ impl Labeller {
         self.free.push(root);
     }
 
-    /// Pushes the next row of (filled) edges.
-    #[allow(clippy::needless_range_loop)]
+    /// Pushes the next row of (filled) edges, dense.
     pub fn push_row(&mut self, edges: &EdgeRow) {
+        let mut row = std::mem::take(&mut self.input);
+        row.set_from(edges, self.row as usize);
+        self.push_sparse(&row);
+        self.input = row;
+    }
+
+    /// Pushes the next row of (filled) edges, sparse: its runs are the stretches of consecutive
+    /// columns in `edges.pixels`.
+    pub fn push_sparse(&mut self, edges: &SparseEdgeRow) {
         let w = self.width;
         let y = self.row;
         self.cur.clear();
@@ -566,20 +580,17 @@ impl Labeller {
                 e.overflow = true;
             }
         }
-        let class = &edges.class;
+        let px = &edges.pixels;
         let mut j = 0usize;
-        let mut x = 0usize;
-        loop {
-            // Skip empty stretches quickly (NONE is 0).
-            x = next_set(class, x);
-            if x >= w {
-                break;
+        let mut k0 = 0usize;
+        while k0 < px.len() {
+            let mut k1 = k0 + 1;
+            while k1 < px.len() && px[k1].col == px[k1 - 1].col + 1 {
+                k1 += 1;
             }
-            let a = x;
-            while x < w && class[x] != NONE {
-                x += 1;
-            }
-            let b = x - 1;
+            let run = &px[k0..k1];
+            k0 = k1;
+            let (a, b) = (run[0].col as usize, run[run.len() - 1].col as usize);
             // Previous runs touching [a − 1, b + 1].
             while j < self.prev.len() && (self.prev[j].end as usize) + 1 < a {
                 j += 1;
@@ -611,20 +622,16 @@ impl Labeller {
                 Some(l) => l,
                 None => self.alloc(),
             };
-            self.comps[l as usize].add_run(y, a, b, w, edges);
+            self.comps[l as usize].add_run(y, run, w);
             let rec = match self.edges.as_mut() {
                 Some(e) if !e.overflow => {
                     let r0 = e.pixels.len() as u32;
-                    for xx in a..=b {
-                        if edges.sub[xx] != FILLED {
+                    for p in run {
+                        if p.sub != FILLED {
                             e.pixels.push(EdgePixel {
                                 row: y as u16,
-                                col: xx as u16,
-                                class: class[xx],
-                                dir: edges.dir[xx],
-                                sub: edges.sub[xx],
-                                mag: edges.mag[xx],
                                 comp: l,
+                                ..*p
                             });
                         }
                     }
@@ -644,21 +651,30 @@ impl Labeller {
                 rec,
             });
         }
-        for i in 0..self.cur.len() {
-            let r = self.find(self.cur[i].label);
-            self.cur[i].label = r;
-            // A merge later in the row may have moved the row mark to another root.
-            self.last_row[r as usize] = y;
-            if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
-                let (r0, r1) = self.cur[i].rec;
-                for px in &mut e.pixels[r0 as usize..r1 as usize] {
-                    px.comp = r;
+        // Without a merge in this row every label is still a root (the common case: edges
+        // running down the frame), and nothing needs relabelling.
+        let merges = !self.merged.is_empty();
+        if merges {
+            for i in 0..self.cur.len() {
+                let r = self.find(self.cur[i].label);
+                self.cur[i].label = r;
+                // A merge later in the row may have moved the row mark to another root.
+                self.last_row[r as usize] = y;
+                if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
+                    let (r0, r1) = self.cur[i].rec;
+                    for px in &mut e.pixels[r0 as usize..r1 as usize] {
+                        px.comp = r;
+                    }
                 }
             }
         }
         // Components of the previous row that did not continue are complete.
         for i in 0..self.prev.len() {
-            let r = self.find(self.prev[i].label);
+            let r = if merges {
+                self.find(self.prev[i].label)
+            } else {
+                self.prev[i].label
+            };
             if self.last_row[r as usize] != y {
                 self.last_row[r as usize] = y; // complete once
                 self.complete(r);
@@ -702,5 +718,27 @@ impl Labeller {
     /// Every component of the frame, in completion order (only when built with `record_all`).
     pub fn all(&self) -> &[Component] {
         &self.all
+    }
+}
+
+/// The labeller ends the detector's cascade: it takes the filled edge rows.
+impl RowSink for Labeller {
+    type Row = SparseEdgeRow;
+    fn input(&mut self) -> &mut SparseEdgeRow {
+        &mut self.input
+    }
+    fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
+        let row = std::mem::take(&mut self.input);
+        self.push_sparse(&row);
+        self.input = row;
+    }
+    fn finish<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
+        Labeller::finish(self);
+    }
+    fn reset(&mut self) {
+        Labeller::reset(self);
+    }
+    fn lag(&self) -> usize {
+        0
     }
 }

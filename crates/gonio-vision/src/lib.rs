@@ -2,8 +2,8 @@
 //! ring's column c, row by row as the sensor reads out (spec `eccentricity-detector.md`, seed 004
 //! §4).
 //!
-//! One module per stage, each a push-model streaming type (`push_row` → an output row after a
-//! fixed lag, `flush_row` after the frame's last row), sized at construction, integer arithmetic:
+//! One module per stage, each a [`rows::RowStage`] (`push_row` → an output row after a fixed lag,
+//! `flush_row` after the frame's last row), sized at construction, integer arithmetic:
 //!
 //! 1. [`morphology`]: black top-hat (closing with a 2d + 1 disk, minus the input) and opening
 //!    with a ≈ d/2 disk; [`gaussian`]: 5×5 blur;
@@ -15,11 +15,13 @@
 //!    runner-up; [`features`]: validity checks and reasons, c, each edge's fitted line;
 //! 5. the focus measure, in the same pass ([`pipeline`]).
 //!
-//! [`Detector`] chains them; [`Optics`] derives every parameter and cuts the window out of a
-//! sensor frame; [`source`] brings frames in ([`FrameSource`]: files, raw standard input, the
-//! renderer, a camera) and [`SourceDetector`] runs them through the detector, the one path from
-//! a frame to its result; [`reference`] holds the whole-frame implementations the streaming ones
-//! equal bit for bit.
+//! [`Detector`] chains them into one cascade ([`rows::Then`]); [`Optics`] derives every parameter
+//! and cuts the window out of a sensor frame; [`source`] brings frames in ([`FrameSource`]: files,
+//! raw standard input, the renderer, a camera) and [`SourceDetector`] runs them through the
+//! detector, the one path from a frame to its result ([`detect_in_order`]: the same path on
+//! several threads, results in the stream's order); [`reference`](mod@reference) holds the
+//! whole-frame implementations the streaming ones equal bit for bit; [`simd`] chooses the hot
+//! loops' code path (baseline, AVX2, AVX-512: the same bits).
 //!
 //! ```
 //! use gonio_vision::{Detector, Optics};
@@ -51,6 +53,6 @@ pub use features::{EdgeLine, FrameResult, InvalidReason};
 pub use optics::{Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
 pub use source::{
-    Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError, SourceDetector,
-    SourceError,
+    DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,
+    SourceDetector, SourceError, detect_in_order,
 };

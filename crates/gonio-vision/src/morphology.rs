@@ -14,6 +14,7 @@
 //!
 //! ```
 //! use gonio_vision::morphology::{Disk, Dilate};
+//! use gonio_vision::rows::RowStage;
 //! let mut dil = Dilate::new(8, Disk::new(1));
 //! let rows = [[0u8; 8], [0, 0, 0, 9, 0, 0, 0, 0], [0u8; 8]];
 //! let mut out = [0u8; 8];
@@ -26,7 +27,7 @@
 //! assert_eq!(got, vec![[0, 0, 9, 9, 9, 0, 0, 0]; 3]);
 //! ```
 
-use crate::rows::RowLag;
+use crate::rows::{Aligned, RowLag, RowStage, StageObserver};
 
 /// A discrete disk of radius r: the pixels (dx, dy) with dx² + dy² ≤ r² + r, i.e. within
 /// r + ½ of the centre. Diameter 2r + 1 (r = 11: 23×23; r = 2: 5×5 without its corners).
@@ -82,47 +83,81 @@ enum Source {
     Chain(usize, usize),
 }
 
-/// Columns per block of the vertical combination (four AVX2 registers of running extremes).
+/// Columns per block of the vertical combination (eight AVX2 registers of running extremes).
 const BLOCK: usize = 256;
-
-/// Streaming dilation (`MAX = true`) or erosion (`MAX = false`) by a disk; lag r rows.
-#[derive(Debug, Clone)]
-pub struct Morph<const MAX: bool> {
-    width: usize,
-    radius: usize,
-    pad: usize,
-    /// Distinct half-widths, and for each |dy| the index of its class.
-    class_half: Vec<usize>,
-    class_of_dy: Vec<usize>,
-    /// How each class row is made, narrowest first.
-    plan: Vec<(usize, Source)>,
-    /// Doubling pyramid; level 0 is the padded row.
-    levels: Vec<Vec<u8>>,
-    /// (2r + 1) slots × classes × stride.
-    ring: Vec<u8>,
-    /// Row stride in the ring: width rounded up to whole blocks.
-    stride: usize,
-    /// Ring offsets of the rows combined for the current output row.
-    offs: Vec<usize>,
-    rows: RowLag,
-}
-
-/// Streaming dilation (maximum over a disk).
-pub type Dilate = Morph<true>;
-/// Streaming erosion (minimum over a disk).
-pub type Erode = Morph<false>;
 
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
     if MAX { a.max(b) } else { a.min(b) }
 }
 
-impl<const MAX: bool> Morph<MAX> {
+/// Bytes per step of a row pass (two AVX2 registers, one AVX-512 register).
+const STEP: usize = 64;
+
+/// `dst[i] = ext(a[i], b[i])` for every i, in fixed steps of [`STEP`] bytes with the last step
+/// overlapping the one before (it writes the same values again): no scalar remainder loop,
+/// which for the morphology's odd pass lengths cost as much as the passes themselves.
+#[inline(always)]
+fn pass<const MAX: bool>(dst: &mut [u8], a: &[u8], b: &[u8]) {
+    let n = dst.len();
+    let (a, b) = (&a[..n], &b[..n]);
+    if n < STEP {
+        for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
+            *d = ext::<MAX>(x, y);
+        }
+        return;
+    }
+    let step = |dst: &mut [u8], a: &[u8], b: &[u8], i: usize| {
+        let d: &mut [u8; STEP] = (&mut dst[i..i + STEP]).try_into().expect("step");
+        let x: &[u8; STEP] = a[i..i + STEP].try_into().expect("step");
+        let y: &[u8; STEP] = b[i..i + STEP].try_into().expect("step");
+        for k in 0..STEP {
+            d[k] = ext::<MAX>(x[k], y[k]);
+        }
+    };
+    let mut i = 0;
+    while i + STEP <= n {
+        step(dst, a, b, i);
+        i += STEP;
+    }
+    if i < n {
+        step(dst, a, b, n - STEP);
+    }
+}
+
+/// The chord kernel of a dilation (`MAX = true`) or an erosion (`MAX = false`) by a disk: the
+/// chord-class rows of the last 2r + 1 input rows and their vertical combination.
+///
+/// Every row (pyramid levels, class rows) has one layout: column x at index `lead + x` of a
+/// 64-byte aligned row of `stride` bytes, so every pass stores whole cache lines and the
+/// vertical combination loads them (a store straddling two lines costs twice, and the passes
+/// are store-bound).
+#[derive(Debug, Clone)]
+struct MorphCore<const MAX: bool> {
+    width: usize,
+    radius: usize,
+    /// Distinct half-widths, and for each |dy| the index of its class.
+    class_half: Vec<usize>,
+    class_of_dy: Vec<usize>,
+    /// How each class row is made, narrowest first.
+    plan: Vec<(usize, Source)>,
+    /// Columns before column 0 that the passes compute, a multiple of 64 ≥ r.
+    w0: usize,
+    /// Index of column 0 in a row (2·w0) and the row length.
+    lead: usize,
+    stride: usize,
+    /// Doubling pyramid, level k at row k (level 0, the row itself, only for radius 0).
+    levels: Aligned<u8>,
+    /// (2r + 1) slots × classes rows.
+    ring: Aligned<u8>,
+    /// Ring offsets of the rows combined for the current output row.
+    offs: Vec<usize>,
+}
+
+impl<const MAX: bool> MorphCore<MAX> {
     const NEUTRAL: u8 = if MAX { 0 } else { 255 };
 
-    /// A filter for rows of `width` pixels. Allocates all its memory here:
-    /// (2r + 1) × (distinct chord widths) rows plus a pyramid of a few rows.
-    pub fn new(width: usize, disk: Disk) -> Self {
+    fn new(width: usize, disk: &Disk) -> Self {
         let r = disk.radius;
         let mut class_half: Vec<usize> = Vec::new();
         let mut class_of_dy = Vec::with_capacity(r + 1);
@@ -137,8 +172,6 @@ impl<const MAX: bool> Morph<MAX> {
             };
             class_of_dy.push(c);
         }
-        let pad = r;
-        let n = width + 2 * pad;
         // Classes narrowest first; each from the previous one when the step is small enough
         // (one max pass instead of pyramid levels), else from the pyramid.
         let mut order: Vec<usize> = (0..class_half.len()).collect();
@@ -162,130 +195,77 @@ impl<const MAX: bool> Morph<MAX> {
                 plan.push((c, Source::Pyramid(k)));
             }
         }
-        let nlev = top_level + 1;
-        // A ring row holds a class row over −(r − h) … w + (r − h) (the wider classes chained
-        // from it need the margin), at `pad` from its start; the vertical combination reads
-        // whole blocks from `pad` on (columns past w are ignored).
-        let stride = (pad + width.div_ceil(BLOCK) * BLOCK).max(2 * pad + width);
+        let w0 = r.max(1).div_ceil(64) * 64;
+        let lead = 2 * w0;
+        let stride = (lead + width + 2 * w0).max(lead + width.div_ceil(BLOCK) * BLOCK);
         let stride = stride.div_ceil(64) * 64;
-        Morph {
+        MorphCore {
             width,
             radius: r,
-            pad,
-            plan,
-            levels: vec![vec![Self::NEUTRAL; n]; nlev],
-            ring: vec![Self::NEUTRAL; (2 * r + 1) * class_half.len() * stride],
+            w0,
+            lead,
             stride,
+            plan,
+            levels: Aligned::new((top_level + 1) * stride, Self::NEUTRAL),
+            ring: Aligned::new((2 * r + 1) * class_half.len() * stride, Self::NEUTRAL),
             class_half,
             class_of_dy,
             offs: Vec::with_capacity(2 * r + 1),
-            rows: RowLag::new(r),
         }
     }
 
-    /// Lag in rows between an input row and the output row of the same index.
-    pub fn lag(&self) -> usize {
-        self.radius
-    }
-
-    /// Starts a new frame.
-    pub fn reset(&mut self) {
-        self.rows.reset();
-    }
-
-    #[inline(always)]
-    fn slot(&self, row: usize, class: usize) -> std::ops::Range<usize> {
-        let nc = self.class_half.len();
-        let s = ((row % self.rows.depth()) * nc + class) * self.stride + self.pad;
-        s..s + self.width
-    }
-
-    /// Pushes one input row (`width` pixels); writes output row `pushed − 1 − r` into `out` and
-    /// returns true once enough rows have arrived.
-    pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if crate::simd::avx2() {
-            // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
-            #[allow(unsafe_code)]
-            return unsafe { self.push_row_avx2(row, out) };
-        }
-        self.push_row_impl(row, out)
-    }
-
-    /// The same code compiled with AVX2 (bit-exact: integer max/min only).
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    #[target_feature(enable = "avx2")]
-    unsafe fn push_row_avx2(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        self.push_row_impl(row, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    #[target_feature(enable = "avx2")]
-    unsafe fn emit_avx2(&mut self, out: &mut [u8]) {
-        self.emit(out)
+    /// Makes the chord-class rows of input row `n` (`width` pixels).
+    fn add_row(&mut self, row: &[u8], n: usize) {
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.add_row_impl(row, n),
+        )
     }
 
     #[inline(always)]
-    fn push_row_impl(&mut self, row: &[u8], out: &mut [u8]) -> bool {
+    fn add_row_impl(&mut self, row: &[u8], n: usize) {
         debug_assert_eq!(row.len(), self.width);
-        let (w, p) = (self.width, self.pad);
-        // Level 1 (max of 2) straight from the row: no copy into the padded level 0 (a
-        // 1.4 kB memcpy per row cost more than the max pass). Level 0 is only read for a chord
-        // of width 1 (radius 0).
-        let first = if p >= 1 && self.levels.len() > 1 && !self.class_half.contains(&0) {
-            let l1 = &mut self.levels[1];
-            for ((d, &a), &b) in l1[p..p + w - 1]
-                .iter_mut()
-                .zip(&row[..w - 1])
-                .zip(&row[1..])
-            {
-                *d = ext::<MAX>(a, b);
-            }
-            // Beside the row the neutral padding leaves the edge pixel itself.
-            l1[p - 1] = row[0];
-            l1[p + w - 1] = row[w - 1];
-            2
+        let (w, r, st, lead, w0) = (self.width, self.radius, self.stride, self.lead, self.w0);
+        let nlev = self.levels.len() / st;
+        if r == 0 {
+            // A single pixel: the class row is the row.
+            self.levels[lead..lead + w].copy_from_slice(row);
         } else {
-            self.levels[0][p..p + w].copy_from_slice(row);
-            1
-        };
-        let n = w + 2 * p;
-        for k in first..self.levels.len() {
-            let s = 1usize << (k - 1);
-            let len = n + 1 - (1usize << k);
-            let (lo, hi) = self.levels.split_at_mut(k);
-            let src = &lo[k - 1];
-            let dst = &mut hi[0][..len];
-            for ((d, &a), &b) in dst.iter_mut().zip(&src[..len]).zip(&src[s..s + len]) {
-                *d = ext::<MAX>(a, b);
+            // Level 1 (max of 2) straight from the row; beside it the neutral padding leaves
+            // the edge pixel itself, and further out the neutral value (never written).
+            let l1 = &mut self.levels[st..2 * st];
+            if w >= 2 {
+                pass::<MAX>(&mut l1[lead..lead + w - 1], &row[..w - 1], &row[1..]);
+            }
+            l1[lead - 1] = row[0];
+            l1[lead + w - 1] = row[w - 1];
+            // Higher levels over whole rows: exact at every column.
+            for k in 2..nlev {
+                let s = 1usize << (k - 1);
+                let (lo, hi) = self.levels.split_at_mut(k * st);
+                let src = &lo[(k - 1) * st..k * st];
+                pass::<MAX>(&mut hi[..st - s], &src[..st - s], &src[s..]);
             }
         }
-        let row0 = self.rows.input_slot() * self.class_half.len();
-        let (r, stride) = (self.radius, self.stride);
+        let row0 = (n % (2 * r + 1)) * self.class_half.len();
         for &(c, src) in &self.plan {
             let hw = self.class_half[c];
             let margin = r - hw;
-            let len = w + 2 * margin;
-            // Ring index of column −margin of this class row.
-            let base = (row0 + c) * stride + p - margin;
+            // Columns −w0 … w + margin − 1; the dst starts on a cache line.
+            let len = w0 + w + margin;
+            let base = (row0 + c) * st + lead - w0;
             match src {
                 Source::Pyramid(k) => {
                     let pk = 1usize << k;
-                    let lev = &self.levels[k];
-                    // Padded column of −margin is p − margin; its window starts at
-                    // p − margin − hw = 0.
-                    let a = &lev[p - margin - hw..p - margin - hw + len];
-                    let b = &lev[p - margin + hw + 1 - pk..p - margin + hw + 1 - pk + len];
-                    let dst = &mut self.ring[base..base + len];
-                    for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
-                        *d = ext::<MAX>(x, y);
-                    }
+                    let lev = &self.levels[k * st..(k + 1) * st];
+                    // Column x's window of 2·hw + 1 is the max of two windows of 2^k.
+                    let a = &lev[lead - w0 - hw..];
+                    let b = &lev[lead - w0 + hw + 1 - pk..];
+                    pass::<MAX>(&mut self.ring[base..base + len], a, b);
                 }
                 Source::Chain(prev, k) => {
-                    // The narrower row starts at column −(margin + k).
-                    let pbase = (row0 + prev) * stride + p - margin - k;
+                    // The narrower row shifted by ±k.
+                    let pbase = (row0 + prev) * st + lead - w0 - k;
                     let (src, dst) = if pbase < base {
                         let (lo, hi) = self.ring.split_at_mut(base);
                         (&lo[pbase..pbase + len + 2 * k], &mut hi[..len])
@@ -293,194 +273,217 @@ impl<const MAX: bool> Morph<MAX> {
                         let (lo, hi) = self.ring.split_at_mut(pbase);
                         (&hi[..len + 2 * k], &mut lo[base..base + len])
                     };
-                    for ((d, &x), &y) in dst.iter_mut().zip(&src[..len]).zip(&src[2 * k..]) {
-                        *d = ext::<MAX>(x, y);
-                    }
+                    pass::<MAX>(dst, &src[..len], &src[2 * k..]);
                 }
             }
         }
-        if self.rows.pushed() {
-            self.emit(out);
-            true
-        } else {
-            false
-        }
     }
 
-    /// After the frame's last row: writes the next pending output row, false when none is left.
-    pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-        if self.rows.pending() {
-            #[cfg(target_arch = "x86_64")]
-            if crate::simd::avx2() {
-                // SAFETY: the CPU has AVX2 (runtime check in `simd::avx2`).
-                #[allow(unsafe_code)]
-                unsafe {
-                    self.emit_avx2(out)
-                };
-                return true;
-            }
-            self.emit(out);
-            true
-        } else {
-            false
-        }
+    /// Output row `y` from the class rows of input rows y − r … y + r that exist (rows 0 …
+    /// `n` − 1; the others are outside the frame).
+    fn combine(&mut self, y: usize, n: usize, out: &mut [u8]) {
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.combine_impl(y, n, out),
+        )
     }
 
     #[inline(always)]
-    fn emit(&mut self, out: &mut [u8]) {
-        let y = self.rows.output_row() as isize;
-        let r = self.radius as isize;
+    fn combine_impl(&mut self, y: usize, n: usize, out: &mut [u8]) {
+        let (y, r) = (y as isize, self.radius as isize);
         let lo = (y - r).max(0);
-        let hi = (y + r).min(self.rows.received() as isize - 1);
+        let hi = (y + r).min(n as isize - 1);
         self.offs.clear();
+        // Ring slots step by one row (no division per row).
+        let (depth, nc) = (2 * self.radius + 1, self.class_half.len());
+        let mut slot = lo as usize % depth;
         for yy in lo..=hi {
             let c = self.class_of_dy[(yy - y).unsigned_abs()];
-            let start = self.slot(yy as usize, c).start;
-            self.offs.push(start);
+            let class_row = if self.radius == 0 {
+                // Radius 0: the row itself, in level 0 (one slot).
+                usize::MAX
+            } else {
+                slot * nc + c
+            };
+            self.offs.push(class_row);
+            slot = if slot + 1 == depth { 0 } else { slot + 1 };
+        }
+        let (st, lead) = (self.stride, self.lead);
+        let src: &[u8] = if self.radius == 0 {
+            &self.levels
+        } else {
+            &self.ring
+        };
+        for o in self.offs.iter_mut() {
+            *o = if *o == usize::MAX { 0 } else { *o * st } + lead;
         }
         // Blocks of BLOCK columns: the running extreme stays in registers while the rows stream
         // by (one load per row and pixel instead of two loads and a store).
         const B: usize = BLOCK;
         let w = self.width;
-        let ring = &self.ring;
-        let mut x0 = 0;
-        while x0 < w {
+        let block = |x0: usize| {
             let mut acc = [Self::NEUTRAL; B];
             for &o in &self.offs {
-                let src: &[u8; B] = ring[o + x0..o + x0 + B].try_into().expect("block");
+                let s: &[u8; B] = src[o + x0..o + x0 + B].try_into().expect("block");
                 for i in 0..B {
-                    acc[i] = ext::<MAX>(acc[i], src[i]);
+                    acc[i] = ext::<MAX>(acc[i], s[i]);
                 }
             }
-            if x0 + B <= w {
-                // Fixed size: vector stores, not a memcpy call per block.
-                let o: &mut [u8; B] = (&mut out[x0..x0 + B]).try_into().expect("block");
-                *o = acc;
-            } else {
-                out[x0..w].copy_from_slice(&acc[..w - x0]);
-            }
+            acc
+        };
+        let mut x0 = 0;
+        while x0 + B <= w {
+            // Fixed size: vector stores, not a memcpy call per block.
+            let o: &mut [u8; B] = (&mut out[x0..x0 + B]).try_into().expect("block");
+            *o = block(x0);
             x0 += B;
         }
-        self.rows.advance();
+        if x0 < w {
+            if w >= B {
+                // The last block overlaps the one before: the same values again, whole stores.
+                let o: &mut [u8; B] = (&mut out[w - B..w]).try_into().expect("block");
+                *o = block(w - B);
+            } else {
+                let acc = block(x0);
+                out[x0..w].copy_from_slice(&acc[..w - x0]);
+            }
+        }
     }
+}
+
+/// Streaming dilation (`MAX = true`) or erosion (`MAX = false`) by a disk; lag r rows.
+#[derive(Debug, Clone)]
+pub struct Morph<const MAX: bool> {
+    core: MorphCore<MAX>,
+    input: Aligned<u8>,
+    rows: RowLag,
+}
+
+/// Streaming dilation (maximum over a disk).
+pub type Dilate = Morph<true>;
+/// Streaming erosion (minimum over a disk).
+pub type Erode = Morph<false>;
+
+impl<const MAX: bool> Morph<MAX> {
+    /// A filter for rows of `width` pixels. Allocates all its memory here:
+    /// (2r + 1) × (distinct chord widths) rows plus a pyramid of a few rows.
+    pub fn new(width: usize, disk: Disk) -> Self {
+        Morph {
+            core: MorphCore::new(width, &disk),
+            input: Aligned::new(width, 0),
+            rows: RowLag::new(disk.radius),
+        }
+    }
+}
+
+impl<const MAX: bool> RowStage for Morph<MAX> {
+    type In = [u8];
+    type Out = [u8];
+    fn rows(&self) -> &RowLag {
+        &self.rows
+    }
+    fn rows_mut(&mut self) -> &mut RowLag {
+        &mut self.rows
+    }
+    fn input(&mut self) -> &mut [u8] {
+        &mut self.input
+    }
+    fn accept(&mut self) {
+        self.core.add_row(&self.input, self.rows.received());
+    }
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], _: &mut O) {
+        self.core
+            .combine(self.rows.output_row(), self.rows.received(), out);
+    }
+}
+
+/// Two morphological operations by one disk in a row, optionally minus the input: the closing
+/// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
+/// (erode, then dilate); lag 2r. The first operation's rows are made as the second one needs
+/// them; the last 2r + 1 input rows are kept for the subtraction.
+#[derive(Debug, Clone)]
+pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
+    first: MorphCore<FIRST_MAX>,
+    second: MorphCore<SECOND_MAX>,
+    /// The last 2r + 1 input rows, `rstride` apart (cache-line aligned).
+    raw: Aligned<u8>,
+    rstride: usize,
+    /// One row of the first operation.
+    mid: Aligned<u8>,
+    /// Rows of the first operation made so far.
+    mid_rows: usize,
+    width: usize,
+    radius: usize,
+    rows: RowLag,
 }
 
 /// Streaming morphological closing (dilate, then erode) by a disk.
-#[derive(Debug, Clone)]
-pub struct Closing {
-    dil: Dilate,
-    ero: Erode,
-    mid: Vec<u8>,
-}
-
-/// Streaming morphological opening (erode, then dilate) by a disk.
-#[derive(Debug, Clone)]
-pub struct Opening {
-    ero: Erode,
-    dil: Dilate,
-    mid: Vec<u8>,
-}
-
-macro_rules! two_stage {
-    ($t:ident, $a:ident, $b:ident) => {
-        impl $t {
-            /// A filter for rows of `width` pixels with the given disk.
-            pub fn new(width: usize, disk: Disk) -> Self {
-                $t {
-                    $a: Morph::new(width, disk.clone()),
-                    $b: Morph::new(width, disk),
-                    mid: vec![0; width],
-                }
-            }
-            /// Lag in rows (2r).
-            pub fn lag(&self) -> usize {
-                self.$a.lag() + self.$b.lag()
-            }
-            /// Starts a new frame.
-            pub fn reset(&mut self) {
-                self.$a.reset();
-                self.$b.reset();
-            }
-            /// Pushes one row; true when `out` holds the next output row.
-            pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-                self.$a.push_row(row, &mut self.mid) && self.$b.push_row(&self.mid, out)
-            }
-            /// After the last row: the next pending output row, false when none is left.
-            pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-                while self.$a.flush_row(&mut self.mid) {
-                    if self.$b.push_row(&self.mid, out) {
-                        return true;
-                    }
-                }
-                self.$b.flush_row(out)
-            }
-        }
-    };
-}
-two_stage!(Closing, dil, ero);
-two_stage!(Opening, ero, dil);
-
+pub type Closing = MorphPair<true, false, false>;
 /// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
-/// bright ones); lag 2r. Holds 2r + 1 input rows to subtract.
-#[derive(Debug, Clone)]
-pub struct BlackTopHat {
-    close: Closing,
-    delay: Vec<u8>,
-    width: usize,
-    slots: usize,
-    n_in: usize,
-    n_out: usize,
+/// bright ones); lag 2r.
+pub type BlackTopHat = MorphPair<true, false, true>;
+/// Streaming morphological opening (erode, then dilate) by a disk.
+pub type Opening = MorphPair<false, true, false>;
+
+impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
+    /// A filter for rows of `width` pixels with the given disk.
+    pub fn new(width: usize, disk: Disk) -> Self {
+        let r = disk.radius;
+        MorphPair {
+            first: MorphCore::new(width, &disk),
+            second: MorphCore::new(width, &disk),
+            raw: Aligned::new((2 * r + 1) * width.div_ceil(64) * 64, 0),
+            rstride: width.div_ceil(64) * 64,
+            mid: Aligned::new(width, 0),
+            mid_rows: 0,
+            width,
+            radius: r,
+            rows: RowLag::new(2 * r),
+        }
+    }
 }
 
-impl BlackTopHat {
-    /// A filter for rows of `width` pixels with the given closing disk.
-    pub fn new(width: usize, disk: Disk) -> Self {
-        let slots = 2 * disk.radius() + 1;
-        BlackTopHat {
-            close: Closing::new(width, disk),
-            delay: vec![0; slots * width],
-            width,
-            slots,
-            n_in: 0,
-            n_out: 0,
+impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S, SUB> {
+    type In = [u8];
+    type Out = [u8];
+    fn rows(&self) -> &RowLag {
+        &self.rows
+    }
+    fn rows_mut(&mut self) -> &mut RowLag {
+        &mut self.rows
+    }
+    fn reset(&mut self) {
+        self.rows.reset();
+        self.mid_rows = 0;
+    }
+    fn input(&mut self) -> &mut [u8] {
+        let s = self.rows.received() % (2 * self.radius + 1) * self.rstride;
+        &mut self.raw[s..s + self.width]
+    }
+    fn accept(&mut self) {
+        let n = self.rows.received();
+        let s = n % (2 * self.radius + 1) * self.rstride;
+        self.first.add_row(&self.raw[s..s + self.width], n);
+    }
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
+        let (y, n) = (self.rows.output_row(), self.rows.received());
+        // The second operation at row y needs the first one's rows up to y + r.
+        let need = (y + self.radius).min(n - 1);
+        while self.mid_rows <= need {
+            let z = self.mid_rows;
+            self.first.combine(z, n, &mut self.mid);
+            self.second.add_row(&self.mid, z);
+            self.mid_rows += 1;
         }
-    }
-    /// Lag in rows (2r).
-    pub fn lag(&self) -> usize {
-        self.close.lag()
-    }
-    /// Starts a new frame.
-    pub fn reset(&mut self) {
-        self.close.reset();
-        self.n_in = 0;
-        self.n_out = 0;
-    }
-    fn subtract(&mut self, out: &mut [u8]) {
-        let s = (self.n_out % self.slots) * self.width;
-        for (o, &i) in out.iter_mut().zip(&self.delay[s..s + self.width]) {
-            *o = o.saturating_sub(i);
-        }
-        self.n_out += 1;
-    }
-    /// Pushes one row; true when `out` holds the next output row.
-    pub fn push_row(&mut self, row: &[u8], out: &mut [u8]) -> bool {
-        let s = (self.n_in % self.slots) * self.width;
-        self.delay[s..s + self.width].copy_from_slice(row);
-        self.n_in += 1;
-        if self.close.push_row(row, out) {
-            self.subtract(out);
-            true
-        } else {
-            false
-        }
-    }
-    /// After the last row: the next pending output row, false when none is left.
-    pub fn flush_row(&mut self, out: &mut [u8]) -> bool {
-        if self.close.flush_row(out) {
-            self.subtract(out);
-            true
-        } else {
-            false
+        self.second.combine(y, self.mid_rows, out);
+        if SUB {
+            let s = y % (2 * self.radius + 1) * self.rstride;
+            for (o, &i) in out.iter_mut().zip(&self.raw[s..s + self.width]) {
+                *o = o.saturating_sub(i);
+            }
+            obs.tophat(out);
+        } else if !F {
+            obs.opened(out);
         }
     }
 }

@@ -1,10 +1,14 @@
 //! The detector: every stage chained row by row, from camera rows to the frame's result.
 //!
-//! `push_row` drives the rows through top-hat → opening → blur → Sobel → segmentation → filling
-//! → labelling as far as each stage's lag allows; `finish_frame` flushes the last rows and
-//! computes the baseline features. All memory is allocated in [`Detector::new`]: the working set
-//! is a few dozen rows (O(width × (4d + 12))), independent of the frame's height, and nothing is
-//! allocated per frame (apart from the result's two edge lines) unless stage dumps are enabled.
+//! The stages form one cascade ([`Then`]: top-hat → opening → blur → Sobel → segmentation →
+//! filling → labelling), each stage writing its output row straight into the next one's ring.
+//! `push_row` drives a row through it as far as each stage's lag allows; `finish_frame` flushes
+//! the last rows and computes the baseline features. Stage dumps are a [`StageObserver`]
+//! ([`StageImages`]) the cascade shows every row to; without dumps the cascade runs with the
+//! observer that keeps nothing, compiled away. All memory is allocated in [`Detector::new`]:
+//! the working set is a few dozen rows (O(width × (4d + 12))), independent of the frame's
+//! height, and nothing is allocated per frame (apart from the result's two edge lines) unless
+//! stage dumps are enabled.
 //!
 //! ```
 //! use gonio_vision::{Detector, Optics};
@@ -28,7 +32,8 @@ use crate::gradient::{GradRow, Sobel};
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::{Optics, Params};
-use crate::segment::{EdgeRow, FILLED, NONE, SegmentParams, Segmenter};
+use crate::rows::{RowSink, StageObserver, Then};
+use crate::segment::{FILLED, SegmentParams, Segmenter, SparseEdgeRow};
 
 /// Every stage's output for one frame, whole (filled only when dumps are enabled).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -73,38 +78,92 @@ pub struct EdgeRowsImage {
 }
 
 impl EdgeRowsImage {
-    fn push(&mut self, r: &EdgeRow) {
-        self.class.extend_from_slice(&r.class);
-        self.dir.extend_from_slice(&r.dir);
-        self.sub.extend_from_slice(&r.sub);
-        self.mag.extend(
-            r.mag
-                .iter()
-                .zip(&r.class)
-                .zip(&r.sub)
-                .map(|((&m, &c), &s)| if c != NONE && s != FILLED { m } else { 0 }),
-        );
+    fn push(&mut self, r: &SparseEdgeRow, width: usize) {
+        let n = self.class.len();
+        self.class.resize(n + width, 0);
+        self.dir.resize(n + width, 0);
+        self.sub.resize(n + width, 0);
+        self.mag.resize(n + width, 0);
+        for p in &r.pixels {
+            let i = n + p.col as usize;
+            self.class[i] = p.class;
+            self.dir[i] = p.dir;
+            self.sub[i] = p.sub;
+            self.mag[i] = if p.sub == FILLED { 0 } else { p.mag };
+        }
     }
 }
+
+impl StageObserver for StageImages {
+    fn input(&mut self, row: &[u8]) {
+        self.input.extend_from_slice(row);
+    }
+    fn tophat(&mut self, row: &[u8]) {
+        self.tophat.extend_from_slice(row);
+    }
+    fn opened(&mut self, row: &[u8]) {
+        self.opened.extend_from_slice(row);
+    }
+    fn blurred(&mut self, row: &[u8]) {
+        self.blurred.extend_from_slice(row);
+    }
+    fn gradient(&mut self, row: &GradRow) {
+        self.gx.extend_from_slice(&row.gx);
+        self.gy.extend_from_slice(&row.gy);
+        self.mag.extend_from_slice(&row.mag);
+    }
+    fn edges(&mut self, row: &SparseEdgeRow) {
+        self.edges.push(row, self.width);
+    }
+    fn filled(&mut self, row: &SparseEdgeRow) {
+        self.filled.push(row, self.width);
+    }
+}
+
+/// Σ|a − b| and Σ(a − b)² over two rows, in exact integer arithmetic: 64 columns at a time,
+/// the differences as bytes, their sums and squares in sixteen 32-bit lanes (no overflow: a lane
+/// takes at most 4·255² per 64 columns, 512 steps for the widest window of 32768 px).
+#[inline(always)]
+fn abs_diff_sums(a: &[u8], b: &[u8]) -> (u64, u64) {
+    const C: usize = 64;
+    let (mut s1, mut s2) = (0u64, 0u64);
+    let (ac, bc) = (a.chunks_exact(C), b.chunks_exact(C));
+    let (ar, br) = (ac.remainder(), bc.remainder());
+    let (mut acc1, mut acc2) = ([0u32; 16], [0u32; 16]);
+    for (x, y) in ac.zip(bc) {
+        let mut d = [0u8; C];
+        for k in 0..C {
+            d[k] = x[k].abs_diff(y[k]);
+        }
+        for k in 0..16 {
+            let q = [d[4 * k], d[4 * k + 1], d[4 * k + 2], d[4 * k + 3]].map(u32::from);
+            acc1[k] += q[0] + q[1] + q[2] + q[3];
+            acc2[k] += q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+        }
+    }
+    for k in 0..16 {
+        s1 += acc1[k] as u64;
+        s2 += acc2[k] as u64;
+    }
+    for (&x, &y) in ar.iter().zip(br) {
+        let d = x.abs_diff(y) as u64;
+        s1 += d;
+        s2 += d * d;
+    }
+    (s1, s2)
+}
+
+/// The detector's stages, chained.
+type Cascade = Then<
+    BlackTopHat,
+    Then<Opening, Then<Gaussian5, Then<Sobel, Then<Segmenter, Then<EdgeFill, Labeller>>>>>,
+>;
 
 /// The streaming baseline detector.
 #[derive(Debug, Clone)]
 pub struct Detector {
     p: Params,
-    tophat: BlackTopHat,
-    open: Opening,
-    gauss: Gaussian5,
-    sobel: Sobel,
-    seg: Segmenter,
-    fill: EdgeFill,
-    label: Labeller,
-    b_in: Vec<u8>,
-    b_top: Vec<u8>,
-    b_open: Vec<u8>,
-    b_blur: Vec<u8>,
-    b_grad: GradRow,
-    b_edge: EdgeRow,
-    b_fill: EdgeRow,
+    line: Cascade,
     /// Raw rows y−2, y−1 for the focus measure.
     raw_prev: [Vec<u8>; 2],
     rows: usize,
@@ -114,6 +173,12 @@ pub struct Detector {
     focus_sum: u64,
     grad_sum: u64,
     dump: Option<Box<StageImages>>,
+}
+
+fn labeller(p: &Params, record_all: bool) -> Labeller {
+    Labeller::new(p.width, p.height, record_all)
+        .min_rows(p.min_fragment_rows)
+        .keep_pixels(p.max_edge_pixels)
 }
 
 impl Detector {
@@ -133,23 +198,27 @@ impl Detector {
             high: p.grad_high,
             tan_q10: p.tan_tolerance_q10,
         };
+        fn then<S, N>(stage: S, next: N) -> Then<S, N> {
+            Then { stage, next }
+        }
+        let line = then(
+            BlackTopHat::new(w, Disk::new(p.close_radius_px)),
+            then(
+                Opening::new(w, Disk::new(p.open_radius_px)),
+                then(
+                    Gaussian5::new(w),
+                    then(
+                        Sobel::new(w),
+                        then(
+                            Segmenter::new(w, seg),
+                            then(EdgeFill::new(w), labeller(&p, false)),
+                        ),
+                    ),
+                ),
+            ),
+        );
         Detector {
-            tophat: BlackTopHat::new(w, Disk::new(p.close_radius_px)),
-            open: Opening::new(w, Disk::new(p.open_radius_px)),
-            gauss: Gaussian5::new(w),
-            sobel: Sobel::new(w),
-            seg: Segmenter::new(w, seg),
-            fill: EdgeFill::new(w),
-            label: Labeller::new(w, p.height, false)
-                .min_rows(p.min_fragment_rows)
-                .keep_pixels(p.max_edge_pixels),
-            b_in: vec![0; w],
-            b_top: vec![0; w],
-            b_open: vec![0; w],
-            b_blur: vec![0; w],
-            b_grad: GradRow::new(w),
-            b_edge: EdgeRow::new(w),
-            b_fill: EdgeRow::new(w),
+            line,
             raw_prev: [vec![0; w], vec![0; w]],
             rows: 0,
             saturated: 0,
@@ -168,12 +237,12 @@ impl Detector {
 
     /// Rows between a row's arrival and its edges reaching the labeller.
     pub fn lag_rows(&self) -> usize {
-        self.tophat.lag()
-            + self.open.lag()
-            + self.gauss.lag()
-            + self.sobel.lag()
-            + self.seg.lag()
-            + self.fill.lag()
+        self.line.lag()
+    }
+
+    /// The last stage of the cascade.
+    fn labeller(&mut self) -> &mut Labeller {
+        &mut self.line.next.next.next.next.next.next
     }
 
     /// Keeps every stage's output of the following frames (for test vectors); allocates.
@@ -181,9 +250,7 @@ impl Detector {
         if on == self.dump.is_some() {
             return;
         }
-        self.label = Labeller::new(self.p.width, self.p.height, on)
-            .min_rows(self.p.min_fragment_rows)
-            .keep_pixels(self.p.max_edge_pixels);
+        *self.labeller() = labeller(&self.p, on);
         self.dump = if on { Some(Box::default()) } else { None };
     }
 
@@ -194,13 +261,7 @@ impl Detector {
 
     /// Starts a new frame, dropping any rows pushed so far.
     pub fn begin_frame(&mut self) {
-        self.tophat.reset();
-        self.open.reset();
-        self.gauss.reset();
-        self.sobel.reset();
-        self.seg.reset();
-        self.fill.reset();
-        self.label.reset();
+        self.line.reset();
         self.rows = 0;
         self.sat_runs.clear();
         self.saturated = 0;
@@ -238,24 +299,26 @@ impl Detector {
         if self.rows == 0 {
             self.begin_frame();
         }
-        crate::simd::dispatch(|| self.raw_stats(row));
+        crate::simd::dispatch(
+            #[inline(always)]
+            || self.raw_stats(row),
+        );
         self.raw_prev[self.rows % 2].copy_from_slice(row);
         self.rows += 1;
+        let input = self.line.input();
         if self.p.invert {
-            for (o, &v) in self.b_in.iter_mut().zip(row) {
+            for (o, &v) in input.iter_mut().zip(row) {
                 *o = 255 - v;
             }
-            let inp = std::mem::take(&mut self.b_in);
-            if let Some(d) = self.dump.as_deref_mut() {
-                d.input.extend_from_slice(&inp);
-            }
-            self.feed_tophat(Some(&inp));
-            self.b_in = inp;
         } else {
-            if let Some(d) = self.dump.as_deref_mut() {
-                d.input.extend_from_slice(row);
+            input.copy_from_slice(row);
+        }
+        match self.dump.as_deref_mut() {
+            Some(d) => {
+                d.input(self.line.input());
+                self.line.pushed(d);
             }
-            self.feed_tophat(Some(row));
+            None => self.line.pushed(&mut ()),
         }
         Ok(())
     }
@@ -275,17 +338,12 @@ impl Detector {
                 &self.raw_prev[self.rows % 2],
                 &self.raw_prev[(self.rows + 1) % 2],
             );
-            // a = row y − 2, b = row y − 1.
-            let (mut s1, mut s2) = (0u32, 0u32);
+            // a = row y − 2, b = row y − 1: the central differences at row y − 1.
             let (bl, br, rc, ac) = (&b[..w - 2], &b[2..w], &row[1..w - 1], &a[1..w - 1]);
-            for (((&l, &r), &c), &u) in bl.iter().zip(br).zip(rc).zip(ac) {
-                let dx = l.abs_diff(r) as u32;
-                let dy = c.abs_diff(u) as u32;
-                s1 += dx + dy;
-                s2 += dx * dx + dy * dy;
-            }
-            self.grad_sum += s1 as u64;
-            self.focus_sum += s2 as u64;
+            let (s1x, s2x) = abs_diff_sums(bl, br);
+            let (s1y, s2y) = abs_diff_sums(rc, ac);
+            self.grad_sum += s1x + s1y;
+            self.focus_sum += s2x + s2y;
         }
     }
 
@@ -302,8 +360,10 @@ impl Detector {
                 found,
             });
         }
-        self.feed_tophat(None);
-        self.label.finish();
+        match self.dump.as_deref_mut() {
+            Some(d) => self.line.finish(d),
+            None => self.line.finish(&mut ()),
+        }
         let (w, h) = (self.p.width, self.p.height);
         let interior = ((w - 2) * (h - 2)) as f64;
         let stats = RawStats {
@@ -311,11 +371,12 @@ impl Detector {
             focus: self.focus_sum as f64 / interior / 4.0,
             mean_gradient: self.grad_sum as f64 / interior / 2.0,
         };
+        let label = &mut self.line.next.next.next.next.next.next;
         if let Some(d) = self.dump.as_deref_mut() {
-            d.components = self.label.all().to_vec();
+            d.components = label.all().to_vec();
         }
-        let count = self.label.component_count();
-        let (cands, edges) = self.label.candidates_and_edges();
+        let count = label.component_count();
+        let (cands, edges) = label.candidates_and_edges();
         let res = baseline_features(cands, count, edges, &self.sat_runs, stats, &self.p);
         self.rows = 0;
         Ok(res)
@@ -340,148 +401,5 @@ impl Detector {
             self.push_row(row)?;
         }
         self.finish_frame()
-    }
-
-    fn feed_tophat(&mut self, input: Option<&[u8]>) {
-        match input {
-            Some(r) => {
-                if self.tophat.push_row(r, &mut self.b_top) {
-                    self.pass_tophat();
-                }
-            }
-            None => {
-                while self.tophat.flush_row(&mut self.b_top) {
-                    self.pass_tophat();
-                }
-                self.feed_open(None);
-            }
-        }
-    }
-    fn pass_tophat(&mut self) {
-        let b = std::mem::take(&mut self.b_top);
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.tophat.extend_from_slice(&b);
-        }
-        self.feed_open(Some(&b));
-        self.b_top = b;
-    }
-
-    fn feed_open(&mut self, input: Option<&[u8]>) {
-        match input {
-            Some(r) => {
-                if self.open.push_row(r, &mut self.b_open) {
-                    self.pass_open();
-                }
-            }
-            None => {
-                while self.open.flush_row(&mut self.b_open) {
-                    self.pass_open();
-                }
-                self.feed_gauss(None);
-            }
-        }
-    }
-    fn pass_open(&mut self) {
-        let b = std::mem::take(&mut self.b_open);
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.opened.extend_from_slice(&b);
-        }
-        self.feed_gauss(Some(&b));
-        self.b_open = b;
-    }
-
-    fn feed_gauss(&mut self, input: Option<&[u8]>) {
-        match input {
-            Some(r) => {
-                if self.gauss.push_row(r, &mut self.b_blur) {
-                    self.pass_gauss();
-                }
-            }
-            None => {
-                while self.gauss.flush_row(&mut self.b_blur) {
-                    self.pass_gauss();
-                }
-                self.feed_sobel(None);
-            }
-        }
-    }
-    fn pass_gauss(&mut self) {
-        let b = std::mem::take(&mut self.b_blur);
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.blurred.extend_from_slice(&b);
-        }
-        self.feed_sobel(Some(&b));
-        self.b_blur = b;
-    }
-
-    fn feed_sobel(&mut self, input: Option<&[u8]>) {
-        match input {
-            Some(r) => {
-                if self.sobel.push_row(r, &mut self.b_grad) {
-                    self.pass_sobel();
-                }
-            }
-            None => {
-                while self.sobel.flush_row(&mut self.b_grad) {
-                    self.pass_sobel();
-                }
-                self.feed_seg(None);
-            }
-        }
-    }
-    fn pass_sobel(&mut self) {
-        let mut b = std::mem::take(&mut self.b_grad);
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.gx.extend_from_slice(&b.gx);
-            d.gy.extend_from_slice(&b.gy);
-            d.mag.extend_from_slice(&b.mag);
-        }
-        self.feed_seg(Some(&mut b));
-        self.b_grad = b;
-    }
-
-    fn feed_seg(&mut self, input: Option<&mut GradRow>) {
-        match input {
-            Some(r) => {
-                if self.seg.push_row_swap(r, &mut self.b_edge) {
-                    self.pass_seg();
-                }
-            }
-            None => {
-                while self.seg.flush_row(&mut self.b_edge) {
-                    self.pass_seg();
-                }
-                self.feed_fill(None);
-            }
-        }
-    }
-    fn pass_seg(&mut self) {
-        let mut b = std::mem::take(&mut self.b_edge);
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.edges.push(&b);
-        }
-        self.feed_fill(Some(&mut b));
-        self.b_edge = b;
-    }
-
-    fn feed_fill(&mut self, input: Option<&mut EdgeRow>) {
-        match input {
-            Some(r) => {
-                if self.fill.push_row_swap(r, &mut self.b_fill) {
-                    self.pass_fill();
-                }
-            }
-            None => {
-                while self.fill.flush_row(&mut self.b_fill) {
-                    self.pass_fill();
-                }
-            }
-        }
-    }
-    fn pass_fill(&mut self) {
-        if let Some(d) = self.dump.as_deref_mut() {
-            d.filled.push(&self.b_fill);
-        }
-        self.label.push_row(&self.b_fill);
     }
 }

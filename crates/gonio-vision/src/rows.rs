@@ -1,9 +1,12 @@
-//! Row bookkeeping shared by the streaming stages: rows received, rows emitted, the fixed lag,
-//! and which slot of the stage's ring of 2·lag + 1 rows holds a given row.
+//! The shape every streaming stage shares: row bookkeeping ([`RowLag`]: rows received, rows
+//! emitted, the fixed lag, which ring slot holds a row), the [`RowStage`] trait with the default
+//! `push_row`/`flush_row` over it, the [`StageObserver`] that sees every stage's rows (stage dumps,
+//! test vectors), and [`Then`], which chains stages into one cascade.
 //!
 //! Every stage with a vertical kernel of half-height `lag` keeps the last 2·lag + 1 input rows in
 //! a ring and emits output row y once row y + lag has arrived (or, after the frame's last row,
-//! from [`RowLag::pending`]). Only the counting lives here; each stage keeps its own row storage.
+//! while [`RowLag::pending`]). A producer writes its output row straight into the next stage's
+//! ring slot ([`RowStage::input`]), so rows are handed on without copies.
 //!
 //! ```
 //! use gonio_vision::rows::RowLag;
@@ -15,6 +18,9 @@
 //! r.advance();
 //! assert!(r.pending());            // row 1 can still be flushed after the last row
 //! ```
+
+use crate::gradient::GradRow;
+use crate::segment::SparseEdgeRow;
 
 /// Counters of a streaming stage with a fixed lag.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -128,4 +134,234 @@ pub fn next_set(bytes: &[u8], from: usize) -> usize {
         x += 1;
     }
     x.min(bytes.len())
+}
+
+/// A buffer whose first element sits on a 64-byte boundary (a cache line, an AVX-512 register):
+/// vector stores that straddle two cache lines cost the core twice, and the row passes store a
+/// whole row each. Safe code: a few elements more are allocated and the slice starts at the
+/// first aligned one.
+#[derive(Debug)]
+pub struct Aligned<T> {
+    buf: Vec<T>,
+    off: usize,
+    len: usize,
+}
+
+impl<T: Copy> Aligned<T> {
+    /// `len` elements of value `v`, the first one 64-byte aligned.
+    pub fn new(len: usize, v: T) -> Self {
+        let size = std::mem::size_of::<T>().max(1);
+        let buf = vec![v; len + 64 / size];
+        // Elements from the allocation's start to the next 64-byte boundary (T's alignment
+        // divides its size, and its size divides 64 for the types used here).
+        let off = (buf.as_ptr() as usize).wrapping_neg() % 64 / size;
+        Aligned { buf, off, len }
+    }
+}
+
+impl<T: Copy> Clone for Aligned<T> {
+    fn clone(&self) -> Self {
+        let mut c = Aligned::new(self.len, self.buf[0]);
+        c.copy_from_slice(self);
+        c
+    }
+}
+
+impl<T: Copy + Default> Default for Aligned<T> {
+    fn default() -> Self {
+        Aligned::new(0, T::default())
+    }
+}
+
+impl<T: PartialEq> PartialEq for Aligned<T> {
+    fn eq(&self, o: &Self) -> bool {
+        **self == **o
+    }
+}
+
+impl<T: Eq> Eq for Aligned<T> {}
+
+impl<T> std::ops::Deref for Aligned<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.buf[self.off..self.off + self.len]
+    }
+}
+
+impl<T> std::ops::DerefMut for Aligned<T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.buf[self.off..self.off + self.len]
+    }
+}
+
+/// Elements of `T` in 64 bytes' worth, at least one: row strides are rounded up to it so that
+/// every row of an [`Aligned`] buffer starts on a cache line.
+pub const fn line<T>() -> usize {
+    let s = std::mem::size_of::<T>();
+    if s == 0 || s >= 64 { 1 } else { 64 / s }
+}
+
+/// A row buffer a row can be copied into (what [`RowStage::push_row`] does with its input).
+pub trait RowBuf {
+    /// Copies `src` (of the same width) into this buffer.
+    fn copy_row(&mut self, src: &Self);
+}
+
+impl<T: Copy> RowBuf for [T] {
+    fn copy_row(&mut self, src: &Self) {
+        self.copy_from_slice(src);
+    }
+}
+
+/// Sees the rows the stages make, in order (for stage dumps and test vectors). Every method
+/// defaults to doing nothing; `()` is the observer that keeps nothing, and the detector's
+/// cascade compiled for it carries no observation code at all.
+#[allow(unused_variables)]
+pub trait StageObserver {
+    /// The input row as processed (inverted for a bright ring).
+    fn input(&mut self, row: &[u8]) {}
+    /// A row of the black top-hat.
+    fn tophat(&mut self, row: &[u8]) {}
+    /// A row of the opening.
+    fn opened(&mut self, row: &[u8]) {}
+    /// A row of the Gaussian blur.
+    fn blurred(&mut self, row: &[u8]) {}
+    /// A row of Sobel gradients and magnitudes.
+    fn gradient(&mut self, row: &GradRow) {}
+    /// A row of segmented edges (NMS, thresholds, baseline filter).
+    fn edges(&mut self, row: &SparseEdgeRow) {}
+    /// A row of edges after filling.
+    fn filled(&mut self, row: &SparseEdgeRow) {}
+}
+
+impl StageObserver for () {}
+
+/// A streaming stage: input rows in, output rows out after a fixed lag, with the row counting
+/// of [`RowLag`]. A stage implements where an input row goes ([`RowStage::input`], its ring
+/// slot), what it computes once a row is in ([`RowStage::accept`]) and how it makes an output
+/// row ([`RowStage::emit`]); pushing and flushing come with the trait.
+///
+/// ```
+/// use gonio_vision::gaussian::Gaussian5;
+/// use gonio_vision::rows::RowStage;
+/// let mut g = Gaussian5::new(6);
+/// let mut out = [0u8; 6];
+/// let mut rows = Vec::new();
+/// for _ in 0..4 {
+///     if g.push_row(&[50; 6], &mut out) { rows.push(out); }
+/// }
+/// while g.flush_row(&mut out) { rows.push(out); }
+/// assert_eq!(rows, vec![[50u8; 6]; 4]); // every row out, a flat image stays flat
+/// ```
+pub trait RowStage {
+    /// One input row.
+    type In: RowBuf + ?Sized;
+    /// One output row.
+    type Out: ?Sized;
+
+    /// The stage's row counters.
+    fn rows(&self) -> &RowLag;
+    /// The stage's row counters, mutably.
+    fn rows_mut(&mut self) -> &mut RowLag;
+    /// Where the next input row goes (its ring slot): a producer writes it there, then calls
+    /// [`RowStage::pushed`].
+    fn input(&mut self) -> &mut Self::In;
+    /// What the stage computes once an input row is in [`RowStage::input`] (default: nothing).
+    fn accept(&mut self) {}
+    /// Writes output row [`RowLag::output_row`] into `out`, showing `obs` the rows it made.
+    fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut Self::Out, obs: &mut O);
+
+    /// Lag in rows between an input row and the output row of the same index.
+    fn lag(&self) -> usize {
+        self.rows().lag()
+    }
+    /// Starts a new frame.
+    fn reset(&mut self) {
+        self.rows_mut().reset();
+    }
+    /// An input row has been written into [`RowStage::input`]: writes the next output row into
+    /// `out` and returns true once enough rows have arrived.
+    fn pushed<O: StageObserver + ?Sized>(&mut self, out: &mut Self::Out, obs: &mut O) -> bool {
+        self.accept();
+        if self.rows_mut().pushed() {
+            self.emit(out, obs);
+            self.rows_mut().advance();
+            true
+        } else {
+            false
+        }
+    }
+    /// After the frame's last row: writes the next pending output row into `out`, false when
+    /// none is left.
+    fn flushed<O: StageObserver + ?Sized>(&mut self, out: &mut Self::Out, obs: &mut O) -> bool {
+        if self.rows().pending() {
+            self.emit(out, obs);
+            self.rows_mut().advance();
+            true
+        } else {
+            false
+        }
+    }
+    /// Pushes one input row (copied in); true when `out` holds the next output row.
+    fn push_row(&mut self, row: &Self::In, out: &mut Self::Out) -> bool {
+        self.input().copy_row(row);
+        self.pushed(out, &mut ())
+    }
+    /// After the frame's last row: the next pending output row, false when none is left.
+    fn flush_row(&mut self, out: &mut Self::Out) -> bool {
+        self.flushed(out, &mut ())
+    }
+}
+
+/// The receiving end of a stage: the next stage of a cascade, or the last consumer.
+pub trait RowSink {
+    /// The row it takes.
+    type Row: ?Sized;
+    /// Where the next row goes (written there by the producer).
+    fn input(&mut self) -> &mut Self::Row;
+    /// A row has been written into [`RowSink::input`].
+    fn pushed<O: StageObserver + ?Sized>(&mut self, obs: &mut O);
+    /// The frame's last row has been pushed: flush everything.
+    fn finish<O: StageObserver + ?Sized>(&mut self, obs: &mut O);
+    /// Starts a new frame.
+    fn reset(&mut self);
+    /// Rows between a row's arrival and its reaching the last consumer.
+    fn lag(&self) -> usize;
+}
+
+/// A stage followed by the rest of the cascade: each output row of `stage` is written straight
+/// into `next`'s input.
+#[derive(Debug, Clone)]
+pub struct Then<S, N> {
+    /// The stage.
+    pub stage: S,
+    /// What takes its rows.
+    pub next: N,
+}
+
+impl<S: RowStage, N: RowSink<Row = S::Out>> RowSink for Then<S, N> {
+    type Row = S::In;
+    #[inline]
+    fn input(&mut self) -> &mut S::In {
+        self.stage.input()
+    }
+    #[inline]
+    fn pushed<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
+        if self.stage.pushed(self.next.input(), obs) {
+            self.next.pushed(obs);
+        }
+    }
+    fn finish<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
+        while self.stage.flushed(self.next.input(), obs) {
+            self.next.pushed(obs);
+        }
+        self.next.finish(obs);
+    }
+    fn reset(&mut self) {
+        self.stage.reset();
+        self.next.reset();
+    }
+    fn lag(&self) -> usize {
+        self.stage.lag() + self.next.lag()
+    }
 }

@@ -312,29 +312,42 @@ fn ransac(px: &[EdgePixel], q: f64, gate: f64, p: &Params) -> Option<(f64, f64, 
     if half == 0 {
         return None;
     }
+    // Each pixel's row and reduced column once (the same values the tries would compute).
+    let rows: Vec<f64> = px.iter().map(|e| e.row as f64).collect();
+    let cols: Vec<f64> = px.iter().map(col).collect();
     let mut best: Option<(usize, f64, f64, f64)> = None;
     const TRIES: usize = 48;
     for k in 0..TRIES {
-        let a = &px[k * half / TRIES];
-        let b = &px[half + ((k * 37) % TRIES) * (n - half) / TRIES];
-        let dr = b.row as f64 - a.row as f64;
+        let ia = k * half / TRIES;
+        let ib = half + ((k * 37) % TRIES) * (n - half) / TRIES;
+        let dr = rows[ib] - rows[ia];
         if dr < p.min_fragment_rows as f64 {
             continue;
         }
-        let slope = (col(b) - col(a)) / dr;
+        let slope = (cols[ib] - cols[ia]) / dr;
         if slope.abs() > tan {
             continue;
         }
-        let (r0, c0) = (a.row as f64, col(a));
-        let inl = px
-            .iter()
-            .filter(|e| (col(e) - c0 - slope * (e.row as f64 - r0)).abs() <= gate)
-            .count();
+        let (r0, c0) = (rows[ia], cols[ia]);
+        let inl = crate::simd::dispatch(
+            #[inline(always)]
+            || inliers(&rows, &cols, r0, c0, slope, gate),
+        );
         if best.is_none_or(|b| inl > b.0) {
             best = Some((inl, r0, c0, slope));
         }
     }
     best.map(|(_, r0, c0, slope)| (r0, c0, slope))
+}
+
+/// Pixels within `gate` of the line through (r0, c0) with `slope` (vectorised: exact f64
+/// arithmetic, no contraction, so every code path counts the same).
+#[inline(always)]
+fn inliers(rows: &[f64], cols: &[f64], r0: f64, c0: f64, slope: f64, gate: f64) -> usize {
+    rows.iter()
+        .zip(cols)
+        .map(|(&r, &c)| ((c - c0 - slope * (r - r0)).abs() <= gate) as usize)
+        .sum()
 }
 
 /// The smooth pieces of a set of same-polarity pixels, strongest first: a deterministic RANSAC

@@ -1,60 +1,116 @@
-//! Runtime CPU-feature dispatch: the hot row loops are compiled a second time with AVX2 enabled
-//! and chosen at run time when the CPU has it.
+//! Runtime CPU-feature dispatch: the hot row loops are compiled again with AVX2 and with
+//! AVX-512 (F, BW, VL, DQ) enabled, and the best version the CPU has is chosen at run time.
 //!
-//! The loops are plain safe integer Rust that the compiler vectorises; the AVX2 copy is the same
-//! code, so both paths give the same bits (the tests run both: [`set_enabled`]). The only unsafe
-//! code is the call into the `#[target_feature]` function, made after checking the feature.
+//! The loops are plain safe integer Rust that the compiler vectorises; every copy is the same
+//! code, so all paths give the same bits (the tests run each: [`set_level`]). The only unsafe
+//! code is the call into the `#[target_feature]` functions, made after checking the features
+//! with `is_x86_feature_detected!`.
 
 #![allow(unsafe_code)]
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
-/// 0 = not yet detected, 1 = scalar, 2 = AVX2.
+/// A code path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    /// The baseline target (SSE2 on x86-64): the scalar reference path.
+    Scalar = 1,
+    /// AVX2 (32-byte vectors).
+    Avx2 = 2,
+    /// AVX-512 F/BW/VL/DQ (64-byte vectors, mask registers).
+    Avx512 = 3,
+}
+
+/// 0 = not yet chosen, else a [`Level`].
 static MODE: AtomicU8 = AtomicU8::new(0);
 
-/// True when the AVX2 path is used.
-pub fn avx2() -> bool {
-    match MODE.load(Ordering::Relaxed) {
-        0 => {
-            let m = if detect() { 2 } else { 1 };
-            MODE.store(m, Ordering::Relaxed);
-            m == 2
-        }
-        m => m == 2,
-    }
-}
-
-fn detect() -> bool {
+/// The best level this CPU supports.
+pub fn detected() -> Level {
     #[cfg(target_arch = "x86_64")]
     {
-        std::is_x86_feature_detected!("avx2")
+        if std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512bw")
+            && std::is_x86_feature_detected!("avx512vl")
+            && std::is_x86_feature_detected!("avx512dq")
+        {
+            return Level::Avx512;
+        }
+        if std::is_x86_feature_detected!("avx2") {
+            return Level::Avx2;
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+    Level::Scalar
+}
+
+/// The level in use: the best the CPU has unless [`set_level`] chose another.
+#[inline]
+pub fn level() -> Level {
+    match MODE.load(Ordering::Relaxed) {
+        1 => Level::Scalar,
+        2 => Level::Avx2,
+        3 => Level::Avx512,
+        _ => {
+            let l = std::env::var("GONIO_SIMD")
+                .ok()
+                .and_then(|v| match v.as_str() {
+                    "scalar" => Some(Level::Scalar),
+                    "avx2" => Some(Level::Avx2),
+                    "avx512" => Some(Level::Avx512),
+                    _ => None,
+                })
+                .map_or(detected(), |l| l.min(detected()));
+            MODE.store(l as u8, Ordering::Relaxed);
+            l
+        }
     }
 }
 
-/// Forces the scalar path (`false`) or re-enables the AVX2 path where the CPU has it (`true`).
-/// Process-wide; meant for tests and benchmarks.
+/// Uses `want`, or the best level the CPU has below it; returns the level now in use.
+/// Process-wide; meant for tests and benchmarks (the environment variable `GONIO_SIMD` =
+/// `scalar`, `avx2` or `avx512` does the same for a whole run).
+pub fn set_level(want: Level) -> Level {
+    let l = want.min(detected());
+    MODE.store(l as u8, Ordering::Relaxed);
+    l
+}
+
+/// Forces the scalar path (`false`) or re-enables the best path the CPU has (`true`).
 pub fn set_enabled(enabled: bool) {
-    MODE.store(if enabled && detect() { 2 } else { 1 }, Ordering::Relaxed);
+    set_level(if enabled {
+        Level::Avx512
+    } else {
+        Level::Scalar
+    });
+}
+
+/// True when an AVX2 or AVX-512 path is used.
+pub fn avx2() -> bool {
+    level() >= Level::Avx2
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
 unsafe fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
-/// Runs `f` compiled for AVX2 when available, else as is.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,bmi1,bmi2,lzcnt,popcnt")]
+unsafe fn with_avx512<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+/// Runs `f` compiled for the level in use.
 #[inline(always)]
 pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     {
-        if avx2() {
-            // SAFETY: the CPU supports AVX2 (checked by `is_x86_feature_detected!`).
-            return unsafe { with_avx2(f) };
+        match level() {
+            // SAFETY: the CPU supports the features (checked by `is_x86_feature_detected!` in
+            // `detected`, which bounds every level `level` returns).
+            Level::Avx512 => return unsafe { with_avx512(f) },
+            Level::Avx2 => return unsafe { with_avx2(f) },
+            Level::Scalar => {}
         }
     }
     f()

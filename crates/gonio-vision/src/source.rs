@@ -1,7 +1,9 @@
 //! Frames in: the [`FrameSource`] trait that image files, raw standard input, the renderer and a
 //! camera's SDK implement; [`RawFrames`], raw 8-bit frames from any reader; and
 //! [`SourceDetector`], the one path from a source to the detector's results (each frame's
-//! window cut out by [`Optics::crop_window`], then [`Detector::detect`]).
+//! window cut out by [`Optics::crop_window`], then [`Detector::detect`]), one frame at a time;
+//! [`detect_in_order`] runs the same path on several threads for a recorded stream and hands
+//! the results on in the stream's order.
 //!
 //! ```
 //! use gonio_vision::{Optics, RawFrames, SourceDetector};
@@ -240,20 +242,13 @@ impl<S: FrameSource> SourceDetector<S> {
         else {
             return Ok(None);
         };
-        let frame = self
-            .optics
-            .crop_window(hdr.width, hdr.height, &self.raw, &mut self.scratch)
-            .map_err(|error| SourceError::Frame {
-                index: hdr.stamp.index,
-                error,
-            })?;
-        let result = self
-            .detector
-            .detect(frame)
-            .map_err(|error| SourceError::Frame {
-                index: hdr.stamp.index,
-                error,
-            })?;
+        let result = detect_frame(
+            &self.optics,
+            &mut self.detector,
+            &hdr,
+            &self.raw,
+            &mut self.scratch,
+        )?;
         Ok(Some(Detection {
             stamp: hdr.stamp,
             result,
@@ -284,4 +279,189 @@ impl<S: FrameSource> SourceDetector<S> {
     pub fn optics(&self) -> &Optics {
         &self.optics
     }
+}
+
+/// One frame through the path: its window cut out, then detected.
+fn detect_frame<E: std::error::Error + 'static>(
+    optics: &Optics,
+    detector: &mut Detector,
+    hdr: &FrameHeader,
+    raw: &[u8],
+    scratch: &mut Vec<u8>,
+) -> Result<FrameResult, SourceError<E>> {
+    let index = hdr.stamp.index;
+    let frame = optics
+        .crop_window(hdr.width, hdr.height, raw, scratch)
+        .map_err(|error| SourceError::Frame { index, error })?;
+    detector
+        .detect(frame)
+        .map_err(|error| SourceError::Frame { index, error })
+}
+
+/// A frame read and waiting for a worker, or a worker's answer.
+struct Job {
+    seq: u64,
+    hdr: FrameHeader,
+    raw: Vec<u8>,
+}
+
+struct Done<E: std::error::Error + 'static> {
+    seq: u64,
+    stamp: FrameStamp,
+    result: Result<FrameResult, SourceError<E>>,
+    raw: Vec<u8>,
+}
+
+/// Detects every frame of `source` on `threads` worker threads (each with its own detector) and
+/// hands each frame's outcome to `sink` in the source's order, with the source (to name a frame's
+/// file, say). The calling thread reads the frames, so reading overlaps detecting; at most two
+/// frames per worker are in flight. A frame the detector refuses (wrong size) reaches `sink` as
+/// [`SourceError::Frame`] in its place; a failing source as [`SourceError::Source`] after every
+/// frame before it, and nothing is read after it. Results equal [`SourceDetector`]'s bit for bit:
+/// every frame goes through the same detector code from a fresh frame start.
+///
+/// For a live camera, where each result is wanted as soon as its frame is in, use
+/// [`SourceDetector`] (one frame in flight).
+///
+/// # Errors
+/// [`VisionError::Optics`] for invalid optics (nothing is read); the first error `sink` returns
+/// (reading stops, the frames in flight are finished and dropped).
+///
+/// ```
+/// use gonio_vision::{Optics, RawFrames, detect_in_order};
+/// let optics = Optics { window_width_px: 96, window_height_px: 48, ..Optics::default() };
+/// let mut frame = vec![200u8; 96 * 48];
+/// for row in frame.chunks_mut(96) {
+///     for x in 25..=35 { row[x] = 60; }
+/// }
+/// let bytes = [frame.clone(), frame.clone(), frame].concat();
+/// let mut seen = Vec::new();
+/// detect_in_order(RawFrames::new(&bytes[..], 96, 48), &optics, 2, |_, d| {
+///     seen.push(d.unwrap().stamp.index);
+///     Ok::<(), std::convert::Infallible>(())
+/// })
+/// .unwrap();
+/// assert_eq!(seen, [0, 1, 2]); // in the stream's order
+/// ```
+pub fn detect_in_order<S, F, E>(
+    mut source: S,
+    optics: &Optics,
+    threads: usize,
+    mut sink: F,
+) -> Result<(), DetectInOrderError<E>>
+where
+    S: FrameSource,
+    S::Error: Send,
+    F: FnMut(&S, Result<Detection, SourceError<S::Error>>) -> Result<(), E>,
+{
+    use std::collections::BTreeMap;
+    use std::sync::{Mutex, mpsc};
+    let threads = threads.max(1);
+    let mut detectors = (0..threads)
+        .map(|_| Detector::new(optics))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(DetectInOrderError::Vision)?;
+    let (job_tx, job_rx) = mpsc::channel::<Job>();
+    let job_rx = Mutex::new(job_rx);
+    let (done_tx, done_rx) = mpsc::channel::<Done<S::Error>>();
+    std::thread::scope(|scope| {
+        for det in detectors.iter_mut() {
+            let (job_rx, done_tx) = (&job_rx, done_tx.clone());
+            scope.spawn(move || {
+                let mut scratch = Vec::new();
+                loop {
+                    // The lock is held only while taking a job.
+                    let job = match job_rx.lock() {
+                        Ok(rx) => rx.recv(),
+                        Err(_) => return,
+                    };
+                    let Ok(job) = job else { return };
+                    let result = detect_frame(optics, det, &job.hdr, &job.raw, &mut scratch);
+                    let done = Done {
+                        seq: job.seq,
+                        stamp: job.hdr.stamp,
+                        result,
+                        raw: job.raw,
+                    };
+                    if done_tx.send(done).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        drop(done_tx);
+        let ahead = 2 * threads;
+        let (mut read, mut emitted, mut in_flight) = (0u64, 0u64, 0usize);
+        let mut free: Vec<Vec<u8>> = Vec::new();
+        let mut waiting: BTreeMap<u64, Done<S::Error>> = BTreeMap::new();
+        let mut source_error = None;
+        let mut eof = false;
+        let outcome = loop {
+            while !eof && in_flight < ahead {
+                let mut raw = free.pop().unwrap_or_default();
+                match source.next_frame(&mut raw) {
+                    Ok(Some(hdr)) => {
+                        let job = Job {
+                            seq: read,
+                            hdr,
+                            raw,
+                        };
+                        if job_tx.send(job).is_err() {
+                            eof = true;
+                            break;
+                        }
+                        read += 1;
+                        in_flight += 1;
+                    }
+                    Ok(None) => eof = true,
+                    Err(e) => {
+                        eof = true;
+                        source_error = Some(e);
+                    }
+                }
+            }
+            if in_flight == 0 {
+                break match source_error.take() {
+                    Some(e) => sink(&source, Err(SourceError::Source(e))),
+                    None => Ok(()),
+                };
+            }
+            let Ok(done) = done_rx.recv() else {
+                break Ok(());
+            };
+            in_flight -= 1;
+            waiting.insert(done.seq, done);
+            let mut failed = None;
+            while let Some(done) = waiting.remove(&emitted) {
+                emitted += 1;
+                let item = done.result.map(|result| Detection {
+                    stamp: done.stamp,
+                    result,
+                });
+                free.push(done.raw);
+                if let Err(e) = sink(&source, item) {
+                    failed = Some(e);
+                    break;
+                }
+            }
+            if let Some(e) = failed {
+                break Err(e);
+            }
+        };
+        // Closing the job channel ends the workers.
+        drop(job_tx);
+        outcome.map_err(DetectInOrderError::Sink)
+    })
+}
+
+/// An error of [`detect_in_order`].
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum DetectInOrderError<E> {
+    /// The optics are invalid.
+    #[error(transparent)]
+    Vision(VisionError),
+    /// The sink stopped the run.
+    #[error("{0}")]
+    Sink(E),
 }

@@ -3,6 +3,7 @@
 
 use gonio_vision::label::{Component, Labeller};
 use gonio_vision::reference::{self, Image, edges_from_rows};
+use gonio_vision::rows::RowStage;
 use gonio_vision::segment::{EdgeRow, STRONG, WEAK};
 use gonio_vision::{Detector, Optics, Polarity};
 use proptest::prelude::*;
@@ -290,5 +291,18 @@ proptest! {
             prop_assert_eq!(&d, &want_d);
             prop_assert_eq!(&e, &want_e);
         }
+    }
+}
+
+#[test]
+fn stages_equal_reference_with_a_wide_direction_range() {
+    // A 40° baseline filter: the segmentation's general row pass (every quantised direction,
+    // neighbours above and below), not only the 0° sector a tolerance under 22.5° allows.
+    for (k, seed) in [41u64, 42].into_iter().enumerate() {
+        let (w, h) = (150 + 9 * k, 90);
+        let mut o = small_optics(w as u32, h as u32);
+        o.direction_tolerance_deg = Some(40.0);
+        o.grad_low = Some(8);
+        check_frame(&o, &synthetic(w, h, seed));
     }
 }

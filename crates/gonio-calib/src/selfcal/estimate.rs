@@ -2,9 +2,9 @@
 //! squares, EDA, SelfA), their noise gains, and the position-domain EDA reference.
 
 use super::data::validate;
+use super::scratch;
 use super::*;
 use gonio_core::Harmonic;
-use realfft::RealFftPlanner;
 use realfft::num_complex::Complex;
 
 type C64 = Complex<f64>;
@@ -45,7 +45,7 @@ fn w_of(k: f64, phi_deg: f64) -> C64 {
 /// exactly every 64 orders so the rounding error stays below 1e-14.
 pub(crate) fn phasor_table(phi: &[f64], nbins: usize) -> Vec<C64> {
     let m1 = phi.len();
-    let mut w = vec![C64::new(0.0, 0.0); nbins * m1];
+    let mut w = scratch::complex(nbins * m1);
     let step: Vec<C64> = phi.iter().map(|&p| w_of(1.0, p) + 1.0).collect();
     let mut cur: Vec<C64> = vec![C64::new(1.0, 0.0); m1];
     for k in 1..nbins {
@@ -79,31 +79,43 @@ pub(crate) struct HeadSpectra {
     pub turns: Vec<Vec<Vec<C64>>>,
 }
 
+impl HeadSpectra {
+    /// Hands the spectra's memory back for the next self-calibration on this thread.
+    pub fn recycle(self) {
+        for turn in self.turns {
+            for s in turn {
+                scratch::give_complex(s);
+            }
+        }
+    }
+}
+
 /// Validates the turns against the heads and transforms every channel (realfft).
 ///
 /// # Errors
 /// As [`calibrate`]'s input checks.
 pub(crate) fn head_spectra(heads: &Heads, turns: &[Turn]) -> Result<HeadSpectra, SelfcalError> {
     let (ns, theta0_deg) = validate(heads, turns)?;
-    let mut planner = RealFftPlanner::<f64>::new();
-    let r2c = planner.plan_fft_forward(ns);
-    let mut scratch = r2c.make_scratch_vec();
-    let mut input = r2c.make_input_vec();
+    let r2c = scratch::forward(ns);
+    let mut work = scratch::complex(r2c.get_scratch_len());
+    let mut input = scratch::real(ns);
     let spectra = turns
         .iter()
         .map(|turn| {
             turn.differences_arcsec
                 .iter()
                 .map(|col| {
-                    let mut out = r2c.make_output_vec();
+                    let mut out = scratch::complex(ns / 2 + 1);
                     input.copy_from_slice(col);
-                    r2c.process_with_scratch(&mut input, &mut out, &mut scratch)
+                    r2c.process_with_scratch(&mut input, &mut out, &mut work)
                         .expect("buffer sizes are the planner's");
                     out
                 })
                 .collect()
         })
         .collect();
+    scratch::give_complex(work);
+    scratch::give_real(input);
     Ok(HeadSpectra {
         ns,
         theta0_deg,
@@ -148,7 +160,7 @@ fn bin_table(
     nyquist: Option<usize>,
 ) -> Result<(BinTable, &'static str), SelfcalError> {
     let m1 = heads.len() - 1;
-    let mut v = vec![C64::new(0.0, 0.0); nbins * m1];
+    let mut v = scratch::complex(nbins * m1);
     let w = phasor_table(&heads.angles_deg()[1..], nbins);
     let mut detectable = vec![false; nbins];
     let sets = heads.sets();
@@ -289,9 +301,10 @@ pub fn calibrate(
         .iter()
         .map(|&r| heads.angles_deg()[r])
         .collect();
-    let filt: Vec<C64> = (0..nbins)
-        .map(|k| refs.iter().map(|&p| w_of(k as f64, p) + 1.0).sum::<C64>() / refs.len() as f64)
-        .collect();
+    let mut filt = scratch::complex(nbins);
+    for (k, f) in filt.iter_mut().enumerate() {
+        *f = refs.iter().map(|&p| w_of(k as f64, p) + 1.0).sum::<C64>() / refs.len() as f64;
+    }
     // Weight of bin k in the full (two-sided) spectrum.
     let bin_weight = |k: usize| -> f64 {
         if k == 0 || Some(k) == nyquist {
@@ -301,15 +314,14 @@ pub fn calibrate(
         }
     };
 
-    let mut planner = RealFftPlanner::<f64>::new();
-    let c2r = planner.plan_fft_inverse(ns);
-    let mut scratch_i = c2r.make_scratch_vec();
-    let mut ahat = vec![C64::new(0.0, 0.0); nbins];
-    let mut spec_tmp = c2r.make_input_vec();
-    let mut time_tmp = c2r.make_output_vec();
-    let mut sum_spec = vec![C64::new(0.0, 0.0); nbins];
-    let mut sum_a = vec![0.0; ns];
-    let mut sumsq_a = vec![0.0; ns];
+    let c2r = scratch::inverse(ns);
+    let mut scratch_i = scratch::complex(c2r.get_scratch_len());
+    let mut ahat = scratch::complex(nbins);
+    let mut spec_tmp = scratch::complex(nbins);
+    let mut time_tmp = scratch::real(ns);
+    let mut sum_spec = scratch::complex(nbins);
+    let mut sum_a = scratch::real(ns);
+    let mut sumsq_a = scratch::real(ns);
     let mut offsets = vec![0.0; m1];
     let mut rss_parseval = 0.0;
     let mut max_abs: f64 = 0.0;
@@ -364,7 +376,8 @@ pub fn calibrate(
     let m1f = m1 as f64;
     let mut trace_sum = 0.0; // Σ_k weight·E|R_k|²/(NS σ²), per turn
     let mut gain_sum = 0.0; // Σ_k weight·g_k (output, chosen model)
-    let mut gains = vec![(0.0, 0.0); nbins]; // (differences, readings), unfiltered
+    // Noise gains (differences, readings), unfiltered.
+    let (mut gains_d, mut gains_r) = (scratch::real(nbins), scratch::real(nbins));
     for k in 1..nbins {
         let v = &table.v[k * m1..(k + 1) * m1];
         let w = &table.w[k * m1..(k + 1) * m1];
@@ -375,7 +388,7 @@ pub fn calibrate(
         let vw: C64 = v.iter().zip(w).map(|(a, b)| a * b).sum();
         let g_d = v2;
         let g_r = v2 + vs.norm_sqr();
-        gains[k] = (g_d, g_r);
+        (gains_d[k], gains_r[k]) = (g_d, g_r);
         // tr((I − w vᵀ) C (I − w vᵀ)ᴴ) for C = I, plus |(I − w vᵀ)1|² for C = I + 11ᵀ.
         let mut tr = m1f - 2.0 * vw.re + s * v2;
         if readings {
@@ -435,18 +448,25 @@ pub fn calibrate(
             undetectable_orders.push(order);
         }
         let f2 = filt[k].norm_sqr();
-        let g = if readings { gains[k].1 } else { gains[k].0 };
+        let g = if readings { gains_r[k] } else { gains_d[k] };
         harmonics.push(HarmonicRow {
             order,
             amplitude_arcsec: h.amplitude,
             phase_rad: h.phase_rad,
             detectable: det,
-            noise_gain: if det { gains[k].0 } else { 0.0 },
-            noise_gain_readings: if det { gains[k].1 } else { 0.0 },
+            noise_gain: if det { gains_d[k] } else { 0.0 },
+            noise_gain_readings: if det { gains_r[k] } else { 0.0 },
             u_coefficient_arcsec: sigma_turn_mean * (2.0 * f2 * g / nsf).sqrt(),
         });
     }
 
+    spectra.recycle();
+    for v in [table.v, table.w, filt, scratch_i, ahat, spec_tmp, sum_spec] {
+        scratch::give_complex(v);
+    }
+    for v in [time_tmp, sum_a, sumsq_a, gains_d, gains_r] {
+        scratch::give_real(v);
+    }
     Ok(SelfcalResult {
         method: method_name.to_string(),
         heads_deg: heads.angles_deg().to_vec(),

@@ -47,6 +47,7 @@ mod error;
 mod estimate;
 mod heads;
 mod result;
+mod scratch;
 
 pub use data::{MIN_POSITIONS, Turn};
 pub use error::SelfcalError;

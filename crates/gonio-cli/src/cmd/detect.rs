@@ -5,7 +5,10 @@ use crate::formats::frames::{FileFrames, list_frames, load_optics};
 use crate::io;
 use anyhow::{Context, Result, anyhow, bail};
 use gonio_vision::reference::{Image, label};
-use gonio_vision::{Detector, FrameResult, FrameSource, RawFrames, SourceDetector, SourceError};
+use gonio_vision::{
+    DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
+    SourceDetector, SourceError, detect_in_order,
+};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -29,7 +32,12 @@ Examples:
   gonio simulate frames --count 200 --eccentricity-um 120 --seed 1 --out frames
   gonio detect frames --angles frames/angles.csv --json-lines c.jsonl
   ffmpeg -i run.avi -f rawvideo -pix_fmt gray - | gonio detect --raw 1440x540 --speed-deg-s 180 --fps 100
-  gonio detect frames --dump-stages vectors --frame 17")]
+  gonio detect --raw 1440x540 --threads 2 < frames.raw > c.jsonl
+  gonio detect frames --dump-stages vectors --frame 17
+
+Frames are detected on --threads worker threads (default: all cores) while the main thread
+reads the next ones; the lines come out in frame order, the same bytes whatever the thread
+count. --dump-stages runs on one thread.")]
 pub struct Args {
     /// Image files (PNG, TIFF) or directories of them (read in name order).
     #[arg(
@@ -66,6 +74,10 @@ pub struct Args {
     /// The frame to dump (0-based).
     #[arg(long, default_value_t = 0, requires = "dump_stages")]
     pub frame: usize,
+    /// Worker threads detecting frames in parallel (default: all cores); the output stays in
+    /// frame order.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
 }
 
 /// One output line.
@@ -243,11 +255,11 @@ pub fn run(a: Args) -> Result<()> {
         #[cfg(target_os = "linux")]
         let _ = rustix::pipe::fcntl_setpipe_size(std::io::stdin(), (w * h).next_power_of_two());
         let src = RawFrames::new(std::io::stdin().lock(), w, h);
-        let mut det = SourceDetector::new(src, &optics)?;
         detect_all(
             &a,
             &angles,
-            &mut det,
+            src,
+            &optics,
             &mut sink,
             |_, _| None,
             "standard input",
@@ -263,11 +275,11 @@ pub fn run(a: Args) -> Result<()> {
                 );
             }
         }
-        let mut det = SourceDetector::new(FileFrames::new(files), &optics)?;
         detect_all(
             &a,
             &angles,
-            &mut det,
+            FileFrames::new(files),
+            &optics,
             &mut sink,
             |s: &FileFrames, k| s.path(k).map(|p| p.display().to_string()),
             "frame",
@@ -286,64 +298,93 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-/// Every frame of the source through the detector, one JSON line each.
+/// Every frame of the source through the detector, one JSON line each: on worker threads in
+/// frame order ([`detect_in_order`]), or one at a time when a frame's stages are dumped.
+#[allow(clippy::too_many_arguments)]
 fn detect_all<S: FrameSource>(
     a: &Args,
     angles: &Angles,
-    det: &mut SourceDetector<S>,
+    source: S,
+    optics: &Optics,
     sink: &mut Sink,
     file_of: impl Fn(&S, u64) -> Option<String>,
     what: &str,
-) -> Result<Detected> {
-    let um_per_px = det.detector().params().um_per_px;
-    let (mut n, mut valid) = (0usize, 0usize);
-    let mut dumped = false;
-    let mut stream_error = None;
-    loop {
-        let want_dump = a.dump_stages.is_some() && n == a.frame;
-        det.detector_mut().set_dump(want_dump);
-        let d = match det.detect_next() {
-            Ok(Some(d)) => d,
-            Ok(None) => break,
-            Err(SourceError::Frame { index, error }) => {
-                let name = file_of(det.source(), index).unwrap_or_else(|| what.to_string());
-                return Err(anyhow!("{name}: {error}"));
-            }
-            Err(e) => {
-                // The whole frames already detected stay in the output.
-                stream_error = Some(anyhow!("{what}: {e}"));
-                break;
-            }
-        };
+) -> Result<Detected>
+where
+    S::Error: Send,
+{
+    let um_per_px = optics.params()?.um_per_px;
+    let mut done = Detected {
+        frames: 0,
+        valid: 0,
+        stream_error: None,
+    };
+    let mut line = |src: &S, d: &Detection, done: &mut Detected| -> Result<()> {
         let k = d.stamp.index;
         let (theta, time) = angles.at(k as usize)?;
-        if want_dump {
-            write_dump(
-                a.dump_stages.as_deref().unwrap_or(Path::new(".")),
-                det.detector(),
-                &d.result,
-            )?;
-            dumped = true;
-        }
-        valid += d.result.valid as usize;
+        done.valid += d.result.valid as usize;
+        done.frames += 1;
         sink.line(&Line {
             frame: k as usize,
-            file: file_of(det.source(), k),
+            file: file_of(src, k),
             theta_deg: theta,
             time_s: time,
             c_um: d.result.c_px.map(|c| c * um_per_px),
             result: &d.result,
+        })
+    };
+    // What a failed frame or source means for the run.
+    let failed = |src: &S, e: SourceError<S::Error>, done: &mut Detected| -> Result<()> {
+        match e {
+            SourceError::Frame { index, error } => {
+                let name = file_of(src, index).unwrap_or_else(|| what.to_string());
+                Err(anyhow!("{name}: {error}"))
+            }
+            e => {
+                // The whole frames already detected stay in the output.
+                done.stream_error = Some(anyhow!("{what}: {e}"));
+                Ok(())
+            }
+        }
+    };
+    let Some(dir) = a.dump_stages.as_deref() else {
+        let threads = a.threads.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            usize::from,
+        );
+        detect_in_order(source, optics, threads, |src, item| match item {
+            Ok(d) => line(src, &d, &mut done),
+            Err(e) => failed(src, e, &mut done),
+        })
+        .map_err(|e| match e {
+            DetectInOrderError::Sink(e) => e,
+            e => anyhow!(e.to_string()),
         })?;
-        n += 1;
+        return Ok(done);
+    };
+    let mut det = SourceDetector::new(source, optics)?;
+    let mut dumped = false;
+    loop {
+        let want_dump = done.frames == a.frame;
+        det.detector_mut().set_dump(want_dump);
+        let d = match det.detect_next() {
+            Ok(Some(d)) => d,
+            Ok(None) => break,
+            Err(e) => {
+                failed(det.source(), e, &mut done)?;
+                break;
+            }
+        };
+        if want_dump {
+            write_dump(dir, det.detector(), &d.result)?;
+            dumped = true;
+        }
+        line(det.source(), &d, &mut done)?;
     }
-    if stream_error.is_none() && a.dump_stages.is_some() && !dumped {
-        bail!("--frame {}: only {n} frames were read", a.frame);
+    if done.stream_error.is_none() && !dumped {
+        bail!("--frame {}: only {} frames were read", a.frame, done.frames);
     }
-    Ok(Detected {
-        frames: n,
-        valid,
-        stream_error,
-    })
+    Ok(done)
 }
 
 /// What [`detect_all`] did.

@@ -32,6 +32,8 @@ Writes DIR/frame_00000.png … (8-bit grey, the optics' window), DIR/angles.csv
 (frame,theta_deg,time_s; for `gonio detect --angles`) and DIR/truth.json (per frame θ, the ring
 centre line's mean column c_true_px over the window's rows, the ring's width and visible contrast,
 the focus position; the optics and scene used; with --scene random, each frame's drawn scene).
+With --raw also DIR/frames.raw: the same frames back to back as raw 8-bit pixels, as a camera
+streams them (`gonio detect --raw WIDTHxHEIGHT < DIR/frames.raw`).
 
 Scenes (docs/scenes.md describes the features and the ranges of the random family):
   clean      the ring alone
@@ -45,7 +47,8 @@ Examples:
   gonio simulate frames --scene dense --count 20 --defocus 60 --noise 4 --seed 2 --out dense
   gonio simulate frames --scene random --count 500 --seed 3 --out family
   gonio simulate frames --scene-file my-grating.toml --count 50 --seed 4 --out mine
-  gonio simulate frames --count 5 --no-ring --seed 5 --out empty")]
+  gonio simulate frames --count 5 --no-ring --seed 5 --out empty
+  gonio simulate frames --scene dense --count 400 --seed 1 --raw --out dense")]
 pub struct Args {
     /// Number of frames.
     #[arg(long)]
@@ -106,6 +109,9 @@ pub struct Args {
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write DIR/frames.raw: the frames back to back, raw 8-bit (for `gonio detect --raw`).
+    #[arg(long)]
+    pub raw: bool,
 }
 
 #[derive(Serialize)]
@@ -197,7 +203,15 @@ pub fn run(a: Args) -> Result<()> {
     let mut csv = Vec::with_capacity(a.count);
     let (mut w, mut h) = (0, 0);
     let bar = indicatif::ProgressBar::new(a.count as u64);
+    let raw_path = a.out.join("frames.raw");
+    let mut raw = a
+        .raw
+        .then(|| io::AtomicFile::create(&raw_path))
+        .transpose()?;
     while let Some(hdr) = src.next_frame(&mut buf)? {
+        if let Some(f) = raw.as_mut() {
+            f.write_all(&buf)?;
+        }
         let k = hdr.stamp.index as usize;
         (w, h) = (hdr.width, hdr.height);
         let t = k as f64 / a.fps;
@@ -226,6 +240,9 @@ pub fn run(a: Args) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
+    if let Some(f) = raw {
+        f.commit()?;
+    }
     io::write_csv(
         &a.out.join("angles.csv"),
         &["frame", "theta_deg", "time_s"],
