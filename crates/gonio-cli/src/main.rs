@@ -4,8 +4,6 @@
 //! errors to exit codes. The work is done in the library crates.
 
 mod cmd;
-mod formats;
-mod io;
 mod table;
 
 use clap::{Parser, Subcommand};
@@ -73,8 +71,8 @@ fn main() {
         Command::Detect(a) => cmd::detect::run(a),
     };
     if let Err(e) = result {
-        // One line: the chain of causes joined by ": ".
-        eprintln!("error: {}", io::one_line(&e));
+        // One line: the chain of causes joined by ": ", echoed input capped.
+        gonio_cli::term::note(&format!("error: {}", gonio_cli::input::one_line(&e)));
         std::process::exit(2);
     }
 }

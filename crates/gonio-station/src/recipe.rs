@@ -283,8 +283,9 @@ fn unit(key: &str, v: f64) -> Result<(), StationError> {
     check(key, v, (0.0..=1.0).contains(&v), "a fraction from 0 to 1")
 }
 
-/// 1-based line and column of a dotted key (`fit.huber_k`) in a TOML text.
-fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
+/// 1-based line and column of a dotted key (`fit.huber_k`) in a TOML text, if the text sets it
+/// (used for every TOML file whose values are range-checked after parsing).
+pub fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
     let doc = toml::de::DeTable::parse(text).ok()?;
     let mut table = doc.get_ref();
     let parts: Vec<&str> = key.split('.').collect();
@@ -301,16 +302,7 @@ fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
     None
 }
 
-/// 1-based line and column of a byte offset in `text`.
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before
-        .rfind('\n')
-        .map_or(before.len(), |p| before.len() - p - 1)
-        + 1;
-    (line, col)
-}
+use gonio_core::text::line_col;
 
 impl Recipe {
     /// Parses a recipe from TOML text and checks its values.

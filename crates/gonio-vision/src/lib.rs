@@ -48,7 +48,7 @@ pub mod source;
 
 pub use error::VisionError;
 pub use features::{EdgeLine, FrameResult, InvalidReason};
-pub use optics::{Optics, Params, Polarity};
+pub use optics::{MAX_SENSOR_PX, Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
 pub use source::{
     Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError, SourceDetector,
