@@ -101,6 +101,14 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
+    // A value that overflowed (a reading of 1e308) is an error naming the input, before any
+    // output: never an "inf" in the summary or a null in the JSON.
+    gonio_cli::output::json::check_finite(&cert).map_err(|e| {
+        anyhow!(
+            "{}: the calibration is not finite: {e}; check the input's values",
+            args.readings.display()
+        )
+    })?;
     let to_stdout = json.is_some_and(|j| out.is_stdout(j));
     if let Some(j) = json {
         out.json(j, &cert)?;

@@ -267,6 +267,8 @@ impl Outputs {
                 bail!("{flag} {shown}: expected a file name");
             }
             let dir = parent_of(path);
+            // Created and listed under one lock: a signal's cleanup never misses a new file.
+            let mut p = pending();
             let (tmp, f) = create_temp(&dir).map_err(|e| {
                 anyhow!(
                     "cannot write {shown} (in {}): {}",
@@ -274,7 +276,8 @@ impl Outputs {
                     os_message(&e)
                 )
             })?;
-            pending().push(tmp.clone());
+            p.push(tmp.clone());
+            drop(p);
             Target::File {
                 tmp,
                 file: Some(BufWriter::new(f)),
