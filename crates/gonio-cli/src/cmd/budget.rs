@@ -93,11 +93,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--coverage: expected a probability strictly between 0 and 1 (e.g. 0.95), found {p}");
     }
     let mut outputs = Outputs::new();
-    let json = args
-        .json
-        .as_deref()
-        .map(|p| outputs.file("--json", p))
-        .transpose()?;
+    let json = outputs.optional("--json", args.json.as_deref())?;
     let bytes = input::read_bytes(&args.budget, MAX_FILE_BYTES)?;
     let parsed = BudgetFile::parse_bytes(&bytes).map_err(|e| anyhow!("{file}:{e}"))?;
     drop(bytes);

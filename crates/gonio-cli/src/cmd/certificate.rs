@@ -40,16 +40,8 @@ pub struct Args {
 /// Runs `gonio certificate`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let json = args
-        .json
-        .as_deref()
-        .map(|p| out.file("--json", p))
-        .transpose()?;
-    let dcc = args
-        .dcc
-        .as_deref()
-        .map(|p| out.file("--dcc", p))
-        .transpose()?;
+    let json = out.optional("--json", args.json.as_deref())?;
+    let dcc = out.optional("--dcc", args.dcc.as_deref())?;
     let mut cert = formats::certificate::load(&args.certificate)?;
     if let Some(p) = &args.meta {
         cert = cert.with_meta(formats::meta::load(p)?);

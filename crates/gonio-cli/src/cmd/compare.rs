@@ -37,15 +37,11 @@ pub struct Args {
 /// Runs `gonio compare`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let json = args
-        .json
-        .as_deref()
-        .map(|p| out.file("--json", p))
-        .transpose()?;
+    let json = out.optional("--json", args.json.as_deref())?;
     let a = curve::load(&args.a)?;
     let b = curve::load(&args.b)?;
     let c = compare(&a, &b).map_err(|e| anyhow!("{e}"))?;
-    let to_stdout = json.is_some_and(|j| out.is_stdout(j));
+    let to_stdout = out.to_stdout(json);
     if let Some(j) = json {
         out.json(j, &c)?;
     }

@@ -84,11 +84,7 @@ struct Output {
 /// Runs `gonio eccentricity`.
 pub fn run(a: Args) -> Result<()> {
     let mut outputs = Outputs::new();
-    let json = a
-        .json
-        .as_deref()
-        .map(|p| outputs.file("--json", p))
-        .transpose()?;
+    let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
         Some(p) => recipe::load(p)?,
         None => Recipe::default(),
@@ -155,7 +151,7 @@ pub fn run(a: Args) -> Result<()> {
             f.e_px
         )
     })?;
-    let to_stdout = json.is_some_and(|j| outputs.is_stdout(j));
+    let to_stdout = outputs.to_stdout(json);
     if !to_stdout {
         let u = out
             .u_e_um

@@ -123,11 +123,7 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
     }
     let mut outputs = Outputs::new();
-    let json = a
-        .json
-        .as_deref()
-        .map(|p| outputs.file("--json", p))
-        .transpose()?;
+    let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
         Some(p) => recipe::load(p)?,
         None => Recipe::default(),
@@ -149,7 +145,7 @@ pub fn run(a: Args) -> Result<()> {
         recipe,
         ..BatchConfig::default()
     };
-    let to_stdout = json.is_some_and(|j| outputs.is_stdout(j));
+    let to_stdout = outputs.to_stdout(json);
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")

@@ -1,6 +1,6 @@
 //! `gonio selfcal`: self-calibration of an encoder from several read heads (EDA, SelfA, Fourier).
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::selfcal::{Method, NoiseModel, SelfcalOptions, calibrate};
 use gonio_cli::formats::csv::CsvTable;
@@ -88,11 +88,7 @@ fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
 /// Runs `gonio selfcal`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let json = args
-        .json
-        .as_deref()
-        .map(|p| out.file("--json", p))
-        .transpose()?;
+    let json = out.optional("--json", args.json.as_deref())?;
     let (heads, _) = heads::load(&args.heads)?;
     check_max_order(args.max_order)?;
     let method = match args.method.as_str() {
@@ -121,15 +117,9 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
-    // A value that overflowed (a reading of 1e308) is an error naming the input, before any
-    // output: never an "inf" in the summary or a null in the JSON.
-    gonio_cli::output::json::check_finite(&cert).map_err(|e| {
-        anyhow!(
-            "{}: the calibration is not finite: {e}; check the input's values",
-            args.readings.display()
-        )
-    })?;
-    let to_stdout = json.is_some_and(|j| out.is_stdout(j));
+    // Overflow (a reading of 1e308) is an error naming the input, before any output.
+    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let to_stdout = out.to_stdout(json);
     if let Some(j) = json {
         out.json(j, &cert)?;
     }

@@ -72,16 +72,8 @@ pub fn parse_method(s: &str) -> Result<Method> {
 pub fn run(args: Args) -> Result<()> {
     let method = parse_method(&args.method)?;
     let mut out = Outputs::new();
-    let json = args
-        .json
-        .as_deref()
-        .map(|p| out.file("--json", p))
-        .transpose()?;
-    let comp = args
-        .compensation
-        .as_deref()
-        .map(|p| out.file("--compensation", p))
-        .transpose()?;
+    let json = out.optional("--json", args.json.as_deref())?;
+    let comp = out.optional("--compensation", args.compensation.as_deref())?;
     let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
     let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
     let set = readings::read(&args.readings, args.faces)?;
@@ -101,15 +93,9 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
-    // A value that overflowed (a reading of 1e308) is an error naming the input, before any
-    // output: never an "inf" in the summary or a null in the JSON.
-    gonio_cli::output::json::check_finite(&cert).map_err(|e| {
-        anyhow!(
-            "{}: the calibration is not finite: {e}; check the input's values",
-            args.readings.display()
-        )
-    })?;
-    let to_stdout = json.is_some_and(|j| out.is_stdout(j));
+    // Overflow (a reading of 1e308) is an error naming the input, before any output.
+    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let to_stdout = out.to_stdout(json);
     if let Some(j) = json {
         out.json(j, &cert)?;
     }

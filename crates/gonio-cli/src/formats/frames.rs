@@ -119,29 +119,24 @@ pub fn decode_grey8(
     max_h: usize,
 ) -> Result<(usize, usize, Vec<u8>)> {
     use image::DynamicImage as D;
-    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .with_context(|| format!("cannot read {name}"))?;
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(max_w as u32);
-    limits.max_image_height = Some(max_h as u32);
-    limits.max_alloc = Some((4 * max_w * max_h) as u64 + (1 << 20));
-    reader.limits(limits);
-    let (w, h) = reader
+    let reader = || -> Result<image::ImageReader<std::io::Cursor<&[u8]>>> {
+        let mut r = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .with_context(|| format!("cannot read {name}"))?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(max_w as u32);
+        limits.max_image_height = Some(max_h as u32);
+        limits.max_alloc = Some((4 * max_w * max_h) as u64 + (1 << 20));
+        r.limits(limits);
+        Ok(r)
+    };
+    let (w, h) = reader()?
         .into_dimensions()
         .map_err(|e| anyhow!("{name}: not a readable PNG/TIFF image: {e}"))?;
     if w as usize > max_w || h as usize > max_h {
         bail!("{name}: frame is {w}×{h}: larger than the sensor {max_w}×{max_h} (see --optics)");
     }
-    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .with_context(|| format!("cannot read {name}"))?;
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(max_w as u32);
-    limits.max_image_height = Some(max_h as u32);
-    limits.max_alloc = Some((4 * max_w * max_h) as u64 + (1 << 20));
-    reader.limits(limits);
-    let img = reader
+    let img = reader()?
         .decode()
         .map_err(|e| anyhow!("{name}: not a readable PNG/TIFF image: {e}"))?;
     let (w, h) = (img.width() as usize, img.height() as usize);

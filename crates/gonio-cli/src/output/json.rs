@@ -76,6 +76,24 @@ pub fn check_finite<T: Serialize + ?Sized>(value: &T) -> Result<(), NonFinite> {
     value.serialize(&mut c)
 }
 
+/// Checks that a result is finite before it is shown or written; the error names the input it
+/// came from (`readings.csv: the calibration is not finite: points[3].u_arcsec is inf …`).
+///
+/// # Errors
+/// The first number that is not finite.
+pub fn finite_result<T: Serialize + ?Sized>(
+    value: &T,
+    input: &std::path::Path,
+    what: &str,
+) -> anyhow::Result<()> {
+    check_finite(value).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: {what} is not finite: {e}; check the input's values",
+            input.display()
+        )
+    })
+}
+
 #[derive(Debug)]
 enum Seg {
     Field(&'static str),

@@ -292,6 +292,19 @@ impl Outputs {
         Ok(OutId(self.items.len() - 1))
     }
 
+    /// [`Outputs::file`] for an optional flag (`--json` given or not).
+    ///
+    /// # Errors
+    /// As [`Outputs::file`].
+    pub fn optional(&mut self, flag: &str, path: Option<&Path>) -> Result<Option<OutId>> {
+        path.map(|p| self.file(flag, p)).transpose()
+    }
+
+    /// Whether an optional output goes to standard output.
+    pub fn to_stdout(&self, id: Option<OutId>) -> bool {
+        id.is_some_and(|i| self.is_stdout(i))
+    }
+
     /// Prepares the output directory `dir` (named by `flag`): created when missing; an existing
     /// one must be empty unless `force` is set.
     ///
