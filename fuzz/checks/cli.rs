@@ -89,13 +89,26 @@ pub fn heads(data: &[u8]) {
     }
 }
 
-/// Station TOML: byte 0 selects a recipe (even) or optics (odd).
+/// Station TOML: byte 0 selects a recipe (0 mod 3), optics (1) or a scene (2).
 pub fn station_toml(data: &[u8]) {
     let Some((&sel, rest)) = data.split_first() else {
         return;
     };
     let Some(t) = text(rest) else { return };
-    if sel & 1 == 0 {
+    if sel % 3 == 2 {
+        if let Some(scene) = run(rest, formats::frames::parse_scene(NAME, &t)) {
+            // A scene that passed its checks renders a small frame in bounded time.
+            let o = gonio_vision::Optics {
+                window_width_px: 128,
+                window_height_px: 64,
+                ..gonio_vision::Optics::default()
+            };
+            if let Ok(r) = gonio_sim::frames::GratingRenderer::new(&o, scene) {
+                let mut f = vec![0u8; r.frame_len()];
+                let _ = r.render(10.0, 50.0, 0.0, 0.0, 1, &mut f);
+            }
+        }
+    } else if sel % 3 == 0 {
         if let Some(r) = run(rest, formats::recipe::parse(NAME, &t)) {
             // A recipe that passed its checks sizes a turn: bounded.
             assert!(r.frames_per_turn() <= 1_000_000, "{}", r.frames_per_turn());

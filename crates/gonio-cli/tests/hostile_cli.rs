@@ -181,6 +181,40 @@ fn sizes_from_the_input_have_stated_limits() {
         "100000 heads, at most 360",
     );
     assert!(!out.exists(), "a refused simulation leaves no directory");
+    // A scene file with a billion dust specks per frame, and one with a million scratches.
+    let sc = d.path().join("scene.toml");
+    std::fs::write(&sc, "read_noise_grey = 3.0\ndust_per_frame = 1000000000\n").unwrap();
+    refused(
+        &gonio(&[
+            "simulate",
+            "frames",
+            "--count",
+            "1",
+            "--scene-file",
+            s(&sc),
+            "--seed",
+            "1",
+            "--out",
+            s(&out),
+        ]),
+        "scene.toml:2:1: ",
+    );
+    let scratches = "[[scratches]]\nx_px = 1.0\ny_px = 1.0\nangle_deg = 0.0\nwidth_px = 1.0\ndepth_grey = 9.0\n"
+        .repeat(20_000);
+    std::fs::write(&sc, scratches).unwrap();
+    refused(
+        &gonio(&[
+            "mount",
+            "--sim",
+            "--seed",
+            "1",
+            "--fidelity",
+            "frames",
+            "--scene-file",
+            s(&sc),
+        ]),
+        "scratches",
+    );
 }
 
 #[test]
