@@ -136,7 +136,14 @@ pub fn one_line(e: &anyhow::Error) -> String {
         if i > 0 {
             s.push_str(": ");
         }
-        s.push_str(&c.to_string().replace(['\n', '\r'], " "));
+        for ch in c.to_string().chars() {
+            match ch {
+                '\n' | '\r' | '\t' => s.push(' '),
+                // Other control characters from the input (a DEL in a key) are shown escaped.
+                ch if ch.is_control() => s.push_str(&ch.escape_unicode().to_string()),
+                ch => s.push(ch),
+            }
+        }
     }
     cap(&s)
 }
