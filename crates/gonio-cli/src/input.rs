@@ -128,6 +128,16 @@ pub fn read_text(path: &Path) -> Result<String> {
     decode(&path.display().to_string(), &bytes)
 }
 
+/// Reads a text file and parses it with `parse(name, text)`, the file's name as given naming it
+/// in errors (the `load` of every format).
+///
+/// # Errors
+/// As [`read_text`] and `parse`.
+pub fn load<T>(path: &Path, parse: impl FnOnce(&str, &str) -> Result<T>) -> Result<T> {
+    let text = read_text(path)?;
+    parse(&path.display().to_string(), &text)
+}
+
 /// Formats an error and its causes on one line, at most [`MAX_ERROR_CHARS`] characters (echoed
 /// input beyond that is cut).
 pub fn one_line(e: &anyhow::Error) -> String {

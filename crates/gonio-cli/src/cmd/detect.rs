@@ -279,34 +279,20 @@ struct Detected {
     stream_error: Option<anyhow::Error>,
 }
 
-fn save_png(
+/// Writes one stage image (8- or 16-bit grey) as a PNG into the dump directory.
+fn save_png<P: image::Primitive>(
     out: &mut Outputs,
     dir: &Path,
     name: &str,
     w: usize,
     h: usize,
-    data: Vec<u8>,
-) -> Result<()> {
-    let img = image::GrayImage::from_raw(w as u32, h as u32, data)
-        .ok_or_else(|| anyhow!("{name}: image size"))?;
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )?;
-    out.put("--dump-stages", &dir.join(name), &bytes)?;
-    Ok(())
-}
-
-fn save_png16(
-    out: &mut Outputs,
-    dir: &Path,
-    name: &str,
-    w: usize,
-    h: usize,
-    data: Vec<u16>,
-) -> Result<()> {
-    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w as u32, h as u32, data)
+    data: Vec<P>,
+) -> Result<()>
+where
+    [P]: image::EncodableLayout,
+    image::Luma<P>: image::Pixel<Subpixel = P> + image::PixelWithColorType,
+{
+    let img = image::ImageBuffer::<image::Luma<P>, Vec<P>>::from_raw(w as u32, h as u32, data)
         .ok_or_else(|| anyhow!("{name}: image size"))?;
     let mut bytes = Vec::new();
     img.write_to(
@@ -332,9 +318,9 @@ fn write_dump(out: &mut Outputs, dir: &Path, det: &Detector, res: &FrameResult) 
     save_png(out, dir, "01_tophat.png", w, h, d.tophat.clone())?;
     save_png(out, dir, "02_opened.png", w, h, d.opened.clone())?;
     save_png(out, dir, "03_blurred.png", w, h, d.blurred.clone())?;
-    save_png16(out, dir, "04_gx_plus32768.png", w, h, off(&d.gx))?;
-    save_png16(out, dir, "05_gy_plus32768.png", w, h, off(&d.gy))?;
-    save_png16(out, dir, "06_magnitude.png", w, h, d.mag.clone())?;
+    save_png(out, dir, "04_gx_plus32768.png", w, h, off(&d.gx))?;
+    save_png(out, dir, "05_gy_plus32768.png", w, h, off(&d.gy))?;
+    save_png(out, dir, "06_magnitude.png", w, h, d.mag.clone())?;
     save_png(out, dir, "07_edges_class.png", w, h, d.edges.class.clone())?;
     save_png(out, dir, "08_edges_dir256.png", w, h, d.edges.dir.clone())?;
     save_png(
@@ -364,7 +350,7 @@ fn write_dump(out: &mut Outputs, dir: &Path, det: &Detector, res: &FrameResult) 
         Image::from_vec(w, h, d.filled.sub.clone()),
     );
     let (_, labels) = label(&edges, &Image::from_vec(w, h, d.filled.mag.clone()));
-    save_png16(
+    save_png(
         out,
         dir,
         "12_labels.png",

@@ -171,12 +171,7 @@ pub fn run(args: Args) -> Result<()> {
     // Overflow (a reading of 1e308) is an error naming the input, before any output.
     gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
     let to_stdout = out.to_stdout(json);
-    if let Some(j) = json {
-        out.json(j, &cert)?;
-    }
-    if let Some(c) = comp {
-        out.write(c, formats::compensation::csv(&cert).as_bytes())?;
-    }
+    out.certificate(json, comp, &cert)?;
     if !to_stdout {
         gonio_cli::term::out(&summary(&cert))?;
     }

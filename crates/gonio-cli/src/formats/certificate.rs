@@ -11,8 +11,7 @@ use std::path::Path;
 /// # Errors
 /// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<Certificate> {
-    let text = crate::input::read_text(path)?;
-    parse(&path.display().to_string(), &text)
+    crate::input::load(path, parse)
 }
 
 /// Parses certificate JSON; `name` names it in errors.

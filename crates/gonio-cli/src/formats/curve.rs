@@ -30,8 +30,7 @@ struct Tagged {
 /// # Errors
 /// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<Curve> {
-    let text = crate::input::read_text(path)?;
-    parse(&path.display().to_string(), &text)
+    crate::input::load(path, parse)
 }
 
 /// Parses a certificate or a truth file; `name` names it in errors and in the curve's label.

@@ -9,8 +9,7 @@ use std::path::Path;
 /// # Errors
 /// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<EncoderModel> {
-    let text = crate::input::read_text(path)?;
-    parse(&path.display().to_string(), &text)
+    crate::input::load(path, parse)
 }
 
 /// Parses an encoder model; `name` names it in errors.
@@ -24,12 +23,7 @@ pub fn parse(name: &str, text: &str) -> Result<EncoderModel> {
             line,
             column,
             message,
-        } => anyhow!(
-            "{name}:{}:{}: {}",
-            line.max(1),
-            column.max(1),
-            crate::input::cap(&message)
-        ),
+        } => super::located(name, line, column, &message),
         other => anyhow!("{name}: {other}"),
     })
 }

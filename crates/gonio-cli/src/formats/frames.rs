@@ -18,8 +18,7 @@ pub fn load_optics(path: Option<&Path>) -> Result<Optics> {
     let Some(p) = path else {
         return Ok(Optics::default());
     };
-    let text = input::read_text(p)?;
-    parse_optics(&p.display().to_string(), &text)
+    input::load(p, parse_optics)
 }
 
 /// Parses optics text; `name` names it in errors.
@@ -51,8 +50,7 @@ pub fn parse_optics(name: &str, text: &str) -> Result<Optics> {
 /// # Errors
 /// As [`parse_scene`], and the file cannot be read.
 pub fn load_scene(path: &Path) -> Result<GratingScene> {
-    let text = input::read_text(path)?;
-    parse_scene(&path.display().to_string(), &text)
+    input::load(path, parse_scene)
 }
 
 /// Parses scene text; `name` names it in errors. The values are checked as the renderer checks

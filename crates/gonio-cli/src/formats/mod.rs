@@ -50,6 +50,17 @@ pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     parse_toml(&path.display().to_string(), &text)
 }
 
+/// An error a library located in a file (`line`, `column` 1-based; 0 when unknown, shown as 1)
+/// as `NAME:LINE:COL: message`, the message capped.
+pub fn located(name: &str, line: usize, column: usize, message: &str) -> anyhow::Error {
+    anyhow!(
+        "{name}:{}:{}: {}",
+        line.max(1),
+        column.max(1),
+        crate::input::cap(message)
+    )
+}
+
 /// A JSON error as `NAME:LINE:COL: message (what was expected)`.
 pub fn json_error(name: &str, e: &serde_json::Error, expected: &str) -> anyhow::Error {
     anyhow!(

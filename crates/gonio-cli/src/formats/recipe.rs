@@ -10,8 +10,7 @@ use std::path::Path;
 /// # Errors
 /// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<Recipe> {
-    let text = crate::input::read_text(path)?;
-    parse(&path.display().to_string(), &text)
+    crate::input::load(path, parse)
 }
 
 /// Parses recipe text; `name` names it in errors. A value out of range that the file does not
@@ -25,12 +24,7 @@ pub fn parse(name: &str, text: &str) -> Result<Recipe> {
             line,
             column,
             message,
-        } => anyhow!(
-            "{name}:{}:{}: {}",
-            line.max(1),
-            column.max(1),
-            crate::input::cap(&message)
-        ),
+        } => super::located(name, line, column, &message),
         StationError::RecipeValue {
             key,
             value,

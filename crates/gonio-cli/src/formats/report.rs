@@ -36,8 +36,7 @@ struct Shape {
 /// # Errors
 /// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<ReportInput> {
-    let text = crate::input::read_text(path)?;
-    parse(&path.display().to_string(), &text)
+    crate::input::load(path, parse)
 }
 
 /// Parses one input; `name` names it in errors.

@@ -446,6 +446,26 @@ impl Outputs {
         self.write(id, &v)
     }
 
+    /// Writes a calibration's outputs, those asked for: the certificate (JSON) and its
+    /// compensation table (CSV).
+    ///
+    /// # Errors
+    /// A number that is not finite, or a write error.
+    pub fn certificate(
+        &mut self,
+        json: Option<OutId>,
+        compensation: Option<OutId>,
+        cert: &gonio_calib::certificate::Certificate,
+    ) -> Result<()> {
+        if let Some(j) = json {
+            self.json(j, cert)?;
+        }
+        if let Some(c) = compensation {
+            self.write(c, crate::formats::compensation::csv(cert).as_bytes())?;
+        }
+        Ok(())
+    }
+
     /// Writes CSV text: a header and rows.
     ///
     /// # Errors
