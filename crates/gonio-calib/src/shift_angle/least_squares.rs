@@ -362,7 +362,7 @@ fn diagnose(set: &ReadingSet, lay: &[ShiftLayout], ne: &Normal) -> ShiftAngleErr
     // Naming the undetermined unknowns takes an eigen-decomposition of the whole normal matrix
     // (cubic in the unknowns): done only where it is cheap (≤ 600 unknowns, about 0.1 s); beyond
     // that, and whenever there are fewer readings than unknowns, the message says so without it.
-    if set.len() < total {
+    if total > 600 && set.len() < total {
         return ShiftAngleError::Undetermined {
             count: total - set.len(),
             names: format!(
