@@ -5,8 +5,6 @@
 
 mod cmd;
 mod db;
-mod formats;
-mod io;
 mod recorder;
 mod station;
 mod table;
@@ -85,8 +83,8 @@ fn main() {
         Command::Replay(a) => cmd::replay::run(a),
     };
     if let Err(e) = result {
-        // One line: the chain of causes joined by ": ".
-        eprintln!("error: {}", io::one_line(&e));
+        // One line: the chain of causes joined by ": ", echoed input capped.
+        gonio_cli::term::note(&format!("error: {}", gonio_cli::input::one_line(&e)));
         std::process::exit(2);
     }
 }

@@ -3,14 +3,13 @@
 //! stored in one transaction as it finishes, the batch's end status).
 
 use crate::db;
-use crate::io::read_text;
 use anyhow::{Result, anyhow};
 use gonio_sim::station::{
     BatchConfig, BatchReport, Fidelity, FrameTap, Pace, PartDone, RunOptions, run_batch_observed,
 };
 use gonio_station::observe::Observer;
 use gonio_station::strategy::Learned;
-use gonio_station::{Recipe, StationError, Strategy};
+use gonio_station::{Recipe, Strategy};
 use gonio_store::{BatchStatus, NewBatch, NewPart, Store};
 use std::cell::RefCell;
 use std::ops::ControlFlow;
@@ -61,30 +60,7 @@ impl From<FidelityArg> for Fidelity {
 
 /// Reads a recipe file; errors name the file, line and column.
 pub fn load_recipe(path: &Path) -> Result<Recipe> {
-    let text = read_text(path)?;
-    Recipe::from_toml(&text).map_err(|e| match e {
-        StationError::Recipe {
-            line,
-            column,
-            message,
-        } if line > 0 => anyhow!("{}:{}:{}: {}", path.display(), line, column, message),
-        StationError::RecipeValue {
-            key,
-            value,
-            expected,
-            line,
-            column,
-        } if line > 0 => anyhow!(
-            "{}:{}:{}: {} = {}: expected {}",
-            path.display(),
-            line,
-            column,
-            key,
-            value,
-            expected
-        ),
-        other => anyhow!("{}: {}", path.display(), other),
-    })
+    gonio_cli::formats::recipe::load(path)
 }
 
 /// Where a batch's parts go.

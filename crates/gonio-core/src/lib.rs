@@ -17,6 +17,7 @@ pub mod error;
 pub mod fourier;
 pub mod harmonic;
 pub mod special;
+pub mod text;
 
 pub use angle::{
     ARCSEC_PER_DEGREE, ARCSEC_PER_RADIAN, Arcsec, Degrees, Micrometres, Pixels, Radians,

@@ -24,6 +24,13 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
+/// Most graduation lines of a model (each holds one random error: 800 MB at this limit; real
+/// gratings have up to a few hundred thousand).
+pub const MAX_LINES: u32 = 100_000_000;
+
+/// Most harmonics of a model.
+pub const MAX_HARMONICS: usize = 10_000;
+
 /// The model file's `format` value.
 pub const ENCODER_FORMAT: &str = "gonio-encoder-model";
 
@@ -119,8 +126,9 @@ impl EncoderModel {
     /// A model from its harmonics and graduation.
     ///
     /// # Errors
-    /// [`SimError::Parameter`] for order 0, a non-finite amplitude or phase, zero lines or a
-    /// negative or non-finite sigma.
+    /// [`SimError::Parameter`] for order 0, a non-finite amplitude or phase, zero lines or more
+    /// than [`MAX_LINES`], more than [`MAX_HARMONICS`] harmonics, or a negative or non-finite
+    /// sigma.
     pub fn new(harmonics: Vec<HarmonicArcsec>, graduation: Graduation) -> Result<Self, SimError> {
         for h in &harmonics {
             if h.order == 0 {
@@ -134,11 +142,18 @@ impl EncoderModel {
                 ));
             }
         }
-        if graduation.lines == 0 {
+        if harmonics.len() > MAX_HARMONICS {
+            return Err(SimError::parameter(
+                "harmonics",
+                harmonics.len(),
+                "at most 10000 harmonics",
+            ));
+        }
+        if graduation.lines == 0 || graduation.lines > MAX_LINES {
             return Err(SimError::parameter(
                 "lines",
-                0,
-                "at least 1 graduation line",
+                graduation.lines,
+                "1 to 100000000 graduation lines",
             ));
         }
         if !(graduation.sigma_arcsec >= 0.0 && graduation.sigma_arcsec.is_finite()) {

@@ -131,10 +131,15 @@ pub struct SelfcalSim {
     pub truth: SelfcalTruth,
 }
 
+/// Most head readings one simulation may produce (positions × turns × heads): 50 million, about
+/// 1.2 GB with the raw readings kept.
+pub const MAX_VALUES: u64 = 50_000_000;
+
 /// Simulates the measurement.
 ///
 /// # Errors
-/// [`SimError::Parameter`] for fewer than 8 positions, zero turns, a negative or non-finite σ or
+/// [`SimError::Parameter`] for fewer than 8 positions, zero turns, more than [`MAX_VALUES`]
+/// readings, a negative or non-finite σ or
 /// resolution, or an offsets list whose length is not the number of heads.
 pub fn simulate(encoder: &EncoderModel, cfg: &SelfcalSimConfig) -> Result<SelfcalSim, SimError> {
     let m = cfg.heads.len();
@@ -144,6 +149,14 @@ pub fn simulate(encoder: &EncoderModel, cfg: &SelfcalSimConfig) -> Result<Selfca
     }
     if cfg.turns == 0 {
         return Err(SimError::parameter("turns", 0, "at least 1"));
+    }
+    let values = ns as u64 * cfg.turns as u64 * m as u64;
+    if values > MAX_VALUES {
+        return Err(SimError::parameter(
+            "positions × turns × heads",
+            values,
+            &format!("at most {MAX_VALUES} head readings"),
+        ));
     }
     for (name, v) in [
         ("sigma", cfg.noise_sigma_arcsec),

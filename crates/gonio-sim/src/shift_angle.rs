@@ -156,11 +156,15 @@ pub struct ShiftAngleSim {
     pub truth: ShiftAngleTruth,
 }
 
+/// Most readings one simulation may produce (shifts × faces² × repeats, before dropping).
+pub const MAX_READINGS: u64 = 20_000_000;
+
 /// Simulates a measurement of `encoder`.
 ///
 /// # Errors
-/// [`SimError::Parameter`] for fewer than 3 faces, no shifts, a negative or non-finite σ or
-/// resolution, zero repeats, or a dropped fraction outside [0, 1).
+/// [`SimError::Parameter`] for fewer than 3 or more than `MAX_FACES` faces, no shifts or a
+/// shift listed twice, a negative or non-finite σ or resolution, zero repeats, more than
+/// [`MAX_READINGS`] readings, or a dropped fraction outside [0, 1).
 pub fn simulate(encoder: &EncoderModel, cfg: &ShiftAngleConfig) -> Result<ShiftAngleSim, SimError> {
     let n = cfg.faces;
     if n < 3 {
@@ -183,8 +187,36 @@ pub fn simulate(encoder: &EncoderModel, cfg: &ShiftAngleConfig) -> Result<ShiftA
             return Err(SimError::parameter(name, v, "a finite value ≥ 0 arcsec"));
         }
     }
+    if n > gonio_calib::shift_angle::MAX_FACES {
+        return Err(SimError::parameter(
+            "faces",
+            n,
+            &format!("at most {}", gonio_calib::shift_angle::MAX_FACES),
+        ));
+    }
     if cfg.repeats == 0 {
         return Err(SimError::parameter("repeats", 0, "at least 1"));
+    }
+    // Readings: every shift has at most N runs of N steps, each repeated.
+    let most = cfg.shifts_deg.len() as u64 * (n * n) as u64 * u64::from(cfg.repeats);
+    if most > MAX_READINGS {
+        return Err(SimError::parameter(
+            "shifts × faces² × repeats",
+            most,
+            &format!("at most {MAX_READINGS} readings"),
+        ));
+    }
+    let mut keys = std::collections::HashSet::new();
+    if let Some(s) = cfg
+        .shifts_deg
+        .iter()
+        .find(|&&s| !keys.insert(gonio_calib::shift_angle::ShiftKey::of(s)))
+    {
+        return Err(SimError::parameter(
+            "shifts",
+            format!("{s}° twice"),
+            "each shift once (the readings of one shift, start face and step would conflict)",
+        ));
     }
     if !(0.0..1.0).contains(&cfg.drop_fraction) {
         return Err(SimError::parameter(

@@ -244,6 +244,10 @@ impl Default for PushSettings {
     }
 }
 
+/// Most frames in one measuring turn (`measure.turn_deg / measure.speed_deg_per_s ·
+/// measure.fps`): a turn's samples are held whole.
+pub const MAX_FRAMES_PER_TURN: usize = 100_000;
+
 /// Default absolute part of the verify-turn tolerance, µm (`docs/quality-gates.md`).
 pub const VERIFY_TOLERANCE_UM: f64 = 8.0;
 /// Default share of the predicted move in the verify-turn tolerance (`docs/quality-gates.md`).
@@ -283,8 +287,9 @@ fn unit(key: &str, v: f64) -> Result<(), StationError> {
     check(key, v, (0.0..=1.0).contains(&v), "a fraction from 0 to 1")
 }
 
-/// 1-based line and column of a dotted key (`fit.huber_k`) in a TOML text.
-fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
+/// 1-based line and column of a dotted key (`fit.huber_k`) in a TOML text, if the text sets it
+/// (used for every TOML file whose values are range-checked after parsing).
+pub fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
     let doc = toml::de::DeTable::parse(text).ok()?;
     let mut table = doc.get_ref();
     let parts: Vec<&str> = key.split('.').collect();
@@ -301,16 +306,7 @@ fn key_position(text: &str, key: &str) -> Option<(usize, usize)> {
     None
 }
 
-/// 1-based line and column of a byte offset in `text`.
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before
-        .rfind('\n')
-        .map_or(before.len(), |p| before.len() - p - 1)
-        + 1;
-    (line, col)
-}
+use gonio_core::text::line_col;
 
 impl Recipe {
     /// Parses a recipe from TOML text and checks its values.
@@ -370,11 +366,11 @@ impl Recipe {
         pos("timeout_s", self.timeout_s)?;
         pos("ring_radius_mm", self.ring_radius_mm)?;
         pos("ring_width_um", self.ring_width_um)?;
-        if self.window_px.contains(&0) {
+        if self.window_px.contains(&0) || self.window_px.iter().any(|&v| v > 32768) {
             return Err(bad(
                 "window_px",
                 format!("{:?}", self.window_px),
-                "two sizes (width, height) > 0 px",
+                "two sizes (width, height) from 1 to 32768 px",
             ));
         }
         pos("measure.speed_deg_per_s", m.speed_deg_per_s)?;
@@ -392,6 +388,35 @@ impl Recipe {
             return Err(bad("measure.turn_deg", m.turn_deg, "at most 720°"));
         }
         unit("measure.min_valid_fraction", m.min_valid_fraction)?;
+        // Sizes: each of these counts allocates or loops per part (limits far above real use).
+        let turn_frames = m.turn_deg / m.speed_deg_per_s * m.fps;
+        if turn_frames.is_nan() || turn_frames > MAX_FRAMES_PER_TURN as f64 {
+            return Err(bad(
+                "measure.fps",
+                m.fps,
+                "at most 100000 frames per turn (turn_deg / speed_deg_per_s · fps)",
+            ));
+        }
+        for (key, v, max) in [
+            ("focus.steps", f.steps as u64, 1000),
+            ("push.max_pushes", u64::from(p.max_pushes), 1000),
+            ("push.live_frames", p.live_frames as u64, 1000),
+            ("push.live_max_steps", u64::from(p.live_max_steps), 100_000),
+            (
+                "push.live_max_stalls",
+                u64::from(p.live_max_stalls),
+                100_000,
+            ),
+            (
+                "quality.remeasure_turns",
+                u64::from(self.quality.remeasure_turns),
+                100,
+            ),
+        ] {
+            if v > max {
+                return Err(bad(key, v, &format!("at most {max}")));
+            }
+        }
         if self.frames_per_turn() < 10 {
             return Err(bad(
                 "measure.fps",

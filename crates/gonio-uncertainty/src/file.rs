@@ -68,18 +68,7 @@ impl BudgetFileError {
     }
 }
 
-/// 1-based line and column (in characters) of a byte offset.
-pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let mut o = offset;
-    while !text.is_char_boundary(o) {
-        o -= 1;
-    }
-    let before = &text[..o];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
-}
+pub(crate) use gonio_core::text::line_col;
 
 /// Line and column of many byte offsets in one pass over the text (linear, whatever the number
 /// of offsets or the length of the lines).
@@ -147,27 +136,8 @@ pub fn decode_text(bytes: &[u8]) -> Result<&str, BudgetFileError> {
             ),
         ));
     }
-    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
-        return Err(BudgetFileError::new(
-            1,
-            1,
-            "the file is UTF-16 (it starts with a UTF-16 byte-order mark): expected UTF-8 text; save it as UTF-8",
-        ));
-    }
-    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    std::str::from_utf8(body).map_err(|e| {
-        let good = e.valid_up_to();
-        let prefix = std::str::from_utf8(&body[..good]).unwrap_or_default();
-        let (line, column) = line_col(prefix, good);
-        BudgetFileError::new(
-            line,
-            column,
-            format!(
-                "invalid UTF-8 (byte 0x{:02X}): expected UTF-8 text; save the file as UTF-8 (it may be Latin-1 or Windows-1252)",
-                body[good]
-            ),
-        )
-    })
+    gonio_core::text::decode_utf8(bytes)
+        .map_err(|e| BudgetFileError::new(e.line, e.column, e.message))
 }
 
 /// Degrees of freedom as written: a number or `"inf"`.

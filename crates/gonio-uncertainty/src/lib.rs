@@ -200,38 +200,7 @@ pub enum UncertaintyError {
     },
 }
 
-/// The longest name (in characters) quoted whole in an error message; longer names are cut.
-pub const MAX_QUOTED_CHARS: usize = 60;
-
-/// A name or other input text as quoted in messages: at most [`MAX_QUOTED_CHARS`] characters,
-/// longer text cut with `…` and its length, and control characters (line breaks…) shown as
-/// `\u{..}` escapes, so that a message stays one short line.
-///
-/// ```
-/// use gonio_uncertainty::short;
-/// assert_eq!(short("autocollimator"), "autocollimator");
-/// let long = "x".repeat(65_536);
-/// assert_eq!(short(&long), format!("{}… (65536 characters)", "x".repeat(40)));
-/// assert_eq!(short("a\nb"), "a\\u{a}b");
-/// ```
-pub fn short(text: &str) -> String {
-    let escape = |c: char, out: &mut String| {
-        if c.is_control() {
-            out.push_str(&c.escape_unicode().to_string());
-        } else {
-            out.push(c);
-        }
-    };
-    let mut out = String::new();
-    let n = text.chars().count();
-    if n <= MAX_QUOTED_CHARS {
-        text.chars().for_each(|c| escape(c, &mut out));
-    } else {
-        text.chars().take(40).for_each(|c| escape(c, &mut out));
-        out.push_str(&format!("… ({n} characters)"));
-    }
-    out
-}
+pub use gonio_core::text::{MAX_QUOTED_CHARS, short};
 
 fn place(budget: &str, contribution: &Option<String>) -> String {
     match (budget.is_empty(), contribution) {

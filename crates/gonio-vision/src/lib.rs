@@ -50,7 +50,7 @@ pub mod source;
 
 pub use error::VisionError;
 pub use features::{EdgeLine, FrameResult, InvalidReason};
-pub use optics::{Optics, Params, Polarity};
+pub use optics::{MAX_SENSOR_PX, Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
 pub use source::{
     DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,

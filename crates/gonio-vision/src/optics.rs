@@ -172,6 +172,10 @@ pub struct Params {
     pub invert: bool,
 }
 
+/// Largest sensor side, px: a frame of the sensor's size is read whole, so this bounds its memory
+/// (256 MiB at most; real sensors are smaller).
+pub const MAX_SENSOR_PX: u32 = 16384;
+
 fn bad(name: &'static str, found: impl ToString, expected: &str) -> VisionError {
     VisionError::Optics {
         name,
@@ -281,12 +285,26 @@ impl Optics {
                 ),
             ));
         }
-        if self.window_height_px < 16 || self.window_height_px > self.sensor_height_px {
+        if self.window_height_px < 16
+            || self.window_height_px > self.sensor_height_px
+            || self.window_height_px > 32768
+        {
             return Err(bad(
                 "window_height_px",
                 self.window_height_px,
-                &format!("16 … sensor_height_px ({})", self.sensor_height_px),
+                &format!(
+                    "16 … sensor_height_px ({}), at most 32768",
+                    self.sensor_height_px
+                ),
             ));
+        }
+        for (name, v) in [
+            ("sensor_width_px", self.sensor_width_px),
+            ("sensor_height_px", self.sensor_height_px),
+        ] {
+            if v > MAX_SENSOR_PX {
+                return Err(bad(name, v, "at most 16384 px"));
+            }
         }
         for (name, v) in [
             ("min_edge_fraction", self.min_edge_fraction),

@@ -149,7 +149,7 @@ pub(crate) fn solve(
 /// Names the unknowns the joint system leaves undetermined (error path only).
 fn diagnose(h: &DMatrix<f64>, names: impl Fn(usize) -> String) -> JointError {
     let n = h.nrows();
-    if n > 3000 {
+    if n > 600 {
         return JointError::Undetermined {
             count: 0,
             names: "some unknowns (too many to analyse: check that every face is read and \

@@ -31,6 +31,11 @@ impl Reading {
     }
 }
 
+/// Most faces of a polygon (real ones have 8 to 72): the unknowns and the normal equations grow
+/// with the faces, so a face or step number from a file is checked against this before anything
+/// is sized by it.
+pub const MAX_FACES: usize = 1000;
+
 /// A shift angle as an exact key: micro-degrees.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ShiftKey(pub i64);
@@ -73,6 +78,12 @@ impl ReadingSet {
     pub fn new(faces: usize, readings: Vec<Reading>) -> Result<Self, ShiftAngleError> {
         if faces < 3 {
             return Err(ShiftAngleError::TooFewFaces { faces });
+        }
+        if faces > MAX_FACES {
+            return Err(ShiftAngleError::TooManyFaces {
+                faces,
+                max: MAX_FACES,
+            });
         }
         if readings.is_empty() {
             return Err(ShiftAngleError::Empty);

@@ -12,6 +12,16 @@ pub enum ShiftAngleError {
         /// Faces given.
         faces: usize,
     },
+    /// The polygon has more faces than [`crate::shift_angle::MAX_FACES`].
+    #[error(
+        "{faces} faces: at most {max} faces (a polygon's faces set the size of the least squares)"
+    )]
+    TooManyFaces {
+        /// Faces given.
+        faces: usize,
+        /// The limit.
+        max: usize,
+    },
     /// A face or step number is outside 1..=N.
     #[error("reading {index}: {what} {found} is out of range: expected 1..={faces}")]
     OutOfRange {

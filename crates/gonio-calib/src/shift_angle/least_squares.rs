@@ -359,7 +359,20 @@ fn diagnose(set: &ReadingSet, lay: &[ShiftLayout], ne: &Normal) -> ShiftAngleErr
     let local: usize = lay.iter().map(|l| l.len).sum();
     let total = local + g;
     let shift_name = |s: usize| format!("{}", set.shifts_deg()[s]);
-    if total > 3000 {
+    // Naming the undetermined unknowns takes an eigen-decomposition of the whole normal matrix
+    // (cubic in the unknowns): done only where it is cheap (≤ 600 unknowns, about 0.1 s); beyond
+    // that, and whenever there are fewer readings than unknowns, the message says so without it.
+    if total > 600 && set.len() < total {
+        return ShiftAngleError::Undetermined {
+            count: total - set.len(),
+            names: format!(
+                "at least that many of the {total} unknowns ({} readings for {n} faces and {} shifts: every shift needs every step and every face read)",
+                set.len(),
+                lay.len()
+            ),
+        };
+    }
+    if total > 600 {
         return ShiftAngleError::Undetermined {
             count: 0,
             names: "some unknowns (too many to analyse: check that every shift has every step \

@@ -40,7 +40,7 @@ pub mod paper;
 mod result;
 
 pub use check::{HarmonicCheck, ShiftCheck, harmonic_check};
-pub use data::{Reading, ReadingSet, ShiftKey};
+pub use data::{MAX_FACES, Reading, ReadingSet, ShiftKey};
 pub use error::ShiftAngleError;
 pub(crate) use result::residual_stats;
 pub use result::{

@@ -1,8 +1,9 @@
 //! `gonio budget`: evaluate a GUM uncertainty budget file (TOML), optionally with Monte Carlo.
 
-use crate::io;
 use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::input;
+use gonio_cli::output::Outputs;
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use gonio_uncertainty::montecarlo::{McConfig, McResult, McTrials, Validation, validate};
 use gonio_uncertainty::{BudgetFile, BudgetResult, UncertaintyError, short};
@@ -91,7 +92,9 @@ pub fn run(args: Args) -> Result<()> {
     {
         bail!("--coverage: expected a probability strictly between 0 and 1 (e.g. 0.95), found {p}");
     }
-    let bytes = io::read_bytes(&args.budget, MAX_FILE_BYTES)?;
+    let mut outputs = Outputs::new();
+    let json = outputs.optional("--json", args.json.as_deref())?;
+    let bytes = input::read_bytes(&args.budget, MAX_FILE_BYTES)?;
     let parsed = BudgetFile::parse_bytes(&bytes).map_err(|e| anyhow!("{file}:{e}"))?;
     drop(bytes);
     // An error found after parsing, at its line and column when it concerns the file.
@@ -193,18 +196,14 @@ pub fn run(args: Args) -> Result<()> {
         budgets: &all,
         monte_carlo: mc.map(|(m, _)| m),
     };
-    if args.json.is_some()
-        && let Some(at) = find_null(&serde_json::to_value(&output)?, "")
-    {
-        bail!(
-            "{file}: internal error: a number that is not finite reached the JSON output at {at}; nothing was written"
-        );
+    // Checked before anything is printed: a result that is not finite is an error, not a null.
+    let bytes = gonio_cli::output::json::to_bytes(&output)
+        .map_err(|e| anyhow!("{file}: nothing was written: {e}"))?;
+    gonio_cli::term::out(&out)?;
+    if let Some(j) = json {
+        outputs.write(j, &bytes)?;
     }
-    io::write_atomic(std::path::Path::new("-"), out.as_bytes())?;
-    if let Some(path) = &args.json {
-        io::write_json(path, &output)?;
-    }
-    Ok(())
+    outputs.commit()
 }
 
 /// A progress bar on standard error for a Monte Carlo run of `total` trials (the upper limit of
@@ -226,26 +225,6 @@ fn progress_bar(total: usize, adaptive: bool, inputs: usize) -> indicatif::Progr
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     bar
-}
-
-/// The path of the first `null` in a JSON value (every number gonio writes must be finite; serde
-/// writes NaN and ∞ as null).
-fn find_null(v: &serde_json::Value, path: &str) -> Option<String> {
-    match v {
-        serde_json::Value::Null => Some(if path.is_empty() {
-            "/".into()
-        } else {
-            path.into()
-        }),
-        serde_json::Value::Array(a) => a
-            .iter()
-            .enumerate()
-            .find_map(|(i, x)| find_null(x, &format!("{path}/{i}"))),
-        serde_json::Value::Object(o) => o
-            .iter()
-            .find_map(|(k, x)| find_null(x, &format!("{path}/{k}"))),
-        _ => None,
-    }
 }
 
 fn markdown_table(out: &mut String, r: &BudgetResult) {
@@ -447,7 +426,7 @@ mod tests {
             "[[budget]]\nname = \"b\"\n[[budget.contribution]]\nname = \"r\"\nu = 1\ndof = -2\n",
         )
         .unwrap();
-        let e = crate::io::one_line(&run(args(p.clone(), None)).unwrap_err());
+        let e = gonio_cli::input::one_line(&run(args(p.clone(), None)).unwrap_err());
         assert_eq!(
             e,
             format!(

@@ -1,9 +1,10 @@
 //! `gonio certificate`: check a certificate's metadata and export it as a Digital Calibration
 //! Certificate (DCC v3.1.2 XML).
 
-use crate::formats;
-use crate::io;
 use anyhow::{Result, anyhow};
+use gonio_cli::formats;
+use gonio_cli::output::Outputs;
+use gonio_cli::say;
 use std::path::PathBuf;
 
 /// Arguments of `gonio certificate`.
@@ -38,12 +39,15 @@ pub struct Args {
 
 /// Runs `gonio certificate`.
 pub fn run(args: Args) -> Result<()> {
+    let mut out = Outputs::new();
+    let json = out.optional("--json", args.json.as_deref())?;
+    let dcc = out.optional("--dcc", args.dcc.as_deref())?;
     let mut cert = formats::certificate::load(&args.certificate)?;
     if let Some(p) = &args.meta {
         cert = cert.with_meta(formats::meta::load(p)?);
     }
     let missing = cert.missing_meta();
-    println!(
+    say!(
         "{}: {}, {} angles, largest |α| {:.4}″, largest U {}",
         args.certificate.display(),
         cert.method_title(),
@@ -51,25 +55,30 @@ pub fn run(args: Args) -> Result<()> {
         cert.max_abs_error_arcsec(),
         cert.max_expanded_arcsec()
             .map_or("–".into(), |u| format!("{u:.4}″"))
-    );
+    )?;
     if missing.is_empty() {
-        println!("metadata complete (ISO/IEC 17025 §7.8.2.1, §7.8.4.1)");
+        say!("metadata complete (ISO/IEC 17025 §7.8.2.1, §7.8.4.1)")?;
     } else {
-        println!("DRAFT: missing metadata: {}", missing.join(", "));
+        say!("DRAFT: missing metadata: {}", missing.join(", "))?;
     }
-    if let Some(p) = &args.json {
-        io::write_json(p, &cert)?;
-        eprintln!("wrote {}", p.display());
+    if let Some(j) = json {
+        out.json(j, &cert)?;
     }
-    if let Some(p) = &args.dcc {
+    if let Some(d) = dcc {
         let xml = gonio_report::dcc::write(&cert, args.draft).map_err(|e| {
             anyhow!(
                 "{}: {e} (give them with --meta, or --draft for a draft)",
                 args.certificate.display()
             )
         })?;
-        io::write_atomic(p, xml.as_bytes())?;
-        eprintln!(
+        out.write(d, xml.as_bytes())?;
+    }
+    out.commit()?;
+    if let Some(p) = &args.json {
+        gonio_cli::note!("wrote {}", p.display());
+    }
+    if let Some(p) = &args.dcc {
+        gonio_cli::note!(
             "wrote {}{}",
             p.display(),
             if missing.is_empty() { "" } else { " (DRAFT)" }

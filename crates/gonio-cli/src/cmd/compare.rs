@@ -1,13 +1,12 @@
 //! `gonio compare`: two calibration certificates of one encoder compared at their common angles
 //! (differences and En).
 
-use crate::formats;
-use crate::io;
 use anyhow::{Result, anyhow};
-use gonio_calib::compare::{Comparison, Curve, CurvePoint, compare};
-use serde::Deserialize;
+use gonio_calib::compare::{Comparison, compare};
+use gonio_cli::formats::curve;
+use gonio_cli::output::Outputs;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `gonio compare`.
 #[derive(Debug, clap::Args)]
@@ -35,69 +34,24 @@ pub struct Args {
     pub all: bool,
 }
 
-/// A simulator's truth file (`gonio-selfcal-truth`): the true error at every position.
-#[derive(Debug, Deserialize)]
-struct Truth {
-    errors: Vec<TruthPoint>,
-}
-
-#[derive(Debug, Deserialize)]
-struct TruthPoint {
-    position_deg: f64,
-    value_arcsec: f64,
-}
-
-/// The format tag of a JSON file, if it has one.
-#[derive(Debug, Deserialize)]
-struct Tagged {
-    #[serde(default)]
-    format: Option<String>,
-}
-
-/// Reads a certificate (or a simulator's truth) into a [`Curve`].
-pub fn load_curve(path: &Path) -> Result<Curve> {
-    let text = io::read_text(path)?;
-    let tag: Tagged = serde_json::from_str(&text)
-        .map_err(|e| formats::json_error(path, &e, "expected a gonio certificate JSON"))?;
-    if tag.format.as_deref() == Some("gonio-selfcal-truth") {
-        let t: Truth = serde_json::from_str(&text)
-            .map_err(|e| formats::json_error(path, &e, "expected a simulator's truth.json"))?;
-        return Ok(Curve {
-            label: format!("{} (truth)", path.display()),
-            points: t
-                .errors
-                .into_iter()
-                .map(|p| CurvePoint {
-                    angle_deg: p.position_deg,
-                    value_arcsec: p.value_arcsec,
-                    u_arcsec: 0.0,
-                    expanded_arcsec: None,
-                })
-                .collect(),
-            undetectable_orders: Vec::new(),
-        });
-    }
-    let cert = formats::certificate::parse(path, &text)?;
-    let mut curve = Curve::from(&cert);
-    curve.label = format!("{} ({})", path.display(), cert.method);
-    Ok(curve)
-}
-
 /// Runs `gonio compare`.
 pub fn run(args: Args) -> Result<()> {
-    let a = load_curve(&args.a)?;
-    let b = load_curve(&args.b)?;
+    let mut out = Outputs::new();
+    let json = out.optional("--json", args.json.as_deref())?;
+    let a = curve::load(&args.a)?;
+    let b = curve::load(&args.b)?;
     let c = compare(&a, &b).map_err(|e| anyhow!("{e}"))?;
-    if let Some(p) = &args.json {
-        io::write_json(p, &c)?;
+    let to_stdout = out.to_stdout(json);
+    if let Some(j) = json {
+        out.json(j, &c)?;
     }
-    if args.json.as_deref() != Some(Path::new("-")) {
-        print_summary(&c, args.all);
+    if !to_stdout {
+        print_summary(&c, args.all)?;
     }
-    Ok(())
+    out.commit()
 }
 
-fn print_summary(c: &Comparison, all: bool) {
+fn print_summary(c: &Comparison, all: bool) -> Result<()> {
     let mut out = String::new();
     let _ = writeln!(out, "A = {}\nB = {}", c.method_a, c.method_b);
     if all {
@@ -140,5 +94,5 @@ fn print_summary(c: &Comparison, all: bool) {
         c.uncertainty_source.a, c.uncertainty_source.b
     );
     let _ = writeln!(out, "{}", c.note);
-    io::emit(&out);
+    gonio_cli::term::out(&out)
 }

@@ -5,6 +5,9 @@ use gonio_calib::certificate::{Certificate, Instrument};
 use gonio_calib::compare::{Curve, compare};
 use gonio_calib::selfcal::{self, Heads, SelfcalOptions};
 use gonio_calib::shift_angle::{Calibration, Method, Options, ReadingSet, calibrate};
+use gonio_cli::formats::report::{self, ReportInput};
+use gonio_cli::output::Outputs;
+use gonio_cli::say;
 use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::SelfcalSimConfig;
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, ShiftAngleTruth, simulate};
@@ -92,13 +95,13 @@ fn score(cal: &Calibration, truth: &ShiftAngleTruth, keep: impl Fn(f64) -> bool)
 
 /// Runs `gonio demo`.
 pub fn run(args: Args) -> Result<()> {
-    println!(
+    say!(
         "gonio demo: the built-in simulated lab and station (seed {})",
         args.seed
-    );
-    println!();
+    )?;
+    say!()?;
     let batch = mounting(args.seed)?;
-    println!();
+    say!()?;
     let encoder = EncoderModel::default_with_seed(args.seed);
     let cfg = ShiftAngleConfig {
         faces: 24,
@@ -110,32 +113,42 @@ pub fn run(args: Args) -> Result<()> {
     };
     let sim = simulate(&encoder, &cfg)?;
     let set = ReadingSet::new(cfg.faces, sim.readings.clone())?;
-    println!("Calibration: shift-angle method (Hsieh et al., 2022)");
-    println!(
+    say!("Calibration: shift-angle method (Hsieh et al., 2022)")?;
+    say!(
         "  encoder: {} harmonics + {}″ graduation error; polygon: {} faces, β σ {}″",
         encoder.harmonics().len(),
         encoder.graduation().sigma_arcsec,
         cfg.faces,
         cfg.pitch_sigma_arcsec
-    );
-    println!(
+    )?;
+    say!(
         "  runs: S = 0°…14° (full {n}×{n} matrix at 0°, start face 1 elsewhere): {} readings, \
          autocollimator σ {}″, resolution {}″",
         set.len(),
         cfg.noise_sigma_arcsec,
         cfg.resolution_arcsec,
         n = cfg.faces
-    );
-    println!();
-    println!(
+    )?;
+    say!()?;
+    say!(
         "  {:<34} {:>10} {:>12} {:>12} {:>12} {:>14}",
-        "method", "angles", "α err RMS", "α err max", "β err RMS", "reported u(α)"
-    );
+        "method",
+        "angles",
+        "α err RMS",
+        "α err max",
+        "β err RMS",
+        "reported u(α)"
+    )?;
     let line = |name: &str, angles: &str, s: &Score| {
-        println!(
+        say!(
             "  {:<34} {:>10} {:>11.4}″ {:>11.4}″ {:>11.4}″ {:>13.4}″",
-            name, angles, s.alpha_rms, s.alpha_max, s.beta_rms, s.u_alpha_rms
-        );
+            name,
+            angles,
+            s.alpha_rms,
+            s.alpha_max,
+            s.beta_rms,
+            s.u_alpha_rms
+        )
     };
     let mut at_zero = Vec::new();
     for method in [Method::LeastSquares, Method::Paper] {
@@ -151,8 +164,8 @@ pub fn run(args: Args) -> Result<()> {
             Method::Paper => "paper's algorithm",
         };
         let z = score(&cal, &sim.truth, |s| s == 0.0);
-        line(name, "S = 0°", &z);
-        line("", "S = 1…14°", &score(&cal, &sim.truth, |s| s != 0.0));
+        line(name, "S = 0°", &z)?;
+        line("", "S = 1…14°", &score(&cal, &sim.truth, |s| s != 0.0))?;
         at_zero.push(z.alpha_rms);
     }
     // The same lab with every start face measured at every shift: least squares uses it all.
@@ -167,24 +180,24 @@ pub fn run(args: Args) -> Result<()> {
         &format!("least squares, full matrices ({})", full_set.len()),
         "all 360",
         &score(&cal, &full.truth, |_| true),
-    );
-    println!();
-    println!(
+    )?;
+    say!()?;
+    say!(
         "  At S = 0° (full matrix) least squares is {:.1}× closer than the paper's algorithm \
          (theory: √(N−1) = {:.1}×); with one row per shift both are limited by that row's noise.",
         at_zero[1] / at_zero[0],
         ((cfg.faces - 1) as f64).sqrt()
-    );
-    println!(
+    )?;
+    say!(
         "  Invisible to a {}-face polygon: harmonics {}, {}, … (the demo encoder has a 0.008″ \
          order-24 term).",
         cfg.faces,
         cfg.faces,
         2 * cfg.faces
-    );
-    println!();
+    )?;
+    say!()?;
     let (shift_cert, selfcal_cert, comparison) = self_calibration(&encoder, &cfg, args.seed)?;
-    println!();
+    say!()?;
     let joint_cert = joint_calibration(args.seed)?;
     write_report(
         &args,
@@ -201,8 +214,7 @@ fn write_report(
     comparison: &gonio_calib::compare::Comparison,
     batch: &BatchReport,
 ) -> Result<()> {
-    let meta =
-        crate::formats::meta::parse(std::path::Path::new("examples/certificate-meta.toml"), META)?;
+    let meta = gonio_cli::formats::meta::parse("examples/certificate-meta.toml", META)?;
     let with_meta = |c: &Certificate| {
         let mut m = meta.clone();
         m.remarks = Some(format!(
@@ -211,52 +223,73 @@ fn write_report(
         ));
         c.clone().with_meta(m)
     };
-    crate::io::ensure_dir(&args.out)?;
-    let files = [
-        (
-            "shift-angle.json",
-            serde_json::to_value(with_meta(certs[0]))?,
-        ),
-        ("selfcal.json", serde_json::to_value(with_meta(certs[1]))?),
-        ("joint.json", serde_json::to_value(with_meta(certs[2]))?),
-        ("compare.json", serde_json::to_value(comparison)?),
-        ("batch.json", serde_json::to_value(batch)?),
-    ];
-    let mut paths = Vec::new();
-    for (name, v) in &files {
+    let mut out = Outputs::new();
+    // The demo's directory is its own: every run replaces the files it writes.
+    out.dir("--out", &args.out, true)?;
+    let certs: Vec<Certificate> = certs.iter().map(|c| with_meta(c)).collect();
+    let names = ["shift-angle.json", "selfcal.json", "joint.json"];
+    let mut inputs = Vec::new();
+    for (name, c) in names.iter().zip(&certs) {
         let p = args.out.join(name);
-        crate::io::write_json(&p, v)?;
-        paths.push(p);
+        let id = out.file("--out", &p)?;
+        out.json(id, c)?;
+        inputs.push((
+            p.display().to_string(),
+            ReportInput::Certificate(Box::new(c.clone())),
+        ));
     }
-    let report = super::report::build(
-        &paths,
+    let p = args.out.join("compare.json");
+    let id = out.file("--out", &p)?;
+    out.json(id, comparison)?;
+    inputs.push((
+        p.display().to_string(),
+        ReportInput::Comparison(Box::new(comparison.clone())),
+    ));
+    let p = args.out.join("batch.json");
+    let id = out.file("--out", &p)?;
+    out.json(id, batch)?;
+    // The report reads the batch as `gonio report batch.json` would: through its JSON.
+    let view = serde_json::from_value(serde_json::to_value(batch)?)?;
+    inputs.push((p.display().to_string(), ReportInput::Batch(Box::new(view))));
+    let report = report::build(
+        inputs,
         None,
         Some("gonio demo: simulated calibration and mounting"),
     )?;
-    let out = args.out.join("report.html");
-    super::report::write(&report, &out, None)?;
-    println!();
-    println!(
+    let html = args.out.join("report.html");
+    let id = out.file("--out", &html)?;
+    out.write(id, report.render().as_bytes())?;
+    out.commit()?;
+    say!()?;
+    say!(
         "Report: {} ({} plots; certificates, comparison and batch as JSON beside it)",
-        out.display(),
+        html.display(),
         report.figures().len()
-    );
+    )?;
     Ok(())
 }
 
 /// Part 1: 25 gratings mounted on the simulated station; returns the default strategy's batch.
 fn mounting(seed: u64) -> Result<BatchReport> {
-    println!(
+    say!(
         "Mounting: 25 gratings on the simulated station (the plant of Yu et al., 2024, fast fidelity)"
-    );
-    println!(
+    )?;
+    say!(
         "  {:<28} {:>12} {:>12} {:>14} {:>10}",
-        "strategy", "mean pushes", "max pushes", "mean final e", "mean time"
-    );
-    println!(
+        "strategy",
+        "mean pushes",
+        "max pushes",
+        "mean final e",
+        "mean time"
+    )?;
+    say!(
         "  {:<28} {:>12} {:>12} {:>13}µm {:>9}s",
-        "Yu et al., 2024, 25 parts", "2.1", "5", "3.8", "25.1"
-    );
+        "Yu et al., 2024, 25 parts",
+        "2.1",
+        "5",
+        "3.8",
+        "25.1"
+    )?;
     let mut default_batch = None;
     for strategy in [Strategy::Paper, Strategy::Learned, Strategy::Live] {
         let cfg = BatchConfig {
@@ -272,7 +305,7 @@ fn mounting(seed: u64) -> Result<BatchReport> {
             Strategy::Live => "live-baseline feedback",
             Strategy::LeastSquares => "least squares",
         };
-        println!(
+        say!(
             "  {:<28} {:>12.2} {:>12} {:>13.2}µm {:>9.1}s{}",
             name,
             s.mean_pushes,
@@ -284,14 +317,12 @@ fn mounting(seed: u64) -> Result<BatchReport> {
             } else {
                 String::new()
             }
-        );
+        )?;
         if strategy == Strategy::Learned {
             default_batch = Some(report);
         }
     }
-    println!(
-        "  (`gonio mount --sim --strategy …` for per-part records; 25 parts take milliseconds)"
-    );
+    say!("  (`gonio mount --sim --strategy …` for per-part records; 25 parts take milliseconds)")?;
     default_batch.ok_or_else(|| anyhow::anyhow!("no batch was run"))
 }
 
@@ -302,7 +333,7 @@ fn self_calibration(
     shift_cfg: &ShiftAngleConfig,
     seed: u64,
 ) -> Result<(Certificate, Certificate, gonio_calib::compare::Comparison)> {
-    println!("Self-calibration: SelfA (12 heads; sets of 3, 4 and 7) vs the shift-angle method");
+    say!("Self-calibration: SelfA (12 heads; sets of 3, 4 and 7) vs the shift-angle method")?;
     // The paper averages six measurement results of the shift-angle method.
     let six = ShiftAngleConfig {
         repeats: 6,
@@ -329,32 +360,36 @@ fn self_calibration(
     let selfcal_cert = Certificate::from_selfcal(&result, &selfcal_instrument)?;
     let b = Curve::from(&selfcal_cert);
     let c = compare(&a, &b)?;
-    println!(
+    say!(
         "  shift-angle: 24 faces, S = 0°…14°, six repeats ({} readings); SelfA: {} positions, \
          heads σ {}″",
         set.len(),
         sc_cfg.positions,
         sc_cfg.noise_sigma_arcsec
-    );
-    println!(
+    )?;
+    say!(
         "  {:>8} {:>14} {:>14} {:>14} {:>8}",
-        "angle", "shift-angle α", "SelfA a", "difference", "En"
-    );
+        "angle",
+        "shift-angle α",
+        "SelfA a",
+        "difference",
+        "En"
+    )?;
     for p in c
         .points
         .iter()
         .filter(|p| (p.angle_deg.round() as i64) % 30 == 0)
     {
-        println!(
+        say!(
             "  {:>7.0}° {:>13.4}″ {:>13.4}″ {:>13.4}″ {:>8}",
             p.angle_deg,
             p.a_arcsec,
             p.b_arcsec,
             p.difference_arcsec,
             p.en.map_or("–".into(), |e| format!("{e:.2}"))
-        );
+        )?;
     }
-    println!(
+    say!(
         "  {} common angles: largest |difference| {:.4}″ at {}° (Hsieh et al., 2022: within ±0.1″), RMS {:.4}″; \
          largest En {:.2} at {}° (Hsieh et al., 2022: 0.69); {}",
         c.points.len(),
@@ -375,13 +410,13 @@ fn self_calibration(
                 c.points.len()
             )
         }
-    );
-    println!(
+    )?;
+    say!(
         "  Blind spots: the polygon cannot see harmonics {:?}…, SelfA cannot see {:?}…; the \
          comparison is blind to both.",
         &c.undetectable_harmonics.a[..c.undetectable_harmonics.a.len().min(3)],
         &c.undetectable_harmonics.b[..c.undetectable_harmonics.b.len().min(2)]
-    );
+    )?;
     Ok((shift_cert, selfcal_cert, c))
 }
 
@@ -395,7 +430,7 @@ fn joint_calibration(seed: u64) -> Result<Certificate> {
         JointSimConfig, simulate as simulate_both, true_coefficients, truth_without,
     };
 
-    println!("Joint calibration: the polygon and SelfA's heads in one least squares");
+    say!("Joint calibration: the polygon and SelfA's heads in one least squares")?;
     let mut harmonics = EncoderModel::default_harmonics();
     harmonics.retain(|h| h.order != 24);
     harmonics.push(HarmonicArcsec {
@@ -411,14 +446,14 @@ fn joint_calibration(seed: u64) -> Result<Certificate> {
     let polygon = calibrate(&set, &Options::default())?;
     let selfa = selfcal::calibrate(&heads, &sim.heads.turns, &SelfcalOptions::default())?;
     let cal = joint::calibrate(&set, &heads, &sim.heads.turns, &JointOptions::default())?;
-    println!(
+    say!(
         "  encoder: the demo encoder with a 0.05″ order-24 term; polygon: 24 faces, full matrices at \
          S = 0°…14° ({} readings, σ {}″); SelfA: {} positions (σ {}″)",
         set.len(),
         cfg.polygon.noise_sigma_arcsec,
         cfg.heads.positions,
         cfg.heads.noise_sigma_arcsec
-    );
+    )?;
     // The polygon alone: the order-24 term of its merged α (each shift's closure removes it).
     let merged = polygon.merged();
     let theta: Vec<f64> = merged.iter().map(|m| m.angle_deg.to_radians()).collect();
@@ -429,10 +464,14 @@ fn joint_calibration(seed: u64) -> Result<Certificate> {
             .harmonic(k)
             .map_or(0.0, |h| h.amplitude))
     };
-    println!(
+    say!(
         "  {:>6} {:>10} {:>20} {:>20} {:>24}",
-        "order", "true", "polygon alone", "SelfA alone", "joint"
-    );
+        "order",
+        "true",
+        "polygon alone",
+        "SelfA alone",
+        "joint"
+    )?;
     for k in [24u32, 84, 168] {
         let (c, s) = true_coefficients(&sim.heads.truth, k);
         let p = if polygon.undetectable_harmonics.contains(&k) {
@@ -456,7 +495,7 @@ fn joint_calibration(seed: u64) -> Result<Certificate> {
         } else {
             "– (blind to both)".to_string()
         };
-        println!("  {k:>6} {:>9.5}″ {p:>20} {a:>20} {jt:>24}", c.hypot(s));
+        say!("  {k:>6} {:>9.5}″ {p:>20} {a:>20} {jt:>24}", c.hypot(s))?;
     }
     // α at the polygon's 360 angles against the encoder's true error.
     let angles: Vec<f64> = cal.alpha.iter().map(|a| a.angle_deg).collect();
@@ -478,7 +517,7 @@ fn joint_calibration(seed: u64) -> Result<Certificate> {
         m.value_arcsec - truth[q]
     }));
     let u_joint = rms(&mut cal.alpha.iter().map(|a| a.u_arcsec));
-    println!(
+    say!(
         "  α at the {} polygon angles against the true error: polygon alone RMS {:.4}″ (its closure \
          drops order 24), joint RMS {:.4}″ with u {:.4}″ (SelfA alone u {:.4}″)",
         angles.len(),
@@ -486,12 +525,13 @@ fn joint_calibration(seed: u64) -> Result<Certificate> {
         joint_rms,
         u_joint,
         selfa.errors[0].u_arcsec
-    );
-    println!(
+    )?;
+    say!(
         "  Invisible to the joint estimate up to order {}: {:?} (multiples of lcm(24, 84) = 168, and \
          heads-blind orders above the polygon's 1° grid).",
-        cal.blind.max_order, cal.blind.joint
-    );
+        cal.blind.max_order,
+        cal.blind.joint
+    )?;
     // The certificate carries the encoder's resolution (the instrument terms of any calibration
     // of this encoder) on top of the random part.
     let instrument = Instrument::new(

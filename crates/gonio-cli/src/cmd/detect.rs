@@ -1,16 +1,17 @@
 //! `gonio detect`: run the streaming ring detector on image files or raw frames from standard
 //! input, one JSON line per frame.
 
-use crate::formats::frames::{FileFrames, list_frames, load_optics};
-use crate::io;
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
+use gonio_cli::formats::angles::{self, AngleLog};
+use gonio_cli::formats::csv::CsvTable;
+use gonio_cli::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
+use gonio_cli::output::{OutId, Outputs};
 use gonio_vision::reference::{Image, label};
 use gonio_vision::{
     DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
     SourceDetector, SourceError, detect_in_order,
 };
 use serde::Serialize;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gonio detect`.
@@ -95,7 +96,7 @@ struct Line<'a> {
 
 enum Angles {
     None,
-    Table(String, Vec<Option<(f64, Option<f64>)>>),
+    Table(AngleLog),
     Speed { start: f64, speed: f64, fps: f64 },
 }
 
@@ -107,11 +108,12 @@ impl Angles {
                 let t = k as f64 / fps;
                 Ok((Some(start + speed * t), Some(t)))
             }
-            Angles::Table(name, v) => match v.get(k).copied().flatten() {
+            Angles::Table(log) => match log.at(k) {
                 Some((th, t)) => Ok((Some(th), t)),
                 None => bail!(
-                    "{name}: no angle for frame {k}: the angle file covers {} frames",
-                    v.iter().filter(|x| x.is_some()).count()
+                    "{}: no angle for frame {k}: the angle file covers {} frames",
+                    log.name,
+                    log.len()
                 ),
             },
         }
@@ -120,33 +122,7 @@ impl Angles {
 
 fn load_angles(a: &Args) -> Result<Angles> {
     if let Some(p) = &a.angles {
-        let t = io::CsvTable::read(p)?;
-        let expected = "frame,theta_deg[,time_s]";
-        let fc = t.require("frame", expected)?;
-        let tc = t.require("theta_deg", expected)?;
-        let sc = t.column("time_s");
-        let mut v: Vec<Option<(f64, Option<f64>)>> = Vec::new();
-        for (line, f) in &t.rows {
-            let k = t.int_at(*line, f, fc)?;
-            if !(0..=100_000_000).contains(&k) {
-                return Err(t.error_at(
-                    *line,
-                    fc,
-                    format!("expected a frame index ≥ 0, found {k}"),
-                ));
-            }
-            let th = t.f64_at(*line, f, tc)?;
-            let ts = sc.map(|c| t.f64_at(*line, f, c)).transpose()?;
-            let k = k as usize;
-            if v.len() <= k {
-                v.resize(k + 1, None);
-            }
-            if v[k].is_some() {
-                return Err(t.error_at(*line, fc, format!("frame {k} appears twice")));
-            }
-            v[k] = Some((th, ts));
-        }
-        return Ok(Angles::Table(p.display().to_string(), v));
+        return Ok(Angles::Table(angles::from_table(&CsvTable::read(p)?)?));
     }
     if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
         if !speed.is_finite() || !fps.is_finite() || fps <= 0.0 {
@@ -161,95 +137,38 @@ fn load_angles(a: &Args) -> Result<Angles> {
     Ok(Angles::None)
 }
 
-fn parse_size(s: &str) -> Result<(usize, usize)> {
-    let err = || anyhow!("--raw {s:?}: expected WIDTHxHEIGHT, e.g. 1440x540");
-    let (a, b) = s.split_once(['x', 'X', '×']).ok_or_else(err)?;
-    let w: usize = a.trim().parse().map_err(|_| err())?;
-    let h: usize = b.trim().parse().map_err(|_| err())?;
-    if w == 0 || h == 0 {
-        return Err(err());
-    }
-    Ok((w, h))
-}
-
+/// The JSON lines output: a file (whole, renamed into place at the end) or standard output.
 struct Sink {
-    out: Box<dyn Write>,
-    to_file: Option<(PathBuf, tempfile::NamedTempFile)>,
+    out: Outputs,
+    id: OutId,
 }
 
 impl Sink {
-    fn new(path: Option<&Path>) -> Result<Sink> {
-        match path {
-            None => Ok(Sink {
-                out: Box::new(BufWriter::new(std::io::stdout())),
-                to_file: None,
-            }),
-            Some(p) if p.as_os_str() == "-" => Ok(Sink {
-                out: Box::new(BufWriter::new(std::io::stdout())),
-                to_file: None,
-            }),
-            Some(p) => {
-                let dir = match p.parent() {
-                    Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-                    _ => PathBuf::from("."),
-                };
-                let tmp = tempfile::Builder::new()
-                    .prefix(".gonio-")
-                    .suffix(".tmp")
-                    .tempfile_in(&dir)
-                    .with_context(|| {
-                        format!("cannot create a temporary file in {}", dir.display())
-                    })?;
-                let f = tmp
-                    .reopen()
-                    .with_context(|| format!("cannot write {}", p.display()))?;
-                Ok(Sink {
-                    out: Box::new(BufWriter::new(f)),
-                    to_file: Some((p.to_path_buf(), tmp)),
-                })
-            }
-        }
-    }
     fn line(&mut self, l: &Line) -> Result<()> {
-        serde_json::to_writer(&mut self.out, l)?;
-        self.out
-            .write_all(b"\n")
-            .context("cannot write the JSON lines")?;
-        Ok(())
-    }
-    /// Finishes the output (the file appears atomically, whole).
-    fn close(mut self) -> Result<()> {
-        self.out.flush().context("cannot write the JSON lines")?;
-        drop(self.out);
-        if let Some((p, tmp)) = self.to_file {
-            tmp.persist(&p)
-                .map_err(|e| anyhow!("cannot write {}: {}", p.display(), e.error))?;
-        }
-        Ok(())
+        gonio_cli::output::json::check_finite(l).map_err(|e| anyhow!("frame {}: {e}", l.frame))?;
+        let mut v = serde_json::to_vec(l)?;
+        v.push(b'\n');
+        self.out.write(self.id, &v)
     }
 }
 
 /// Runs `gonio detect`.
 pub fn run(a: Args) -> Result<()> {
+    let mut out = Outputs::new();
+    let id = out.file(
+        "--json-lines",
+        a.json_lines.as_deref().unwrap_or(Path::new("-")),
+    )?;
+    if let Some(dir) = &a.dump_stages {
+        // Stage images of one frame: the directory's files are replaced on every dump.
+        out.dir("--dump-stages", dir, true)?;
+    }
+    let mut sink = Sink { out, id };
     let optics = load_optics(a.optics.as_deref())?;
     let angles = load_angles(&a)?;
-    let mut sink = Sink::new(a.json_lines.as_deref())?;
     let started = std::time::Instant::now();
     let done = if let Some(size) = &a.raw {
-        let (w, h) = parse_size(size)?;
-        let (ww, wh) = (
-            optics.window_width_px as usize,
-            optics.window_height_px as usize,
-        );
-        let (sw, sh) = (
-            optics.sensor_width_px as usize,
-            optics.sensor_height_px as usize,
-        );
-        if (w, h) != (ww, wh) && (w, h) != (sw, sh) {
-            bail!(
-                "--raw {w}x{h}: expected the window {ww}x{wh} or the sensor {sw}x{sh} (see --optics)"
-            );
-        }
+        let (w, h) = parse_raw_size(size, &optics)?;
         // A pipe's default 64 kB buffer costs a dozen reader/writer wake-ups per frame; ask for
         // room for a whole frame (best effort: not a pipe, or over the system's limit, is fine).
         #[cfg(target_os = "linux")]
@@ -266,32 +185,37 @@ pub fn run(a: Args) -> Result<()> {
         )?
     } else {
         let files = list_frames(&a.frames)?;
-        if let Angles::Table(name, v) = &angles {
-            let covered = v.iter().filter(|x| x.is_some()).count();
-            if let Some(k) = (0..files.len()).find(|&k| v.get(k).copied().flatten().is_none()) {
-                bail!(
-                    "{name}: no angle for frame {k}: {} frames given, the angle file covers {covered}",
-                    files.len()
-                );
-            }
+        if let Angles::Table(log) = &angles
+            && let Some(k) = log.first_missing(files.len())
+        {
+            bail!(
+                "{}: no angle for frame {k}: {} frames given, the angle file covers {}",
+                log.name,
+                files.len(),
+                log.len()
+            );
+        }
+        for f in &files {
+            gonio_cli::input::record(f);
         }
         detect_all(
             &a,
             &angles,
-            FileFrames::new(files),
+            FileFrames::new(files, &optics),
             &optics,
             &mut sink,
             |s: &FileFrames, k| s.path(k).map(|p| p.display().to_string()),
             "frame",
         )?
     };
-    sink.close()?;
+    // The whole frames detected are kept, even when the source failed after them.
+    sink.out.commit()?;
     if let Some(e) = done.stream_error {
         return Err(e);
     }
     let (n, valid) = (done.frames, done.valid);
     let dt = started.elapsed().as_secs_f64();
-    eprintln!(
+    gonio_cli::note!(
         "{n} frames, {valid} valid, {:.0} frames/s",
         if dt > 0.0 { n as f64 / dt } else { 0.0 }
     );
@@ -319,7 +243,7 @@ where
         valid: 0,
         stream_error: None,
     };
-    let mut line = |src: &S, d: &Detection, done: &mut Detected| -> Result<()> {
+    let line = |src: &S, d: &Detection, done: &mut Detected, sink: &mut Sink| -> Result<()> {
         let k = d.stamp.index;
         let (theta, time) = angles.at(k as usize)?;
         done.valid += d.result.valid as usize;
@@ -353,7 +277,7 @@ where
             usize::from,
         );
         detect_in_order(source, optics, threads, |src, item| match item {
-            Ok(d) => line(src, &d, &mut done),
+            Ok(d) => line(src, &d, &mut done, sink),
             Err(e) => failed(src, e, &mut done),
         })
         .map_err(|e| match e {
@@ -376,10 +300,10 @@ where
             }
         };
         if want_dump {
-            write_dump(dir, det.detector(), &d.result)?;
+            write_dump(&mut sink.out, dir, det.detector(), &d.result)?;
             dumped = true;
         }
-        line(det.source(), &d, &mut done)?;
+        line(det.source(), &d, &mut done, sink)?;
     }
     if done.stream_error.is_none() && !dumped {
         bail!("--frame {}: only {} frames were read", a.frame, done.frames);
@@ -395,50 +319,52 @@ struct Detected {
     stream_error: Option<anyhow::Error>,
 }
 
-fn save_png(dir: &Path, name: &str, w: usize, h: usize, data: Vec<u8>) -> Result<()> {
-    let img = image::GrayImage::from_raw(w as u32, h as u32, data)
+/// Writes one stage image (8- or 16-bit grey) as a PNG into the dump directory.
+fn save_png<P: image::Primitive>(
+    out: &mut Outputs,
+    dir: &Path,
+    name: &str,
+    w: usize,
+    h: usize,
+    data: Vec<P>,
+) -> Result<()>
+where
+    [P]: image::EncodableLayout,
+    image::Luma<P>: image::Pixel<Subpixel = P> + image::PixelWithColorType,
+{
+    let img = image::ImageBuffer::<image::Luma<P>, Vec<P>>::from_raw(w as u32, h as u32, data)
         .ok_or_else(|| anyhow!("{name}: image size"))?;
     let mut bytes = Vec::new();
     img.write_to(
         &mut std::io::Cursor::new(&mut bytes),
         image::ImageFormat::Png,
     )?;
-    io::write_atomic(&dir.join(name), &bytes)
-}
-
-fn save_png16(dir: &Path, name: &str, w: usize, h: usize, data: Vec<u16>) -> Result<()> {
-    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w as u32, h as u32, data)
-        .ok_or_else(|| anyhow!("{name}: image size"))?;
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )?;
-    io::write_atomic(&dir.join(name), &bytes)
+    out.put("--dump-stages", &dir.join(name), &bytes)?;
+    Ok(())
 }
 
 /// Writes the stage images of the detector's last frame.
-fn write_dump(dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
+fn write_dump(out: &mut Outputs, dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
     let d = det
         .dump()
         .ok_or_else(|| anyhow!("no stage images recorded"))?;
-    io::ensure_dir(dir)?;
     let (w, h) = (d.width, d.height);
     let off = |v: &[i16]| {
         v.iter()
             .map(|&x| (x as i32 + 32768) as u16)
             .collect::<Vec<u16>>()
     };
-    save_png(dir, "00_input.png", w, h, d.input.clone())?;
-    save_png(dir, "01_tophat.png", w, h, d.tophat.clone())?;
-    save_png(dir, "02_opened.png", w, h, d.opened.clone())?;
-    save_png(dir, "03_blurred.png", w, h, d.blurred.clone())?;
-    save_png16(dir, "04_gx_plus32768.png", w, h, off(&d.gx))?;
-    save_png16(dir, "05_gy_plus32768.png", w, h, off(&d.gy))?;
-    save_png16(dir, "06_magnitude.png", w, h, d.mag.clone())?;
-    save_png(dir, "07_edges_class.png", w, h, d.edges.class.clone())?;
-    save_png(dir, "08_edges_dir256.png", w, h, d.edges.dir.clone())?;
+    save_png(out, dir, "00_input.png", w, h, d.input.clone())?;
+    save_png(out, dir, "01_tophat.png", w, h, d.tophat.clone())?;
+    save_png(out, dir, "02_opened.png", w, h, d.opened.clone())?;
+    save_png(out, dir, "03_blurred.png", w, h, d.blurred.clone())?;
+    save_png(out, dir, "04_gx_plus32768.png", w, h, off(&d.gx))?;
+    save_png(out, dir, "05_gy_plus32768.png", w, h, off(&d.gy))?;
+    save_png(out, dir, "06_magnitude.png", w, h, d.mag.clone())?;
+    save_png(out, dir, "07_edges_class.png", w, h, d.edges.class.clone())?;
+    save_png(out, dir, "08_edges_dir256.png", w, h, d.edges.dir.clone())?;
     save_png(
+        out,
         dir,
         "09_edges_sub32_plus128.png",
         w,
@@ -449,15 +375,23 @@ fn write_dump(dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
             .map(|&s| (s as i16 + 128) as u8)
             .collect(),
     )?;
-    save_png(dir, "10_filled_class.png", w, h, d.filled.class.clone())?;
-    save_png(dir, "11_filled_dir256.png", w, h, d.filled.dir.clone())?;
+    save_png(
+        out,
+        dir,
+        "10_filled_class.png",
+        w,
+        h,
+        d.filled.class.clone(),
+    )?;
+    save_png(out, dir, "11_filled_dir256.png", w, h, d.filled.dir.clone())?;
     let edges = (
         Image::from_vec(w, h, d.filled.class.clone()),
         Image::from_vec(w, h, d.filled.dir.clone()),
         Image::from_vec(w, h, d.filled.sub.clone()),
     );
     let (_, labels) = label(&edges, &Image::from_vec(w, h, d.filled.mag.clone()));
-    save_png16(
+    save_png(
+        out,
         dir,
         "12_labels.png",
         w,
@@ -491,8 +425,9 @@ fn write_dump(dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
             sum_dev: c.sum_dev,
         })
         .collect();
-    io::write_json(
-        &dir.join("13_components_and_result.json"),
+    let id = out.file("--dump-stages", &dir.join("13_components_and_result.json"))?;
+    out.json(
+        id,
         &serde_json::json!({
             "params": det.params(),
             "components": comps,

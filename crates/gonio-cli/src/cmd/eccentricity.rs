@@ -1,11 +1,13 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
-use crate::io::{CsvTable, write_json};
-use crate::station::load_recipe;
 use anyhow::{Result, anyhow};
-use gonio_station::fit::{FitMethod, FitOptions, Sample, fit_judged, validate};
+use gonio_cli::formats::csv::CsvTable;
+use gonio_cli::formats::{recipe, samples};
+use gonio_cli::output::Outputs;
+use gonio_cli::say;
+use gonio_station::Recipe;
+use gonio_station::fit::{FitMethod, FitOptions, fit_judged};
 use gonio_station::quality::{QualityMetrics, QualitySettings};
-use gonio_station::{Recipe, StationError};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -81,8 +83,10 @@ struct Output {
 
 /// Runs `gonio eccentricity`.
 pub fn run(a: Args) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
-        Some(p) => load_recipe(p)?,
+        Some(p) => recipe::load(p)?,
         None => Recipe::default(),
     };
     let um = a.um_per_px.unwrap_or(recipe.um_per_px);
@@ -95,35 +99,10 @@ pub fn run(a: Args) -> Result<()> {
             "--threshold-um {threshold}: expected a finite number > 0"
         ));
     }
-    let t = CsvTable::read(&a.samples)?;
-    let expected = "theta_deg,c_px";
-    let ct = t.require("theta_deg", expected)?;
-    let cc = t.require("c_px", expected)?;
-    let mut samples = Vec::with_capacity(t.rows.len());
-    for (line, f) in &t.rows {
-        samples.push(Sample {
-            theta_deg: t.f64_at(*line, f, ct)?,
-            c_px: t.f64_at(*line, f, cc)?,
-        });
-    }
-    let line_of = |i: usize| t.rows.get(i).map_or(t.header_line, |r| r.0);
-    if let Err(e) = validate(&samples) {
-        return Err(match e {
-            StationError::NotIncreasing { index, .. } => t.error_at(
-                line_of(index),
-                ct,
-                format!("{e}: angles must increase within a turn"),
-            ),
-            StationError::NotFinite { index, what, .. } => {
-                t.error_at(line_of(index), if what == "c_px" { cc } else { ct }, e)
-            }
-            StationError::TooFewSamples { .. } => {
-                let last = t.rows.last().map_or(t.header_line, |r| r.0);
-                anyhow!("{}:{}: {e}", t.name, last)
-            }
-            other => anyhow!("{}: {other}", t.name),
-        });
-    }
+    let read = samples::from_table(CsvTable::read(&a.samples)?)?;
+    let samples = &read.samples;
+    let t = &read.table;
+    let line_of = |i: usize| read.line_of(i);
     let method = match a.method {
         Method::LeastSquares => FitMethod::LeastSquares,
         Method::Paper => FitMethod::Paper,
@@ -142,7 +121,7 @@ pub fn run(a: Args) -> Result<()> {
         method,
         ..recipe.fit.clone()
     };
-    let f = fit_judged(&samples, frames_taken, &opts, &limits)
+    let f = fit_judged(samples, frames_taken, &opts, &limits)
         .map_err(|e| anyhow!("{}: {e}", t.name))?;
     let finite = |v: f64| v.is_finite().then_some(v);
     let out = Output {
@@ -164,32 +143,47 @@ pub fn run(a: Args) -> Result<()> {
         quality_reasons: f.quality.reasons(),
         quality: f.quality.metrics.clone(),
     };
-    let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    // A result that overflowed (e.g. --um-per-px 1e308) is an error naming it, not "inf".
+    gonio_cli::output::json::check_finite(&out).map_err(|e| {
+        anyhow!(
+            "{}: {e}; with um_per_px = {um} and e = {} px",
+            t.name,
+            f.e_px
+        )
+    })?;
+    let to_stdout = outputs.to_stdout(json);
     if !to_stdout {
         let u = out
             .u_e_um
             .map_or(String::new(), |u| format!(" ± {u:.3} µm (1σ)"));
-        println!(
+        say!(
             "e = {:.3} µm{u} ({:.3} px) at θ_max = {:.3}°, c₀ = {:.2} px",
-            out.e_um, out.e_px, out.theta_max_deg, out.c0_px
-        );
-        println!(
+            out.e_um,
+            out.e_px,
+            out.theta_max_deg,
+            out.c0_px
+        )?;
+        say!(
             "method {}, {} frames used over {:.1}°, {} outliers, residual RMS {:.3} px",
-            out.method, out.frames_used, out.arc_deg, out.outliers, out.residual_rms_px
-        );
+            out.method,
+            out.frames_used,
+            out.arc_deg,
+            out.outliers,
+            out.residual_rms_px
+        )?;
         if out.quality_ok {
-            println!("quality: trusted (every check of the quality gate passed)");
+            say!("quality: trusted (every check of the quality gate passed)")?;
         } else {
-            println!(
+            say!(
                 "quality: NOT TRUSTED, do not push on this turn: {}",
                 out.quality_reasons.join("; ")
-            );
+            )?;
         }
     }
-    if let Some(p) = &a.json {
-        write_json(p, &out)?;
+    if let Some(j) = json {
+        outputs.json(j, &out)?;
     }
-    Ok(())
+    outputs.commit()
 }
 
 #[cfg(test)]
@@ -212,7 +206,7 @@ mod tests {
     }
 
     fn err(text: &str) -> String {
-        crate::io::one_line(&run_on(text, Method::LeastSquares).unwrap_err())
+        gonio_cli::input::one_line(&run_on(text, Method::LeastSquares).unwrap_err())
     }
 
     #[test]

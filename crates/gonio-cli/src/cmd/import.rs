@@ -1,9 +1,10 @@
 //! `gonio import …`: instrument logs into gonio's readings files.
 
-use crate::formats::elcomat::{self, Mode};
-use crate::formats::plan::{ModeRule, Plan};
-use crate::io;
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::formats::elcomat::{self, Mode};
+use gonio_cli::formats::plan::{ModeRule, Plan};
+use gonio_cli::input;
+use gonio_cli::output::Outputs;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -52,12 +53,14 @@ pub fn run(i: Import) -> Result<()> {
 }
 
 fn elcomat(args: ElcomatArgs) -> Result<()> {
-    let plan_text = io::read_text(&args.plan)?;
+    let mut out = Outputs::new();
+    let csv_out = out.file("--out", &args.out)?;
+    let plan_text = input::read_text(&args.plan)?;
     let plan = Plan::parse(&args.plan, &plan_text)?;
     let name = args.log.display().to_string();
     // Bytes that are not UTF-8 (line noise on a serial link) become U+FFFD, so that the
     // parser names the line they are on.
-    let bytes = io::read_bytes(&args.log, LOG_LIMIT_BYTES)?;
+    let bytes = input::read_bytes(&args.log, LOG_LIMIT_BYTES)?;
     let log = elcomat::parse(&name, &String::from_utf8_lossy(&bytes))?;
     let planned = plan.readings();
     // One kind of reading, the one the plan allows.
@@ -152,9 +155,10 @@ fn elcomat(args: ElcomatArgs) -> Result<()> {
             let _ = writeln!(csv, "{},{},{},{v:.d$}", p.shift_deg, p.start_face, p.step);
         }
     }
-    io::write_atomic(&args.out, csv.as_bytes())?;
+    out.write(csv_out, csv.as_bytes())?;
+    out.commit()?;
     if args.out.as_os_str() != "-" {
-        eprintln!(
+        gonio_cli::note!(
             "wrote {} readings ({} faces, {} shifts, {} log) to {}",
             log.len(),
             plan.faces,

@@ -1,18 +1,18 @@
 //! `gonio joint`: calibrate an encoder from polygon readings and read-head readings together.
 
-use crate::cmd::selfcal::{load_heads, locate, read_readings as read_heads};
-use crate::cmd::shift_angle::read_readings as read_polygon;
 use crate::db;
-use crate::formats;
-use crate::io::{self, CsvTable};
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use gonio_calib::certificate::{Certificate, JointSection};
 use gonio_calib::joint::{
     HeadAngles, Interpolation, JointError, JointHarmonic, JointOptions, SigmaUsed, calibrate,
 };
 use gonio_calib::selfcal::NoiseModel;
+use gonio_cli::formats::csv::CsvTable;
+use gonio_cli::formats::heads::{self, locate, read_turns};
+use gonio_cli::formats::{self, readings};
+use gonio_cli::output::Outputs;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `gonio joint`.
 #[derive(Debug, clap::Args)]
@@ -143,22 +143,23 @@ pub fn run(args: Args) -> Result<()> {
         blind_max_order: args.blind_max_order,
         coverage: 0.95,
     };
-    if args.faces < 3 {
-        bail!(
-            "--faces {}: expected a polygon with at least 3 faces",
-            args.faces
-        );
+    readings::check_faces(args.faces)?;
+    if args.max_order > 100_000 || args.blind_max_order.is_some_and(|k| k > 100_000) {
+        anyhow::bail!("--max-order and --blind-max-order: expected at most 100000");
     }
+    let mut out = Outputs::new();
+    let json = out.optional("--json", args.json.as_deref())?;
+    let comp = out.optional("--compensation", args.compensation.as_deref())?;
     let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
     let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
     let opts = JointOptions {
         coverage: instrument.terms.coverage,
         ..opts
     };
-    let set = read_polygon(&args.readings, Some(args.faces))?;
-    let (heads, _) = load_heads(&args.heads)?;
+    let set = readings::read(&args.readings, Some(args.faces))?;
+    let (heads, _) = heads::load(&args.heads)?;
     let table = CsvTable::read(&args.heads_readings)?;
-    let rt = read_heads(&table, &heads, args.raw)?;
+    let rt = read_turns(&table, &heads, args.raw)?;
     let cal = calibrate(&set, &heads, &rt.turns, &opts).map_err(|e| match e {
         JointError::Heads(h) => locate(h, &table, &rt.lines),
         JointError::Polygon(p) => anyhow!("{}: {p}", args.readings.display()),
@@ -173,10 +174,14 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
-    let to_stdout = args.json.as_deref() == Some(Path::new("-"));
-    if let Some(p) = &args.json {
-        io::write_json(p, &cert).context("writing the certificate")?;
+    // Overflow (a reading of 1e308) is an error naming the input, before any output.
+    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let to_stdout = out.to_stdout(json);
+    out.certificate(json, comp, &cert)?;
+    if !to_stdout {
+        gonio_cli::term::out(&summary(&cert))?;
     }
+    out.commit()?;
     if let Some(loc) = &args.db {
         db::store_certificate(
             loc,
@@ -188,23 +193,9 @@ pub fn run(args: Args) -> Result<()> {
             ),
         )?;
     }
-    if let Some(p) = &args.compensation {
-        let rows: Vec<Vec<String>> = cert
-            .compensation
-            .iter()
-            .map(|c| {
-                vec![
-                    format!("{}", c.angle_deg),
-                    format!("{:.6}", c.correction_arcsec),
-                ]
-            })
-            .collect();
-        io::write_csv(p, &["angle_deg", "correction_arcsec"], &rows)?;
-    }
     if !to_stdout {
-        io::emit(&summary(&cert));
         for p in [&args.json, &args.compensation].into_iter().flatten() {
-            eprintln!("wrote {}", p.display());
+            gonio_cli::note!("wrote {}", p.display());
         }
     }
     Ok(())

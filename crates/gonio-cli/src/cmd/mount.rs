@@ -1,10 +1,12 @@
 //! `gonio mount`: mount a batch of gratings on the (simulated) automatic mounting station.
 
-use crate::formats::frames::load_scene;
-use crate::io::write_json;
 use crate::recorder::{self, Recorder};
-use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
+use crate::station::{self, FidelityArg, StrategyArg};
 use anyhow::{Result, bail};
+use gonio_cli::formats::frames::load_scene;
+use gonio_cli::formats::recipe;
+use gonio_cli::output::{OutId, Outputs};
+use gonio_cli::say;
 use gonio_sim::frames::{GratingScene, ScenePreset};
 use gonio_sim::station::{BatchConfig, BatchReport, FrameTap, PartDone, SeenFrame};
 use gonio_station::Recipe;
@@ -111,16 +113,21 @@ pub struct Args {
     pub record_parts: Option<String>,
 }
 
+/// Most parts in one batch.
+const MAX_PARTS: usize = 1_000_000;
+
 /// Runs `gonio mount`.
 pub fn run(a: Args) -> Result<()> {
     if !a.sim {
         bail!("no station hardware driver is available: use --sim for the simulated station");
     }
-    if a.parts == 0 {
-        bail!("--parts 0: expected at least 1");
+    if !(1..=MAX_PARTS).contains(&a.parts) {
+        bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
     }
+    let mut outputs = Outputs::new();
+    let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
-        Some(p) => load_recipe(p)?,
+        Some(p) => recipe::load(p)?,
         None => Recipe::default(),
     };
     let scene = match (&a.scene_file, a.scene) {
@@ -145,7 +152,7 @@ pub fn run(a: Args) -> Result<()> {
         .as_deref()
         .map(|s| recorder::parse_parts(s, a.parts))
         .transpose()?;
-    let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    let to_stdout = outputs.to_stdout(json);
     let target = station::Target {
         db: a.db.as_deref(),
         resume: a.resume,
@@ -231,18 +238,28 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
     }
-    print_and_write(&a, &report, to_stdout)
+    print_and_write(&report, to_stdout, outputs, json)
 }
 
-fn print_and_write(a: &Args, report: &BatchReport, to_stdout: bool) -> Result<()> {
+fn print_and_write(
+    report: &BatchReport,
+    to_stdout: bool,
+    mut outputs: Outputs,
+    json: Option<OutId>,
+) -> Result<()> {
     if !to_stdout {
-        println!(
+        say!(
             "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
-            "serial", "initial e/µm", "final e/µm", "pushes", "remeasured", "time/s"
-        );
+            "serial",
+            "initial e/µm",
+            "final e/µm",
+            "pushes",
+            "remeasured",
+            "time/s"
+        )?;
         for p in &report.parts {
             let r = &p.record;
-            println!(
+            say!(
                 "{:<14} {:>12.1} {:>12.2} {:>7} {:>11} {:>8.1}  {}",
                 r.serial,
                 r.initial_e_um,
@@ -251,13 +268,13 @@ fn print_and_write(a: &Args, report: &BatchReport, to_stdout: bool) -> Result<()
                 r.remeasured_turns,
                 r.time_s,
                 r.result.name()
-            );
+            )?;
             if let Some(why) = &r.reject_reason {
-                println!("{:<14} why: {why}", "");
+                say!("{:<14} why: {why}", "")?;
             }
         }
         let s = &report.summary;
-        println!(
+        say!(
             "\n{} parts, strategy {}, recipe {}: mean {:.1} s, {:.2} pushes (max {}), final e {:.2} µm (true {:.2} µm), {} rejected",
             s.parts,
             report.strategy,
@@ -268,25 +285,29 @@ fn print_and_write(a: &Args, report: &BatchReport, to_stdout: bool) -> Result<()
             s.mean_final_e_um,
             s.mean_true_final_e_um,
             s.rejected
-        );
-        println!(
+        )?;
+        say!(
             "quality gate: {} turns re-measured, {} parts measurement_untrusted, {} push_inconsistent, {} device errors",
-            s.remeasured_turns, s.untrusted, s.push_inconsistent, s.device_errors
-        );
-        println!(
+            s.remeasured_turns,
+            s.untrusted,
+            s.push_inconsistent,
+            s.device_errors
+        )?;
+        say!(
             "Yu et al., 2024, 25 real parts: mean 25.1 s, 2.1 pushes (max 5), final e 3.8 µm; manual: 13.7 µm in 30–40 s; Wang et al.: 6.0 µm in 32.4 s"
-        );
-        println!(
+        )?;
+        say!(
             "simulated station: push gain {:.3}, push-direction offset {:+.2}° (learned {:.3}, {:+.2}°)",
             report.station_truth.gain,
             report.station_truth.offset_deg,
             report.learned.gain,
             report.learned.offset_deg
-        );
+        )?;
     }
-    if let Some(p) = &a.json {
-        write_json(p, report)?;
+    if let Some(j) = json {
+        outputs.json(j, report)?;
     }
+    outputs.commit()?;
     if let Some(why) = &report.stopped {
         bail!("the batch {why} (recipe on_device_error = \"stop\"); the records so far are kept");
     }

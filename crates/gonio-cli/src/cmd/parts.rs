@@ -1,7 +1,8 @@
 //! `gonio parts`: query the mounted parts in a results store.
 
-use crate::{db, io};
+use crate::db;
 use anyhow::{Result, anyhow};
+use gonio_cli::output::Outputs;
 use gonio_store::{PartQuery, PartSummary};
 use std::path::PathBuf;
 
@@ -153,12 +154,16 @@ pub fn run(a: Args) -> Result<()> {
     let location = gonio_store::display_location(&a.db);
     let err = |e: gonio_store::StoreError| anyhow!("{location}: {e}");
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("-"));
+    let mut outs = Outputs::new();
+    let id = outs.file("--out", &out)?;
     if a.json {
         let parts = store.parts(&q).map_err(err)?;
-        io::write_json(&out, &parts)
+        outs.json(id, &parts)?;
+        outs.commit()
     } else if a.csv {
         let rows = store.part_summaries(&q).map_err(err)?;
-        io::write_atomic(&out, csv_text(&rows)?.as_bytes())
+        outs.write(id, csv_text(&rows)?.as_bytes())?;
+        outs.commit()
     } else {
         let rows = store.part_summaries(&q).map_err(err)?;
         let stats = store.stats(&q).map_err(err)?;
@@ -177,12 +182,7 @@ pub fn run(a: Args) -> Result<()> {
             stats.mean_final_e_um.unwrap_or(f64::NAN),
         ));
         }
-        match &a.out {
-            Some(p) => io::write_atomic(p, text.as_bytes()),
-            None => {
-                io::emit(&text);
-                Ok(())
-            }
-        }
+        outs.write(id, text.as_bytes())?;
+        outs.commit()
     }
 }

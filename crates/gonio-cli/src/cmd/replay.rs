@@ -1,7 +1,7 @@
 //! `gonio replay`: re-run a recorded part's detection and fit and compare with its record.
 
-use crate::formats::replay::{self, PartFile};
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::formats::replay::{self, PartFile};
 use gonio_station::DetectorCamera;
 use gonio_station::replay::{TurnReplay, replay_turn};
 use serde::Serialize;
@@ -119,7 +119,10 @@ pub fn run(a: Args) -> Result<()> {
         });
     }
     if let Some(p) = &a.json {
-        crate::io::write_json(p, &parts)?;
+        let mut out = gonio_cli::output::Outputs::new();
+        let id = out.file("--json", p)?;
+        out.json(id, &parts)?;
+        out.commit()?;
     }
     if differing > 0 {
         bail!(

@@ -1,10 +1,9 @@
 //! `gonio report`: one self-contained HTML report (inline SVG plots) from certificates,
 //! comparisons and mounting batches.
 
-use crate::formats::{self, report::ReportInput};
-use crate::io;
-use anyhow::{Context, Result, bail};
-use gonio_report::html::Report;
+use anyhow::Result;
+use gonio_cli::formats::{self, report};
+use gonio_cli::output::Outputs;
 use std::path::PathBuf;
 
 /// Arguments of `gonio report`.
@@ -39,68 +38,28 @@ pub struct Args {
     pub title: Option<String>,
 }
 
-/// Builds the report of `files` (metadata from `meta` replacing the certificates' own).
-pub fn build(
-    files: &[PathBuf],
-    meta: Option<&gonio_calib::certificate::CertificateMeta>,
-    title: Option<&str>,
-) -> Result<Report> {
-    let inputs: Vec<(PathBuf, ReportInput)> = files
-        .iter()
-        .map(|f| Ok((f.clone(), formats::report::load(f)?)))
-        .collect::<Result<_>>()?;
-    let default_title = match inputs.first() {
-        Some((_, ReportInput::Certificate(c))) => c
-            .meta
-            .as_ref()
-            .and_then(|m| m.title.clone())
-            .unwrap_or_else(|| "Calibration certificate".into()),
-        Some((_, ReportInput::Comparison(_))) => "Comparison of calibrations".into(),
-        Some((_, ReportInput::Batch(_))) => "Mounting batch".into(),
-        None => bail!("no input files"),
-    };
-    let mut report = Report::new(title.unwrap_or(&default_title));
-    for (path, input) in inputs {
-        let name = path.display().to_string();
-        match input {
-            ReportInput::Certificate(c) => {
-                let c = match meta {
-                    Some(m) => c.with_meta(m.clone()),
-                    None => *c,
-                };
-                report.add_certificate(&c, &name)
-            }
-            ReportInput::Comparison(c) => report.add_comparison(&c, &name),
-            ReportInput::Batch(b) => report.add_batch(&b, &name),
-        }
-        .with_context(|| format!("{name}: drawing the report"))?;
-    }
-    Ok(report)
-}
-
-/// Writes the report and, with `plots`, every figure as its own SVG.
-pub fn write(
-    report: &Report,
-    out: &std::path::Path,
-    plots: Option<&std::path::Path>,
-) -> Result<()> {
-    io::write_atomic(out, report.render().as_bytes())?;
-    if let Some(dir) = plots {
-        io::ensure_dir(dir)?;
-        for (i, f) in report.figures().iter().enumerate() {
-            let p = dir.join(format!("{:02}-{}.svg", i + 1, f.id));
-            io::write_atomic(&p, f.standalone_svg().as_bytes())?;
-        }
-    }
-    Ok(())
-}
-
 /// Runs `gonio report`.
 pub fn run(args: Args) -> Result<()> {
+    let mut out = Outputs::new();
+    let html = out.file("--out", &args.out)?;
     let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
-    let report = build(&args.files, meta.as_ref(), args.title.as_deref())?;
-    write(&report, &args.out, args.plots.as_deref())?;
-    println!(
+    let inputs = args
+        .files
+        .iter()
+        .map(|f| Ok((f.display().to_string(), report::load(f)?)))
+        .collect::<Result<Vec<_>>>()?;
+    let report = report::build(inputs, meta.as_ref(), args.title.as_deref())?;
+    out.write(html, report.render().as_bytes())?;
+    if let Some(dir) = &args.plots {
+        // The SVG files of a plots directory are the report's own: replaced on every run.
+        out.dir("--plots", dir, true)?;
+        for (i, f) in report.figures().iter().enumerate() {
+            let svg = out.file("--plots", &dir.join(format!("{:02}-{}.svg", i + 1, f.id)))?;
+            out.write(svg, f.standalone_svg().as_bytes())?;
+        }
+    }
+    out.commit()?;
+    gonio_cli::say!(
         "wrote {} ({} plots{}){}",
         args.out.display(),
         report.figures().len(),
@@ -113,6 +72,5 @@ pub fn run(args: Args) -> Result<()> {
         } else {
             ""
         }
-    );
-    Ok(())
+    )
 }

@@ -1,16 +1,15 @@
 //! `gonio selfcal`: self-calibration of an encoder from several read heads (EDA, SelfA, Fourier).
 
 use crate::db;
-use crate::formats;
-use crate::io::{self, CsvTable};
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use gonio_calib::certificate::Certificate;
-use gonio_calib::selfcal::{
-    Heads, Method, NoiseModel, SelfcalError, SelfcalOptions, Turn, calibrate,
-};
-use serde::Deserialize;
+use gonio_calib::selfcal::{Method, NoiseModel, SelfcalOptions, calibrate};
+use gonio_cli::formats::csv::CsvTable;
+use gonio_cli::formats::heads::{self, locate, read_turns};
+use gonio_cli::formats::{self};
+use gonio_cli::output::Outputs;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `gonio selfcal`.
 #[derive(Debug, clap::Args)]
@@ -75,64 +74,6 @@ pub struct Args {
     pub meta: Option<PathBuf>,
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct HeadsFile {
-    angles_deg: Vec<f64>,
-    #[serde(default)]
-    offsets_arcsec: Option<Vec<f64>>,
-    #[serde(default)]
-    sets: Option<Vec<Vec<usize>>>,
-}
-
-/// Loads a head arrangement (`selfa12`, `eda:N` or a TOML/JSON file) and the file's optional
-/// mounting offsets (arcsec, one per head; used by the simulator).
-pub fn load_heads(spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
-    if spec == "selfa12" || spec.starts_with("eda:") {
-        return Ok((
-            Heads::preset(spec).map_err(|e| anyhow!("--heads {spec}: {e}"))?,
-            None,
-        ));
-    }
-    let path = Path::new(spec);
-    if !path.exists() {
-        bail!("--heads {spec:?}: expected selfa12, eda:N or a heads file (no such file)");
-    }
-    let text = io::read_text(path)?;
-    let is_json = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    let f: HeadsFile = if is_json {
-        serde_json::from_str(&text)
-            .map_err(|e| anyhow!("{spec}:{}:{}: {e}", e.line(), e.column()))?
-    } else {
-        io::parse_toml(spec, &text)?
-    };
-    let mut heads = Heads::new(f.angles_deg).map_err(|e| anyhow!("{spec}: angles_deg: {e}"))?;
-    if let Some(sets) = f.sets {
-        let mut z = Vec::with_capacity(sets.len());
-        for s in sets {
-            if s.contains(&0) {
-                bail!("{spec}: sets: head numbers are 1-based, found 0");
-            }
-            z.push(s.into_iter().map(|h| h - 1).collect());
-        }
-        heads = heads
-            .with_sets(z)
-            .map_err(|e| anyhow!("{spec}: sets: {e}"))?;
-    }
-    if let Some(o) = &f.offsets_arcsec {
-        if o.len() != heads.len() {
-            bail!(
-                "{spec}: offsets_arcsec: expected {} values (one per head), found {}",
-                heads.len(),
-                o.len()
-            );
-        }
-    }
-    Ok((heads, f.offsets_arcsec))
-}
-
 /// Parses a list of 1-based head numbers (`1,7`) into 0-based indices.
 fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
     s.split(',')
@@ -150,168 +91,12 @@ fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
         .collect()
 }
 
-/// One turn's rows: positions, head columns, CSV lines.
-type TurnRows = (Vec<f64>, Vec<Vec<f64>>, Vec<u64>);
-
-/// Readings per turn with the CSV line of every row.
-pub struct ReadTurns {
-    /// Turns in order of their number.
-    pub turns: Vec<Turn>,
-    /// `lines[t][i]`: CSV line of row i of turn t.
-    pub lines: Vec<Vec<u64>>,
-}
-
-/// Reads a readings CSV for `heads` (differences, or raw readings with `raw`).
-pub fn read_readings(table: &CsvTable, heads: &Heads, raw: bool) -> Result<ReadTurns> {
-    let m = heads.len();
-    let first = if raw { 1 } else { 2 };
-    let want: Vec<String> = (first..=m).map(|h| format!("head_{h}")).collect();
-    let expected_header = format!(
-        "position_deg,{}{}",
-        if want.len() > 3 {
-            format!("{},…,{}", want[0], want[want.len() - 1])
-        } else {
-            want.join(",")
-        },
-        " (optional: turn)"
-    );
-    let pos_col = table.require("position_deg", &expected_header)?;
-    let turn_col = table.column("turn");
-    let found: Vec<&String> = table
-        .headers
-        .iter()
-        .filter(|h| h.starts_with("head_"))
-        .collect();
-    let missing: Vec<&String> = want.iter().filter(|w| table.column(w).is_none()).collect();
-    let extra: Vec<&&String> = found.iter().filter(|f| !want.contains(f)).collect();
-    if !missing.is_empty() || !extra.is_empty() {
-        bail!(
-            "{}:{}: {} head columns for {} heads{}: expected {}, found {}{}",
-            table.name,
-            table.header_line,
-            found.len(),
-            m,
-            if raw {
-                " (raw readings)"
-            } else {
-                " (differences to head 1)"
-            },
-            want.join(","),
-            found
-                .iter()
-                .map(|s| s.as_str())
-                .collect::<Vec<_>>()
-                .join(","),
-            if !raw && table.column("head_1").is_some() {
-                " (head_1 present: use --raw for raw readings in degrees)"
-            } else {
-                ""
-            }
-        );
-    }
-    let cols: Vec<usize> = want.iter().map(|w| table.column(w).unwrap()).collect();
-    // Group rows by turn, in file order.
-    let mut order: Vec<i64> = Vec::new();
-    let mut groups: std::collections::HashMap<i64, TurnRows> = std::collections::HashMap::new();
-    for (line, f) in &table.rows {
-        let t = match turn_col {
-            Some(c) => {
-                let t = table.int_at(*line, f, c)?;
-                if t < 1 {
-                    return Err(table.error_at(*line, c, "expected a turn number ≥ 1"));
-                }
-                t
-            }
-            None => 1,
-        };
-        let g = groups.entry(t).or_insert_with(|| {
-            order.push(t);
-            (Vec::new(), vec![Vec::new(); cols.len()], Vec::new())
-        });
-        g.0.push(table.f64_at(*line, f, pos_col)?);
-        for (k, &c) in cols.iter().enumerate() {
-            g.1[k].push(table.f64_at(*line, f, c)?);
-        }
-        g.2.push(*line);
-    }
-    if order.is_empty() {
-        bail!(
-            "{}:{}: no readings: expected rows after the header",
-            table.name,
-            table.header_line
-        );
-    }
-    order.sort_unstable();
-    let mut turns = Vec::new();
-    let mut lines = Vec::new();
-    for t in order {
-        let (positions_deg, cols, l) = groups.remove(&t).expect("grouped");
-        let turn = if raw {
-            Turn::from_raw(heads, positions_deg, &cols)
-                .map_err(|e| anyhow!("{}: {e}", table.name))?
-        } else {
-            Turn {
-                positions_deg,
-                differences_arcsec: cols,
-            }
-        };
-        turns.push(turn);
-        lines.push(l);
-    }
-    Ok(ReadTurns { turns, lines })
-}
-
-/// Turns a library error into a one-line message with the file and line.
-pub fn locate(e: SelfcalError, table: &CsvTable, lines: &[Vec<u64>]) -> anyhow::Error {
-    let at = |turn: usize, index: usize| {
-        lines
-            .get(turn.wrapping_sub(1))
-            .and_then(|l| l.get(index))
-            .copied()
-            .unwrap_or(table.header_line)
-    };
-    match e {
-        SelfcalError::Spacing {
-            turn,
-            index,
-            found_deg,
-            expected_deg,
-        } => {
-            let ns = lines.get(turn - 1).map_or(0, |l| l.len());
-            anyhow!(
-                "{}:{}: column 'position_deg': found {found_deg}°, expected {expected_deg}° ({ns} rows in turn {turn}: positions must be equally spaced by 360°/{ns} = {}° over one full turn, in order)",
-                table.name,
-                at(turn, index),
-                360.0 / ns.max(1) as f64
-            )
-        }
-        SelfcalError::TooFewPositions {
-            turn,
-            expected,
-            found,
-        } => anyhow!(
-            "{}:{}: turn {turn}: expected at least {expected} rotation positions, found {found}",
-            table.name,
-            lines
-                .get(turn - 1)
-                .and_then(|l| l.last())
-                .copied()
-                .unwrap_or(table.header_line)
-        ),
-        SelfcalError::NotFinite {
-            turn, index, head, ..
-        } => anyhow!(
-            "{}:{}: head {head}: expected a finite number",
-            table.name,
-            at(turn, index)
-        ),
-        other => anyhow!("{}: {other}", table.name),
-    }
-}
-
 /// Runs `gonio selfcal`.
 pub fn run(args: Args) -> Result<()> {
-    let (heads, _) = load_heads(&args.heads)?;
+    let mut out = Outputs::new();
+    let json = out.optional("--json", args.json.as_deref())?;
+    let (heads, _) = heads::load(&args.heads)?;
+    check_max_order(args.max_order)?;
     let method = match args.method.as_str() {
         "fourier" => Method::Fourier,
         "eda" | "selfa" => Method::Eda,
@@ -324,7 +109,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let reference_heads = parse_reference(&args.reference, heads.len())?;
     let table = CsvTable::read(&args.readings)?;
-    let rt = read_readings(&table, &heads, args.raw)?;
+    let rt = read_turns(&table, &heads, args.raw)?;
     let opts = SelfcalOptions {
         method,
         noise_model,
@@ -338,21 +123,36 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
-    if let Some(p) = &args.json {
-        io::write_json(p, &cert)?;
+    // Overflow (a reading of 1e308) is an error naming the input, before any output.
+    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let to_stdout = out.to_stdout(json);
+    if let Some(j) = json {
+        out.json(j, &cert)?;
     }
     if let Some(loc) = &args.db {
         db::store_certificate(loc, &cert, &args.readings.display().to_string())?;
     }
-    if args.json.as_deref() != Some(Path::new("-")) {
-        print_summary(&cert);
+    if !to_stdout {
+        print_summary(&cert)?;
+    }
+    out.commit()
+}
+
+/// Most harmonic orders in the table (`--max-order`).
+const MAX_ORDER: u32 = 100_000;
+
+fn check_max_order(k: u32) -> Result<()> {
+    if k > MAX_ORDER {
+        bail!("--max-order {k}: expected at most {MAX_ORDER}");
     }
     Ok(())
 }
 
-fn print_summary(c: &Certificate) {
+fn print_summary(c: &Certificate) -> Result<()> {
     let mut out = String::new();
-    let Some(r) = &c.selfcal else { return };
+    let Some(r) = &c.selfcal else {
+        return Ok(());
+    };
     let e0 = &c.points[0];
     let (lo, hi) = c
         .points
@@ -413,7 +213,7 @@ fn print_summary(c: &Certificate) {
             h.order, h.amplitude_arcsec, h.u_coefficient_arcsec, h.phase_rad
         );
     }
-    io::emit(&out);
+    gonio_cli::term::out(&out)
 }
 
 #[cfg(test)]
@@ -421,9 +221,9 @@ mod tests {
     use super::*;
 
     fn run_csv(text: &str, heads: &str, raw: bool) -> Result<gonio_calib::selfcal::SelfcalResult> {
-        let (heads, _) = load_heads(heads)?;
+        let (heads, _) = heads::load(heads)?;
         let table = CsvTable::parse("r.csv", text)?;
-        let rt = read_readings(&table, &heads, raw)?;
+        let rt = read_turns(&table, &heads, raw)?;
         calibrate(&heads, &rt.turns, &SelfcalOptions::default())
             .map_err(|e| locate(e, &table, &rt.lines))
     }
@@ -443,17 +243,18 @@ mod tests {
         assert_eq!(r.errors.len(), 36);
         // Position 7 (file line 9) off the 10° grid.
         let bad = csv(36, 10.0, |_| "0.1,0.2".into()).replace("\n70,", "\n71,");
-        let e = io::one_line(&run_csv(&bad, "eda:3", false).unwrap_err());
+        let e = gonio_cli::input::one_line(&run_csv(&bad, "eda:3", false).unwrap_err());
         assert!(
             e.starts_with("r.csv:9: column 'position_deg': found 71°"),
             "{e}"
         );
         // Half a turn.
-        let e =
-            io::one_line(&run_csv(&csv(36, 5.0, |_| "0,0".into()), "eda:3", false).unwrap_err());
+        let e = gonio_cli::input::one_line(
+            &run_csv(&csv(36, 5.0, |_| "0,0".into()), "eda:3", false).unwrap_err(),
+        );
         assert!(e.starts_with("r.csv:3: column 'position_deg'"), "{e}");
         // NaN and ragged rows.
-        let e = io::one_line(
+        let e = gonio_cli::input::one_line(
             &run_csv(
                 &csv(
                     36,
@@ -466,7 +267,7 @@ mod tests {
             .unwrap_err(),
         );
         assert!(e.starts_with("r.csv:5:2: column 'head_2'"), "{e}");
-        let e = io::one_line(
+        let e = gonio_cli::input::one_line(
             &run_csv(
                 &csv(36, 10.0, |i| if i == 2 { "0".into() } else { "0,0".into() }),
                 "eda:3",
@@ -476,13 +277,14 @@ mod tests {
         );
         assert!(e.starts_with("r.csv:4: expected 3 fields"), "{e}");
         // Head count not matching the heads.
-        let e = io::one_line(&run_csv(&ok, "eda:4", false).unwrap_err());
+        let e = gonio_cli::input::one_line(&run_csv(&ok, "eda:4", false).unwrap_err());
         assert!(e.starts_with("r.csv:1: 2 head columns for 4 heads"), "{e}");
-        let e = io::one_line(&run_csv(&ok, "eda:3", true).unwrap_err());
+        let e = gonio_cli::input::one_line(&run_csv(&ok, "eda:3", true).unwrap_err());
         assert!(e.contains("expected head_1,head_2,head_3"), "{e}");
         // Too few rows.
-        let e =
-            io::one_line(&run_csv(&csv(4, 90.0, |_| "0,0".into()), "eda:3", false).unwrap_err());
+        let e = gonio_cli::input::one_line(
+            &run_csv(&csv(4, 90.0, |_| "0,0".into()), "eda:3", false).unwrap_err(),
+        );
         assert!(e.starts_with("r.csv:5: turn 1: expected at least 8"), "{e}");
     }
 
@@ -498,7 +300,7 @@ mod tests {
         assert_eq!(r.turns, 2);
         assert_eq!(r.uncertainty.source, "repeated turns");
         let s = s.replace(",1\n", ",0\n");
-        let e = io::one_line(&run_csv(&s, "eda:2", false).unwrap_err());
+        let e = gonio_cli::input::one_line(&run_csv(&s, "eda:2", false).unwrap_err());
         assert!(e.contains("turn number ≥ 1"), "{e}");
     }
 }

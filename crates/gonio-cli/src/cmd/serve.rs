@@ -284,7 +284,7 @@ fn spawn_station(
                 None => format!("batch done: {} parts mounted", r.parts.len()),
             },
             Err(e) => {
-                let m = format!("station stopped: {}", crate::io::one_line(&e));
+                let m = format!("station stopped: {}", gonio_cli::input::one_line(&e));
                 eprintln!("error: {m}");
                 m
             }

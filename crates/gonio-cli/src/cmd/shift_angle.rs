@@ -1,15 +1,12 @@
 //! `gonio shift-angle`: calibrate an encoder from polygon + autocollimator readings.
 
 use crate::db;
-use crate::formats;
-use crate::io::{self, CsvTable};
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Result, anyhow};
 use gonio_calib::certificate::Certificate;
-use gonio_calib::shift_angle::{Method, Options, Reading, ReadingSet, ShiftAngleError, calibrate};
-use std::path::{Path, PathBuf};
-
-/// The readings file's header.
-pub const HEADER: &str = "shift_deg,start_face,step,reading_arcsec[,repeat]";
+use gonio_calib::shift_angle::{Method, Options, calibrate};
+use gonio_cli::formats::{self, readings};
+use gonio_cli::output::Outputs;
+use std::path::PathBuf;
 
 /// Arguments of `gonio shift-angle`.
 #[derive(Debug, clap::Args)]
@@ -77,98 +74,15 @@ pub fn parse_method(s: &str) -> Result<Method> {
     }
 }
 
-/// Reads and validates a readings file; errors name the file, line and column.
-pub fn read_readings(path: &Path, faces: Option<usize>) -> Result<ReadingSet> {
-    let table = CsvTable::read(path)?;
-    let c_shift = table.require("shift_deg", HEADER)?;
-    let c_face = table.require("start_face", HEADER)?;
-    let c_step = table.require("step", HEADER)?;
-    let c_value = table.require("reading_arcsec", HEADER)?;
-    let c_repeat = table.column("repeat");
-    let mut readings = Vec::with_capacity(table.rows.len());
-    let mut lines = Vec::with_capacity(table.rows.len());
-    let mut max_index = 0i64;
-    for (line, f) in &table.rows {
-        let shift = table.f64_at(*line, f, c_shift)?;
-        let face = table.int_at(*line, f, c_face)?;
-        let step = table.int_at(*line, f, c_step)?;
-        for (c, v) in [(c_face, face), (c_step, step)] {
-            if v < 1 {
-                return Err(table.error_at(
-                    *line,
-                    c,
-                    format!("{v} is out of range: expected 1 or more"),
-                ));
-            }
-            if let Some(n) = faces {
-                if v > n as i64 {
-                    return Err(table.error_at(
-                        *line,
-                        c,
-                        format!("{v} is out of range: expected 1..={n} (--faces {n})"),
-                    ));
-                }
-            }
-        }
-        max_index = max_index.max(face).max(step);
-        let repeat = match c_repeat {
-            Some(c) => {
-                let r = table.int_at(*line, f, c)?;
-                if !(1..=i64::from(u32::MAX)).contains(&r) {
-                    return Err(table.error_at(
-                        *line,
-                        c,
-                        format!("{r} is out of range: expected 1 or more"),
-                    ));
-                }
-                r as u32
-            }
-            None => 1,
-        };
-        readings.push(Reading {
-            shift_deg: shift,
-            start_face: face as usize,
-            step: step as usize,
-            repeat,
-            value_arcsec: table.f64_at(*line, f, c_value)?,
-        });
-        lines.push(*line);
-    }
-    if readings.is_empty() {
-        return Err(anyhow!(
-            "{}:{}: no readings after the header",
-            table.name,
-            table.header_line
-        ));
-    }
-    let n = faces.unwrap_or(max_index as usize);
-    ReadingSet::new(n, readings).map_err(|e| match e {
-        ShiftAngleError::ConflictingDuplicate {
-            index,
-            first,
-            first_value,
-            value,
-            ..
-        } => anyhow!(
-            "{}:{}: conflicting duplicate: reading {value} for the same shift, start_face, step and repeat as line {} ({first_value}); add a repeat column to keep both",
-            table.name,
-            lines[index],
-            lines[first]
-        ),
-        ShiftAngleError::TooFewFaces { faces } => anyhow!(
-            "{}: {faces} faces: expected a polygon with at least 3 faces (largest face/step number in the file, or --faces)",
-            table.name
-        ),
-        e => anyhow!("{}: {e}", table.name),
-    })
-}
-
 /// Runs `gonio shift-angle`.
 pub fn run(args: Args) -> Result<()> {
     let method = parse_method(&args.method)?;
+    let mut out = Outputs::new();
+    let json = out.optional("--json", args.json.as_deref())?;
+    let comp = out.optional("--compensation", args.compensation.as_deref())?;
     let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
     let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
-    let set = read_readings(&args.readings, args.faces)?;
+    let set = readings::read(&args.readings, args.faces)?;
     let opts = Options {
         method,
         sigma_arcsec: args.sigma,
@@ -185,40 +99,31 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
-    let to_stdout = args.json.as_deref() == Some(Path::new("-"));
+    // Overflow (a reading of 1e308) is an error naming the input, before any output.
+    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let to_stdout = out.to_stdout(json);
+    out.certificate(json, comp, &cert)?;
     if !to_stdout {
-        print_summary(&cert);
+        print_summary(&cert)?;
     }
-    if let Some(p) = &args.json {
-        io::write_json(p, &cert).context("writing the certificate")?;
-        if !to_stdout {
-            eprintln!("wrote {}", p.display());
+    out.commit()?;
+    for p in [&args.json, &args.compensation].into_iter().flatten() {
+        if p.as_os_str() != "-" {
+            gonio_cli::note!("wrote {}", p.display());
         }
     }
     if let Some(loc) = &args.db {
         db::store_certificate(loc, &cert, &args.readings.display().to_string())?;
     }
-    if let Some(p) = &args.compensation {
-        let rows: Vec<Vec<String>> = cert
-            .compensation
-            .iter()
-            .map(|c| {
-                vec![
-                    format!("{}", c.angle_deg),
-                    format!("{:.6}", c.correction_arcsec),
-                ]
-            })
-            .collect();
-        io::write_csv(p, &["angle_deg", "correction_arcsec"], &rows)?;
-        eprintln!("wrote {}", p.display());
-    }
     Ok(())
 }
 
 /// Prints the human-readable summary of a shift-angle certificate.
-pub fn print_summary(c: &Certificate) {
+pub fn print_summary(c: &Certificate) -> Result<()> {
     use std::fmt::Write as _;
-    let Some(sa) = &c.shift_angle else { return };
+    let Some(sa) = &c.shift_angle else {
+        return Ok(());
+    };
     let mut out = String::new();
     let shifts = if sa.shifts_deg.len() > 6 {
         format!(
@@ -345,5 +250,5 @@ pub fn print_summary(c: &Certificate) {
             let _ = writeln!(out, "    {l}");
         }
     }
-    crate::io::emit(&out);
+    gonio_cli::term::out(&out)
 }

@@ -10,7 +10,7 @@ use std::path::Path;
 pub fn load(path: Option<&Path>, coverage: Option<f64>) -> Result<Instrument> {
     let inst = match path {
         Some(p) => {
-            let bytes = crate::io::read_bytes(p, gonio_uncertainty::limits::MAX_FILE_BYTES)?;
+            let bytes = crate::input::read_bytes(p, gonio_uncertainty::limits::MAX_FILE_BYTES)?;
             let file =
                 InstrumentFile::parse_bytes(&bytes).map_err(|e| anyhow!("{}:{e}", p.display()))?;
             Instrument::new(file, Some(p.display().to_string()))

@@ -1,21 +1,25 @@
 //! Certificate metadata (`--meta META.toml`): the administrative data of ISO/IEC 17025 §7.8.
 //! See `examples/certificate-meta.toml` for every field.
 
-use super::toml_error;
 use anyhow::Result;
 use gonio_calib::certificate::CertificateMeta;
 use std::path::Path;
 
 /// Reads a metadata file; errors name the file, line and column. Missing fields are not errors
 /// (the certificate is then a draft).
+///
+/// # Errors
+/// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<CertificateMeta> {
-    let text = crate::io::read_text(path)?;
-    parse(path, &text)
+    crate::input::load(path, parse)
 }
 
-/// Parses metadata text; `path` names it in errors.
-pub fn parse(path: &Path, text: &str) -> Result<CertificateMeta> {
-    toml::from_str(text).map_err(|e| toml_error(path, text, &e))
+/// Parses metadata text; `name` names it in errors.
+///
+/// # Errors
+/// Syntax, unknown keys, bad dates (located).
+pub fn parse(name: &str, text: &str) -> Result<CertificateMeta> {
+    super::parse_toml(name, text)
 }
 
 #[cfg(test)]
@@ -30,7 +34,7 @@ mod tests {
 
     #[test]
     fn the_example_is_complete_for_both_procedures() {
-        let m = parse(Path::new("m.toml"), &example()).unwrap();
+        let m = parse("m.toml", &example()).unwrap();
         assert_eq!(
             m.missing_fields(Procedure::ShiftAngle),
             Vec::<String>::new()
@@ -54,7 +58,7 @@ mod tests {
 
     #[test]
     fn errors_name_file_line_and_column() {
-        let p = Path::new("m.toml");
+        let p = "m.toml";
         let e = parse(p, "title = \"x\"\n[custmer]\nname = \"y\"\n").unwrap_err();
         assert!(e.to_string().starts_with("m.toml:2:"), "{e}");
         assert!(e.to_string().contains("custmer"), "{e}");

@@ -1,39 +1,74 @@
-//! File formats the commands read, each with errors that name the file, line and column.
+//! File formats the commands read, each with errors that name the file, line and column. Every
+//! parser takes text (or bytes) and a name, so that it can be tested and fuzzed without files
+//! (`fuzz/`); the `load`/`read` functions add the file reading.
 
+pub mod angles;
 pub mod certificate;
+pub mod compensation;
+pub mod csv;
+pub mod curve;
 pub mod elcomat;
+pub mod encoder;
 pub mod frames;
+pub mod heads;
 pub mod instrument;
 pub mod meta;
 pub mod plan;
+pub mod readings;
+pub mod recipe;
 pub mod replay;
 pub mod report;
+pub mod samples;
 
-use anyhow::anyhow;
+use anyhow::{Result, anyhow};
 use std::path::Path;
 
-/// Line and column (1-based, columns in characters) of a byte offset in `text`.
-pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |s| s.chars().count()) + 1;
-    (line, col)
-}
+pub use gonio_core::text::line_col;
 
-/// A TOML error as `FILE:LINE:COL: message`.
-pub fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> anyhow::Error {
+/// A TOML error as `NAME:LINE:COL: message` (the one TOML location helper).
+pub fn toml_error(name: &str, text: &str, e: &toml::de::Error) -> anyhow::Error {
     let (l, c) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-    anyhow!("{}:{l}:{c}: {}", path.display(), e.message().trim_end())
+    anyhow!(
+        "{name}:{l}:{c}: {}",
+        crate::input::cap(&e.message().trim_end().replace('\n', " "))
+    )
 }
 
-/// A JSON error as `FILE:LINE:COL: message (what was expected)`.
-pub fn json_error(path: &Path, e: &serde_json::Error, expected: &str) -> anyhow::Error {
+/// Parses TOML text into `T`; errors read `NAME:LINE:COL: what was wrong`.
+///
+/// # Errors
+/// Syntax, unknown keys and wrong types, located.
+pub fn parse_toml<T: serde::de::DeserializeOwned>(name: &str, text: &str) -> Result<T> {
+    toml::from_str(text).map_err(|e| toml_error(name, text, &e))
+}
+
+/// Reads a TOML file (or `-`) into `T`; errors name the file, line and column.
+///
+/// # Errors
+/// As [`crate::input::read_text`] and [`parse_toml`].
+pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let text = crate::input::read_text(path)?;
+    parse_toml(&path.display().to_string(), &text)
+}
+
+/// An error a library located in a file (`line`, `column` 1-based; 0 when unknown, shown as 1)
+/// as `NAME:LINE:COL: message`, the message capped.
+pub fn located(name: &str, line: usize, column: usize, message: &str) -> anyhow::Error {
     anyhow!(
-        "{}:{}:{}: {} ({expected})",
-        path.display(),
-        e.line(),
-        e.column(),
-        strip_position(&e.to_string())
+        "{name}:{}:{}: {}",
+        line.max(1),
+        column.max(1),
+        crate::input::cap(message)
+    )
+}
+
+/// A JSON error as `NAME:LINE:COL: message (what was expected)`.
+pub fn json_error(name: &str, e: &serde_json::Error, expected: &str) -> anyhow::Error {
+    anyhow!(
+        "{name}:{}:{}: {} ({expected})",
+        e.line().max(1),
+        e.column().max(1),
+        crate::input::cap(strip_position(&e.to_string()))
     )
 }
 
@@ -45,14 +80,5 @@ fn strip_position(msg: &str) -> &str {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn line_and_column_of_an_offset() {
-        let t = "a = 1\nbé = x\n";
-        assert_eq!(line_col(t, 0), (1, 1));
-        assert_eq!(line_col(t, t.find('x').unwrap()), (2, 6));
-    }
-}
+/// 1-based line and column of a dotted key (`fit.huber_k`) in a TOML text, if the text sets it.
+pub use gonio_station::recipe::key_position;

@@ -17,13 +17,15 @@
 //! start_faces = "all"
 //! ```
 
-use super::toml_error;
 use anyhow::{Result, anyhow};
-use gonio_calib::shift_angle::ShiftKey;
+use gonio_calib::shift_angle::{MAX_FACES, ShiftKey};
 use serde::Deserialize;
 use std::fmt::Write as _;
 use std::path::Path;
 use toml::Spanned;
+
+/// Most readings a plan may describe (an hour of readings at 1 kHz is 3.6 million).
+pub const MAX_PLANNED_READINGS: u64 = 10_000_000;
 
 /// A loop of the measuring sequence.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,21 +152,6 @@ struct RawPlan {
 }
 
 /// Parses `START:STEP:END` (inclusive end) or a single number.
-fn parse_range(s: &str) -> Option<Vec<f64>> {
-    let p: Vec<f64> = s
-        .split(':')
-        .map(|x| x.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
-        .collect::<Option<_>>()?;
-    match p.as_slice() {
-        [a] => Some(vec![*a]),
-        [a, st, b] if *st > 0.0 && b >= a => {
-            let count = ((b - a) / st + 1e-9).floor() as usize + 1;
-            (count <= 100_000).then(|| (0..count).map(|k| a + k as f64 * st).collect())
-        }
-        _ => None,
-    }
-}
-
 fn number(v: &toml::Value) -> Option<f64> {
     match v {
         toml::Value::Integer(i) => Some(*i as f64),
@@ -175,17 +162,28 @@ fn number(v: &toml::Value) -> Option<f64> {
 
 impl Plan {
     /// Parses and validates a plan; errors are `FILE:LINE:COL: …`.
+    ///
+    /// # Errors
+    /// Syntax, unknown keys, values out of range, more than [`MAX_PLANNED_READINGS`] readings.
     pub fn parse(path: &Path, text: &str) -> Result<Plan> {
-        let raw: RawPlan = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        Self::parse_text(&path.display().to_string(), text)
+    }
+
+    /// Parses and validates plan text; `name` names it in errors.
+    ///
+    /// # Errors
+    /// As [`Plan::parse`].
+    pub fn parse_text(name: &str, text: &str) -> Result<Plan> {
+        let raw: RawPlan = super::parse_toml(name, text)?;
         let at = |span: std::ops::Range<usize>, msg: String| {
             let (l, c) = super::line_col(text, span.start);
-            anyhow!("{}:{l}:{c}: {msg}", path.display())
+            anyhow!("{name}:{l}:{c}: {msg}")
         };
         let faces = *raw.faces.get_ref();
-        if faces < 3 {
+        if !(3..=MAX_FACES as i64).contains(&faces) {
             return Err(at(
                 raw.faces.span(),
-                format!("faces = {faces}: expected a polygon with at least 3 faces"),
+                format!("faces = {faces}: expected a polygon of 3 to {MAX_FACES} faces"),
             ));
         }
         let faces = faces as usize;
@@ -218,8 +216,14 @@ impl Plan {
         };
         let repeats_of = |v: &Spanned<i64>| -> Result<u32> {
             let r = *v.get_ref();
-            if r < 1 || r > i64::from(u32::MAX) {
-                return Err(at(v.span(), format!("repeats = {r}: expected 1 or more")));
+            if !(1..=super::readings::MAX_REPEAT).contains(&r) {
+                return Err(at(
+                    v.span(),
+                    format!(
+                        "repeats = {r}: expected 1 to {}",
+                        super::readings::MAX_REPEAT
+                    ),
+                ));
             }
             Ok(r as u32)
         };
@@ -237,7 +241,7 @@ impl Plan {
             None => 1,
         };
         let shifts_deg: Vec<f64> = match raw.shifts_deg.get_ref() {
-            ShiftsValue::Range(s) => parse_range(s).ok_or_else(|| {
+            ShiftsValue::Range(s) => super::readings::shift_range(s).ok_or_else(|| {
                 at(
                     raw.shifts_deg.span(),
                     format!("shifts_deg = {s:?}: expected START:STEP:END (e.g. \"0:1:14\") or a list of degrees"),
@@ -255,10 +259,23 @@ impl Plan {
                     )
                 })?,
         };
+        let per_shift = (start_faces.len() + steps.len()) as u64;
+        if shifts_deg.len() as u64 * per_shift.max(1) > MAX_PLANNED_READINGS {
+            return Err(at(
+                raw.shifts_deg.span(),
+                format!(
+                    "shifts_deg: {} shifts of {} start faces and {} steps: more than {MAX_PLANNED_READINGS} planned readings",
+                    shifts_deg.len(),
+                    start_faces.len(),
+                    steps.len()
+                ),
+            ));
+        }
         let mut keys: Vec<ShiftKey> = Vec::with_capacity(shifts_deg.len());
+        let mut seen = std::collections::HashSet::with_capacity(shifts_deg.len());
         for &s in &shifts_deg {
             let k = ShiftKey::of(s);
-            if keys.contains(&k) {
+            if !seen.insert(k) {
                 return Err(at(
                     raw.shifts_deg.span(),
                     format!("shifts_deg: {s}° is listed twice"),
@@ -275,7 +292,9 @@ impl Plan {
                 repeats,
             })
             .collect();
-        let mut overridden = Vec::new();
+        let index_of: std::collections::HashMap<ShiftKey, usize> =
+            keys.iter().enumerate().map(|(i, k)| (*k, i)).collect();
+        let mut overridden = std::collections::HashSet::new();
         for o in &raw.shift {
             let s = number(o.shift_deg.get_ref()).ok_or_else(|| {
                 at(
@@ -283,19 +302,18 @@ impl Plan {
                     "shift_deg: expected a number of degrees".into(),
                 )
             })?;
-            let Some(i) = keys.iter().position(|&k| k == ShiftKey::of(s)) else {
+            let Some(&i) = index_of.get(&ShiftKey::of(s)) else {
                 return Err(at(
                     o.shift_deg.span(),
                     format!("[[shift]] shift_deg = {s}: not one of shifts_deg"),
                 ));
             };
-            if overridden.contains(&i) {
+            if !overridden.insert(i) {
                 return Err(at(
                     o.shift_deg.span(),
                     format!("[[shift]] shift_deg = {s}: given twice"),
                 ));
             }
-            overridden.push(i);
             if let Some(v) = &o.start_faces {
                 shifts[i].start_faces = list_of(v, "start_faces")?;
             }
@@ -352,6 +370,19 @@ impl Plan {
                 }
             },
         };
+        let closure = u64::from(raw.closure.unwrap_or(false));
+        let total: u64 = shifts
+            .iter()
+            .map(|s| {
+                s.start_faces.len() as u64 * (s.steps.len() as u64 + closure) * u64::from(s.repeats)
+            })
+            .sum();
+        if total > MAX_PLANNED_READINGS {
+            return Err(at(
+                raw.faces.span(),
+                format!("the plan has {total} readings: at most {MAX_PLANNED_READINGS}"),
+            ));
+        }
         Ok(Plan {
             faces,
             shifts,

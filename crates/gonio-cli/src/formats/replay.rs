@@ -12,7 +12,7 @@
 //! Numbers are written so that they read back bit for bit (JSON with round-trip floats).
 
 use crate::formats::json_error;
-use crate::io::read_text;
+use crate::input::read_text;
 use anyhow::{Context, Result, anyhow, bail};
 use gonio_station::hal::{CameraFrame, DeviceError, DeviceErrorKind};
 use gonio_station::replay::RecordedTurn;
@@ -102,7 +102,7 @@ pub fn read_part(dir: &Path) -> Result<PartFile> {
     let p = dir.join("part.json");
     let text = read_text(&p)?;
     let f: PartFile = serde_json::from_str(&text)
-        .map_err(|e| json_error(&p, &e, "a gonio.replay/1 part record"))?;
+        .map_err(|e| json_error(&p.display().to_string(), &e, "a gonio.replay/1 part record"))?;
     if f.format != FORMAT {
         bail!(
             "{}: format {:?}: expected {FORMAT:?}",
@@ -122,7 +122,7 @@ pub fn read_turn(dir: &Path, t: &TurnFiles) -> Result<RecordedTurn> {
     let text = read_text(&p)?;
     let r: RecordedTurn = serde_json::from_str(&text).map_err(|e| {
         json_error(
-            &p,
+            &p.display().to_string(),
             &e,
             "a recorded turn: t_start_s, kind, focus_um, frames, log",
         )

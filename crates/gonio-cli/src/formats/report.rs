@@ -32,27 +32,76 @@ struct Shape {
 }
 
 /// Reads one input; errors name the file, line and column.
+///
+/// # Errors
+/// As [`parse`], and the file cannot be read.
 pub fn load(path: &Path) -> Result<ReportInput> {
-    let text = crate::io::read_text(path)?;
+    crate::input::load(path, parse)
+}
+
+/// Parses one input; `name` names it in errors.
+///
+/// # Errors
+/// Not JSON, or none of the three kinds (located).
+pub fn parse(name: &str, text: &str) -> Result<ReportInput> {
+    let path = name;
     let expected = "expected a certificate (gonio shift-angle/selfcal --json), a comparison (gonio compare --json) or a mounting batch (gonio mount --json)";
-    let shape: Shape = serde_json::from_str(&text).map_err(|e| json_error(path, &e, expected))?;
+    let shape: Shape = serde_json::from_str(text).map_err(|e| json_error(path, &e, expected))?;
     match shape.format.as_deref() {
         Some(CERTIFICATE_FORMAT) => Ok(ReportInput::Certificate(Box::new(
-            super::certificate::parse(path, &text)?,
+            super::certificate::parse(path, text)?,
         ))),
         Some(COMPARE_FORMAT) => Ok(ReportInput::Comparison(Box::new(
-            serde_json::from_str(&text).map_err(|e| json_error(path, &e, "a comparison"))?,
+            serde_json::from_str(text).map_err(|e| json_error(path, &e, "a comparison"))?,
         ))),
         None if shape.parts.is_some() && shape.summary.is_some() => {
             Ok(ReportInput::Batch(Box::new(
-                serde_json::from_str(&text)
-                    .map_err(|e| json_error(path, &e, "a mounting batch"))?,
+                serde_json::from_str(text).map_err(|e| json_error(path, &e, "a mounting batch"))?,
             )))
         }
         Some(other) => Err(anyhow!(
-            "{}:1:1: format {other:?}: {expected}",
-            path.display()
+            "{path}:1:1: format {:?}: {expected}",
+            gonio_core::text::short(other)
         )),
-        None => Err(anyhow!("{}:1:1: no format tag: {expected}", path.display())),
+        None => Err(anyhow!("{path}:1:1: no format tag: {expected}")),
     }
+}
+
+/// Builds one report from its inputs (named as given), in order; `meta` replaces every
+/// certificate's metadata.
+///
+/// # Errors
+/// No input, or an input the report cannot draw.
+pub fn build(
+    inputs: Vec<(String, ReportInput)>,
+    meta: Option<&gonio_calib::certificate::CertificateMeta>,
+    title: Option<&str>,
+) -> Result<gonio_report::html::Report> {
+    use anyhow::Context;
+    let default_title = match inputs.first() {
+        Some((_, ReportInput::Certificate(c))) => c
+            .meta
+            .as_ref()
+            .and_then(|m| m.title.clone())
+            .unwrap_or_else(|| "Calibration certificate".into()),
+        Some((_, ReportInput::Comparison(_))) => "Comparison of calibrations".into(),
+        Some((_, ReportInput::Batch(_))) => "Mounting batch".into(),
+        None => anyhow::bail!("no input files"),
+    };
+    let mut report = gonio_report::html::Report::new(title.unwrap_or(&default_title));
+    for (name, input) in inputs {
+        match input {
+            ReportInput::Certificate(c) => {
+                let c = match meta {
+                    Some(m) => c.with_meta(m.clone()),
+                    None => *c,
+                };
+                report.add_certificate(&c, &name)
+            }
+            ReportInput::Comparison(c) => report.add_comparison(&c, &name),
+            ReportInput::Batch(b) => report.add_batch(&b, &name),
+        }
+        .with_context(|| format!("{name}: drawing the report"))?;
+    }
+    Ok(report)
 }

@@ -203,6 +203,9 @@ fn check_range(name: &str, r: [f64; 2], lo: f64) -> Result<(), SimError> {
     }
 }
 
+/// Most features of one kind in a scene (dust specks per frame, scratches, tracks, …).
+pub const MAX_FEATURES: usize = 10_000;
+
 /// Checks every value of a scene (names as in the scene TOML).
 fn validate(scene: &GratingScene) -> Result<(), SimError> {
     let sc = scene;
@@ -238,6 +241,24 @@ fn validate(scene: &GratingScene) -> Result<(), SimError> {
     for r in &sc.roundness {
         check_finite("roundness.amplitude_um", r.amplitude_um)?;
         check_finite("roundness.phase_rad", r.phase_rad)?;
+    }
+    for (name, n) in [
+        ("dust_per_frame", sc.dust_per_frame),
+        ("dust_on_ring_per_frame", sc.dust_on_ring_per_frame),
+        ("track_borders", sc.track_borders.len()),
+        ("radial_tracks", sc.radial_tracks.len()),
+        ("scratches", sc.scratches.len()),
+        ("ring_gaps", sc.ring_gaps.len()),
+        ("saturated_patches", sc.saturated_patches.len()),
+        ("roundness", sc.roundness.len()),
+    ] {
+        if n > MAX_FEATURES {
+            return Err(SimError::parameter(
+                name,
+                n,
+                &format!("at most {MAX_FEATURES} (each is drawn on every frame)"),
+            ));
+        }
     }
     check_range("dust_radius_px", sc.dust_radius_px, 0.01)?;
     check_range("dust_depth", sc.dust_depth, 0.0)?;
@@ -811,17 +832,12 @@ impl GratingRenderer {
                 * gain;
             let sd = (rad_um * rad_um / 2.0 + sigma * sigma).sqrt() / s;
             let amp = depth * (rad_um * rad_um / 2.0) / (rad_um * rad_um / 2.0 + sigma * sigma);
-            let ext = (3.0 * sd).ceil() as isize;
-            for dv in -ext..=ext {
-                let vv = cv as isize + dv;
-                if vv < 0 || vv >= h as isize {
-                    continue;
-                }
-                for du in -ext..=ext {
-                    let uu = cu as isize + du;
-                    if uu < 0 || uu >= w as isize {
-                        continue;
-                    }
+            // Only the part of the speck inside the frame is visited (a blur far wider than the
+            // frame, at a huge defocus, costs one frame, not the speck's whole extent).
+            let ext = (3.0 * sd).ceil().min((w + h) as f64) as isize;
+            let (ci, ri) = (cu as isize, cv as isize);
+            for vv in (ri - ext).max(0)..=(ri + ext).min(h as isize - 1) {
+                for uu in (ci - ext).max(0)..=(ci + ext).min(w as isize - 1) {
                     let (fu, fv) = (uu as f64 - cu, vv as f64 - cv);
                     let k = amp * (-(fu * fu + fv * fv) / (2.0 * sd * sd)).exp();
                     let o = &mut out[vv as usize * w + uu as usize];

@@ -1,7 +1,7 @@
 //! `gonio simulate encoder`: write an encoder error model file.
 
-use crate::io;
 use anyhow::{Context, Result, bail};
+use gonio_cli::output::Outputs;
 use gonio_sim::encoder::HarmonicArcsec;
 use gonio_sim::{EncoderModel, Graduation};
 use std::path::PathBuf;
@@ -65,6 +65,8 @@ pub fn parse_harmonic(s: &str) -> Result<HarmonicArcsec> {
 
 /// Runs `gonio simulate encoder`.
 pub fn run(args: Args) -> Result<()> {
+    let mut out = Outputs::new();
+    let model_json = out.file("--out", &args.out)?;
     let harmonics = if args.no_harmonics {
         Vec::new()
     } else if args.harmonics.is_empty() {
@@ -83,8 +85,9 @@ pub fn run(args: Args) -> Result<()> {
             seed: args.seed,
         },
     )?;
-    io::write_atomic(&args.out, model.to_json().as_bytes())?;
-    eprintln!(
+    out.write(model_json, model.to_json().as_bytes())?;
+    out.commit()?;
+    gonio_cli::note!(
         "wrote {} ({} harmonics, {} lines with {}″ graduation error, seed {})",
         args.out.display(),
         model.harmonics().len(),
@@ -93,17 +96,4 @@ pub fn run(args: Args) -> Result<()> {
         args.seed
     );
     Ok(())
-}
-
-/// Loads an encoder model file, with the file name in errors.
-pub fn load(path: &std::path::Path) -> Result<EncoderModel> {
-    let text = io::read_text(path)?;
-    EncoderModel::from_json(&text).map_err(|e| match e {
-        gonio_sim::SimError::ModelFormat {
-            line,
-            column,
-            message,
-        } => anyhow::anyhow!("{}:{line}:{column}: {message}", path.display()),
-        other => anyhow::anyhow!("{}: {other}", path.display()),
-    })
 }

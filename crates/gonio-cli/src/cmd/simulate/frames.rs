@@ -1,8 +1,8 @@
 //! `gonio simulate frames`: rendered camera frames of a rotating, eccentric grating, with truth.
 
-use crate::formats::frames::{load_optics, load_scene};
-use crate::io;
 use anyhow::{Result, bail};
+use gonio_cli::formats::frames::{load_optics, load_scene};
+use gonio_cli::output::Outputs;
 use gonio_sim::frames::{
     FrameTruth, GratingScene, RenderedFrames, SceneChoice, SceneDraw, SceneFamily, ScenePreset,
     Turn,
@@ -106,12 +106,16 @@ pub struct Args {
     /// Seed of noise, dust and (with --scene random) the scenes.
     #[arg(long)]
     pub seed: u64,
-    /// Output directory.
+    /// Output directory (new or empty; see --force).
     #[arg(long)]
     pub out: PathBuf,
     /// Also write DIR/frames.raw: the frames back to back, raw 8-bit (for `gonio detect --raw`).
     #[arg(long)]
     pub raw: bool,
+    /// Write into a non-empty output directory: its frames, angles and truth are replaced, and
+    /// frames of an earlier, longer run are removed (so `gonio detect DIR` never reads them).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Serialize)]
@@ -172,10 +176,23 @@ impl Args {
     }
 }
 
+/// Most frames in one run.
+const MAX_FRAMES: usize = 1_000_000;
+
 /// Runs `gonio simulate frames`.
 pub fn run(a: Args) -> Result<()> {
-    if a.count == 0 {
-        bail!("--count 0: expected at least one frame");
+    if !(1..=MAX_FRAMES).contains(&a.count) {
+        bail!("--count {}: expected 1 to {MAX_FRAMES} frames", a.count);
+    }
+    for (flag, v) in [
+        ("--eccentricity-um", a.eccentricity_um),
+        ("--ecc-angle-deg", a.ecc_angle_deg),
+        ("--defocus", a.defocus),
+        ("--start-deg", a.start_deg),
+    ] {
+        if !v.is_finite() || v.abs() > 1e6 {
+            bail!("{flag} {v}: expected a finite number of at most 1e6 in magnitude");
+        }
     }
     if !a.fps.is_finite() || a.fps <= 0.0 || !a.speed_deg_s.is_finite() {
         bail!(
@@ -197,20 +214,23 @@ pub fn run(a: Args) -> Result<()> {
         ..Turn::default()
     };
     let mut src = RenderedFrames::new(&optics, choice, turn, a.count as u64, a.seed)?;
-    io::ensure_dir(&a.out)?;
+    let mut out = Outputs::new();
+    out.dir("--out", &a.out, a.force)?;
+    out.remove_stale(&a.out, "frame_", ".png");
     let mut buf = Vec::new();
     let mut truths = Vec::with_capacity(a.count);
     let mut csv = Vec::with_capacity(a.count);
     let (mut w, mut h) = (0, 0);
     let bar = indicatif::ProgressBar::new(a.count as u64);
     let raw_path = a.out.join("frames.raw");
-    let mut raw = a
-        .raw
-        .then(|| io::AtomicFile::create(&raw_path))
-        .transpose()?;
+    let raw = if a.raw {
+        Some(out.file("--raw", &raw_path)?)
+    } else {
+        None
+    };
     while let Some(hdr) = src.next_frame(&mut buf)? {
-        if let Some(f) = raw.as_mut() {
-            f.write_all(&buf)?;
+        if let Some(id) = raw {
+            out.write(id, &buf)?;
         }
         let k = hdr.stamp.index as usize;
         (w, h) = (hdr.width, hdr.height);
@@ -225,7 +245,7 @@ pub fn run(a: Args) -> Result<()> {
             image::ImageFormat::Png,
         )?;
         buf = img.into_raw();
-        io::write_atomic(&a.out.join(&name), &bytes)?;
+        out.put("--out", &a.out.join(&name), &bytes)?;
         csv.push(vec![k.to_string(), format!("{theta}"), format!("{t}")]);
         let truth = *src
             .last_truth()
@@ -240,21 +260,17 @@ pub fn run(a: Args) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if let Some(f) = raw {
-        f.commit()?;
-    }
-    io::write_csv(
-        &a.out.join("angles.csv"),
-        &["frame", "theta_deg", "time_s"],
-        &csv,
-    )?;
+    let angles = out.file("--out", &a.out.join("angles.csv"))?;
+    out.csv(angles, &["frame", "theta_deg", "time_s"], &csv)?;
     let scene = if random {
         serde_json::json!({"random": SceneFamily::default()})
     } else {
         serde_json::to_value(src.renderer().scene())?
     };
-    io::write_json(
-        &a.out.join("truth.json"),
+    let truth = out.file("--out", &a.out.join("truth.json"))?;
+    // A frame without a ring has no true column: NaN, written as null on purpose.
+    out.json_with_nulls(
+        truth,
         &serde_json::json!({
             "format": "gonio-frames-truth",
             "version": 2,
@@ -266,7 +282,8 @@ pub fn run(a: Args) -> Result<()> {
             "frames": truths,
         }),
     )?;
-    eprintln!(
+    out.commit()?;
+    gonio_cli::note!(
         "{} frames of {w}×{h} written to {}",
         a.count,
         a.out.display()

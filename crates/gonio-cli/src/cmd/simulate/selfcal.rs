@@ -1,11 +1,11 @@
 //! `gonio simulate selfcal`: multi-head readings of one encoder scale, with ground truth.
 
-use crate::io;
 use anyhow::{Result, bail};
+use gonio_cli::formats::{encoder, heads};
+use gonio_cli::output::Outputs;
 use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::{SelfcalSimConfig, simulate};
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::PathBuf;
 
 /// Arguments of `gonio simulate selfcal`.
@@ -53,18 +53,26 @@ pub struct Args {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Output directory.
+    /// Output directory (new or empty; see --force).
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into a non-empty output directory, replacing the files of an earlier run.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Runs `gonio simulate selfcal`.
 pub fn run(args: Args) -> Result<()> {
+    let mut out = Outputs::new();
+    out.dir("--out", &args.out, args.force)?;
+    let readings_csv = out.file("--out", &args.out.join("readings.csv"))?;
+    let truth = out.file("--out", &args.out.join("truth.json"))?;
+    let encoder_json = out.file("--out", &args.out.join("encoder.json"))?;
     let encoder = match &args.encoder {
-        Some(p) => super::encoder::load(p)?,
+        Some(p) => encoder::load(p)?,
         None => EncoderModel::default_with_seed(args.seed),
     };
-    let (heads, offsets) = crate::cmd::selfcal::load_heads(&args.heads)?;
+    let (heads, offsets) = heads::load(&args.heads)?;
     if args.positions > 10_000_000 {
         bail!(
             "--positions {}: more than 10 000 000 per turn",
@@ -83,7 +91,6 @@ pub fn run(args: Args) -> Result<()> {
         ..SelfcalSimConfig::new(heads.clone(), args.seed)
     };
     let sim = simulate(&encoder, &cfg)?;
-    io::ensure_dir(&args.out)?;
     let m = heads.len();
     let first = if args.raw { 1 } else { 2 };
     let mut s = String::with_capacity(args.positions * args.turns * m * 14);
@@ -113,16 +120,15 @@ pub fn run(args: Args) -> Result<()> {
             s.push('\n');
         }
     }
-    io::write_atomic(&args.out.join("readings.csv"), s.as_bytes())?;
-    io::write_json(&args.out.join("truth.json"), &sim.truth)?;
-    io::write_atomic(&args.out.join("encoder.json"), encoder.to_json().as_bytes())?;
-    let _ = writeln!(
-        std::io::stdout(),
+    out.write(readings_csv, s.as_bytes())?;
+    out.json(truth, &sim.truth)?;
+    out.write(encoder_json, encoder.to_json().as_bytes())?;
+    out.commit()?;
+    gonio_cli::say!(
         "wrote {} ({} heads × {} positions × {} turn(s)), truth.json and encoder.json",
         args.out.join("readings.csv").display(),
         m,
         args.positions,
         args.turns
-    );
-    Ok(())
+    )
 }

@@ -1,9 +1,10 @@
 //! `gonio simulate shift-angle`: polygon + autocollimator readings with ground truth.
 
-use crate::formats::elcomat::{self, Mode};
-use crate::formats::plan::{Level, ModeRule, Plan, ShiftPlan};
-use crate::io;
 use anyhow::{Context, Result, bail};
+use gonio_cli::formats::elcomat::{self, Mode};
+use gonio_cli::formats::plan::{Level, ModeRule, Plan, ShiftPlan};
+use gonio_cli::formats::{encoder, readings};
+use gonio_cli::output::Outputs;
 use gonio_sim::EncoderModel;
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, simulate};
 use std::path::PathBuf;
@@ -56,9 +57,12 @@ pub struct Args {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Output directory.
+    /// Output directory (new or empty; see --force).
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into a non-empty output directory, replacing the files of an earlier run.
+    #[arg(long)]
+    pub force: bool,
     /// Also write the readings as an ELCOMAT-type autocollimator log (`4 003 X Y` lines, CR
     /// ended) here, and the measuring plan it follows as DIR/plan.toml (for `gonio import
     /// elcomat`).
@@ -69,32 +73,48 @@ pub struct Args {
     pub elcomat_mode: String,
 }
 
-/// Parses `0,5,10` or `0:1:14` (inclusive end).
+/// Parses `0,5,10` or `0:1:14` (inclusive end); a shift given twice is refused (its readings
+/// would conflict in the readings file).
 pub fn parse_shifts(s: &str) -> Result<Vec<f64>> {
-    let num = |p: &str| -> Result<f64> {
-        p.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .with_context(|| format!("--shifts {s:?}: {p:?} is not a number of degrees"))
-    };
-    if s.contains(':') {
-        let p: Vec<&str> = s.split(':').collect();
-        if p.len() != 3 {
-            bail!("--shifts {s:?}: expected START:STEP:END, e.g. 0:1:14");
-        }
-        let (a, st, b) = (num(p[0])?, num(p[1])?, num(p[2])?);
-        if st <= 0.0 || b < a {
-            bail!("--shifts {s:?}: expected STEP > 0 and END ≥ START");
-        }
-        let count = ((b - a) / st + 1e-9).floor() as usize + 1;
-        if count > 100_000 {
-            bail!("--shifts {s:?}: {count} shifts is more than 100000");
-        }
-        Ok((0..count).map(|k| a + k as f64 * st).collect())
+    let shown = gonio_core::text::short(s);
+    let v: Vec<f64> = if s.contains(':') {
+        readings::shift_range(s).with_context(|| {
+            format!(
+                "--shifts {shown:?}: expected START:STEP:END with STEP > 0, END ≥ START and at most {} shifts, e.g. 0:1:14",
+                readings::MAX_SHIFTS
+            )
+        })?
     } else {
-        s.split(',').map(num).collect()
+        s.split(',')
+            .map(|p| {
+                p.trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .with_context(|| {
+                        format!(
+                            "--shifts {shown:?}: {:?} is not a number of degrees",
+                            gonio_core::text::short(p)
+                        )
+                    })
+            })
+            .collect::<Result<_>>()?
+    };
+    if v.len() > readings::MAX_SHIFTS {
+        bail!(
+            "--shifts: {} shifts, at most {}",
+            v.len(),
+            readings::MAX_SHIFTS
+        );
     }
+    let mut seen = std::collections::HashSet::new();
+    if let Some(d) = v
+        .iter()
+        .find(|&&x| !seen.insert(gonio_calib::shift_angle::ShiftKey::of(x)))
+    {
+        bail!("--shifts {shown:?}: {d}° is given twice: expected each shift once");
+    }
+    Ok(v)
 }
 
 /// Formats a reading at the autocollimator's resolution (shortest exact form without one).
@@ -109,8 +129,13 @@ pub fn format_reading(v: f64, resolution: f64) -> String {
 
 /// Runs `gonio simulate shift-angle`.
 pub fn run(args: Args) -> Result<()> {
+    let mut out = Outputs::new();
+    out.dir("--out", &args.out, args.force)?;
+    let readings_csv = out.file("--out", &args.out.join("readings.csv"))?;
+    let truth = out.file("--out", &args.out.join("truth.json"))?;
+    let encoder_json = out.file("--out", &args.out.join("encoder.json"))?;
     let encoder = match &args.encoder {
-        Some(p) => super::encoder::load(p)?,
+        Some(p) => encoder::load(p)?,
         None => EncoderModel::default_with_seed(args.seed),
     };
     let rows = Rows::parse(&args.rows)
@@ -128,7 +153,6 @@ pub fn run(args: Args) -> Result<()> {
         seed: args.seed,
     };
     let sim = simulate(&encoder, &cfg)?;
-    io::ensure_dir(&args.out)?;
     let with_repeat = args.repeats > 1;
     let mut csv = String::from("# gonio simulate shift-angle");
     csv.push_str(&format!(
@@ -154,13 +178,21 @@ pub fn run(args: Args) -> Result<()> {
             ));
         }
     }
-    io::write_atomic(&args.out.join("readings.csv"), csv.as_bytes())?;
+    out.write(readings_csv, csv.as_bytes())?;
     if let Some(log) = &args.elcomat_log {
-        write_elcomat(&args, &cfg, &sim.readings, log)?;
+        write_elcomat(&mut out, &args, &cfg, &sim.readings, log)?;
     }
-    io::write_json(&args.out.join("truth.json"), &sim.truth)?;
-    io::write_atomic(&args.out.join("encoder.json"), encoder.to_json().as_bytes())?;
-    eprintln!(
+    out.json(truth, &sim.truth)?;
+    out.write(encoder_json, encoder.to_json().as_bytes())?;
+    out.commit()?;
+    if let Some(log) = &args.elcomat_log {
+        gonio_cli::note!(
+            "wrote {} and {}",
+            log.display(),
+            args.out.join("plan.toml").display()
+        );
+    }
+    gonio_cli::note!(
         "wrote {} readings ({} faces, {} shifts) to {}/readings.csv, truth.json, encoder.json",
         sim.readings.len(),
         args.faces,
@@ -172,6 +204,7 @@ pub fn run(args: Args) -> Result<()> {
 
 /// Writes the readings as an autocollimator log and the plan it follows (DIR/plan.toml).
 fn write_elcomat(
+    out: &mut Outputs,
     args: &Args,
     cfg: &ShiftAngleConfig,
     readings: &[gonio_calib::shift_angle::Reading],
@@ -221,8 +254,10 @@ fn write_elcomat(
     };
     // The simulator's readings are in measuring order; the autocollimator has no Y here.
     let xy: Vec<(f64, f64)> = readings.iter().map(|r| (r.value_arcsec, 0.0)).collect();
-    io::write_atomic(log, elcomat::write(&xy, mode, decimals).as_bytes())?;
+    let log_id = out.file("--elcomat-log", log)?;
+    out.write(log_id, elcomat::write(&xy, mode, decimals).as_bytes())?;
     let plan_path = args.out.join("plan.toml");
+    let plan_id = out.file("--out", &plan_path)?;
     let comment = format!(
         "Measuring plan of {} (gonio simulate shift-angle --faces {} --shifts {} --rows {} --repeats {} --seed {})",
         log.display(),
@@ -232,7 +267,6 @@ fn write_elcomat(
         args.repeats,
         args.seed
     );
-    io::write_atomic(&plan_path, plan.to_toml(&comment).as_bytes())?;
-    eprintln!("wrote {} and {}", log.display(), plan_path.display());
+    out.write(plan_id, plan.to_toml(&comment).as_bytes())?;
     Ok(())
 }

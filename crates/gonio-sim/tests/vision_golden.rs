@@ -1,11 +1,12 @@
-//! Golden PNGs: small frames and their stage outputs, checked bit for bit. Regenerate on purpose
-//! with `GONIO_REGENERATE_GOLDEN=1 cargo test -p gonio-vision --test golden` (never silently).
+//! The detector's golden PNGs (here, beside the renderer that draws the inputs: gonio-vision
+//! cannot dev-depend on gonio-sim, which depends on it): small frames and their stage outputs, checked bit for bit. Regenerate on purpose
+//! with `GONIO_REGENERATE_GOLDEN=1 cargo test -p gonio-sim --test vision_golden` (never silently).
 
 use gonio_vision::{Detector, InvalidReason, Optics};
 use std::path::{Path, PathBuf};
 
 fn dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/vision_golden")
 }
 
 fn small_optics() -> Optics {

@@ -1,0 +1,166 @@
+//! Polygon + autocollimator readings (`shift_deg,start_face,step,reading_arcsec[,repeat]`), the
+//! input of `gonio shift-angle` and `gonio joint`.
+
+use super::csv::CsvTable;
+use anyhow::{Result, anyhow};
+use gonio_calib::shift_angle::{MAX_FACES, Reading, ReadingSet, ShiftAngleError};
+use std::path::Path;
+
+/// The readings file's header.
+pub const HEADER: &str = "shift_deg,start_face,step,reading_arcsec[,repeat]";
+
+/// Largest repeat number of a reading.
+pub const MAX_REPEAT: i64 = 1_000_000;
+
+/// Reads and validates a readings file; errors name the file, line and column.
+///
+/// # Errors
+/// As [`parse`], and the file cannot be read.
+pub fn read(path: &Path, faces: Option<usize>) -> Result<ReadingSet> {
+    let table = CsvTable::read(path)?;
+    from_table(&table, faces)
+}
+
+/// Parses readings text; `name` names it in errors.
+///
+/// # Errors
+/// A malformed row, a face or step out of range (or implying more than
+/// [`MAX_FACES`] faces), a conflicting duplicate, fewer than 3 faces.
+pub fn parse(name: &str, text: &str, faces: Option<usize>) -> Result<ReadingSet> {
+    from_table(&CsvTable::parse(name, text)?, faces)
+}
+
+/// Checks `--faces` (3 to [`MAX_FACES`]).
+///
+/// # Errors
+/// Out of range.
+pub fn check_faces(faces: usize) -> Result<()> {
+    if !(3..=MAX_FACES).contains(&faces) {
+        return Err(anyhow!(
+            "--faces {faces}: expected a polygon of 3 to {MAX_FACES} faces"
+        ));
+    }
+    Ok(())
+}
+
+fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> {
+    if let Some(n) = faces {
+        check_faces(n)?;
+    }
+    let c_shift = table.require("shift_deg", HEADER)?;
+    let c_face = table.require("start_face", HEADER)?;
+    let c_step = table.require("step", HEADER)?;
+    let c_value = table.require("reading_arcsec", HEADER)?;
+    let c_repeat = table.column("repeat");
+    let mut readings = Vec::with_capacity(table.rows.len());
+    let mut lines = Vec::with_capacity(table.rows.len());
+    let mut max_index = 0i64;
+    for (line, f) in &table.rows {
+        let shift = table.f64_at(*line, f, c_shift)?;
+        let face = table.int_at(*line, f, c_face)?;
+        let step = table.int_at(*line, f, c_step)?;
+        for (c, what, v) in [(c_face, "start_face", face), (c_step, "step", step)] {
+            if v < 1 {
+                return Err(table.error_at(
+                    *line,
+                    c,
+                    format!("{v} is out of range: expected 1 or more"),
+                ));
+            }
+            match faces {
+                Some(n) if v > n as i64 => {
+                    return Err(table.error_at(
+                        *line,
+                        c,
+                        format!("{v} is out of range: expected 1..={n} (--faces {n})"),
+                    ));
+                }
+                None if v > MAX_FACES as i64 => {
+                    return Err(table.error_at(
+                        *line,
+                        c,
+                        format!("{what} {v} implies a {v}-face polygon; at most {MAX_FACES} faces"),
+                    ));
+                }
+                _ => {}
+            }
+        }
+        max_index = max_index.max(face).max(step);
+        let repeat = match c_repeat {
+            Some(c) => {
+                let r = table.int_at(*line, f, c)?;
+                if !(1..=MAX_REPEAT).contains(&r) {
+                    return Err(table.error_at(
+                        *line,
+                        c,
+                        format!("{r} is out of range: expected 1..={MAX_REPEAT}"),
+                    ));
+                }
+                r as u32
+            }
+            None => 1,
+        };
+        readings.push(Reading {
+            shift_deg: shift,
+            start_face: face as usize,
+            step: step as usize,
+            repeat,
+            value_arcsec: table.f64_at(*line, f, c_value)?,
+        });
+        lines.push(*line);
+    }
+    if readings.is_empty() {
+        return Err(anyhow!(
+            "{}:{}: no readings after the header",
+            table.name,
+            table.header_line
+        ));
+    }
+    let n = faces.unwrap_or(max_index as usize);
+    ReadingSet::new(n, readings).map_err(|e| match e {
+        ShiftAngleError::ConflictingDuplicate {
+            index,
+            first,
+            first_value,
+            value,
+            ..
+        } => anyhow!(
+            "{}:{}: conflicting duplicate: reading {value} for the same shift, start_face, step and repeat as line {} ({first_value}); add a repeat column to keep both",
+            table.name,
+            lines[index],
+            lines[first]
+        ),
+        ShiftAngleError::TooFewFaces { faces } => anyhow!(
+            "{}: {faces} faces: expected a polygon with at least 3 faces (largest face/step number in the file, or --faces)",
+            table.name
+        ),
+        e => anyhow!("{}: {e}", table.name),
+    })
+}
+
+/// Most shifts in a range `START:STEP:END`.
+pub const MAX_SHIFTS: usize = 100_000;
+
+/// The shifts of `START:STEP:END` (inclusive end) or a single `S`, degrees; `None` when it is
+/// neither, or has more than [`MAX_SHIFTS`] shifts.
+///
+/// ```
+/// use gonio_cli::formats::readings::shift_range;
+/// assert_eq!(shift_range("0:5:10"), Some(vec![0.0, 5.0, 10.0]));
+/// assert_eq!(shift_range("0:1e-300:1"), None);
+/// ```
+pub fn shift_range(s: &str) -> Option<Vec<f64>> {
+    let p: Vec<f64> = s
+        .split(':')
+        .map(|x| x.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()?;
+    match p.as_slice() {
+        [a] => Some(vec![*a]),
+        [a, st, b] if *st > 0.0 && b >= a => {
+            let count = ((b - a) / st + 1e-9).floor() + 1.0;
+            (count.is_finite() && count <= MAX_SHIFTS as f64)
+                .then(|| (0..count as usize).map(|k| a + k as f64 * st).collect())
+        }
+        _ => None,
+    }
+}
