@@ -30,6 +30,6 @@ pub fn store_certificate(
     let id = open(location)?
         .insert_calibration(cert, source, &software_version())
         .map_err(|e| anyhow!("results store {loc}: {e}"))?;
-    eprintln!("stored as calibration {id} in {loc}");
+    gonio_cli::note!("stored as calibration {id} in {loc}");
     Ok(id)
 }

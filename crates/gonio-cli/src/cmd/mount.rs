@@ -161,12 +161,12 @@ pub fn run(a: Args) -> Result<()> {
     let prepared = match station::prepare(&cfg, a.seed, &target)? {
         station::Start::Run(p) => p,
         station::Start::Complete(note) => {
-            eprintln!("{note}");
+            gonio_cli::note!("{note}");
             return Ok(());
         }
     };
     if let Some(note) = &prepared.note {
-        eprintln!("{note}");
+        gonio_cli::note!("{note}");
     }
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
@@ -231,7 +231,7 @@ pub fn run(a: Args) -> Result<()> {
             return Err(e);
         }
         if let Some(dir) = &a.record {
-            eprintln!(
+            gonio_cli::note!(
                 "recorded {} part(s) in {dir} (gonio replay {dir} re-runs them)",
                 written.len(),
                 dir = dir.display()

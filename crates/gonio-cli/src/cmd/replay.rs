@@ -2,6 +2,7 @@
 
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::formats::replay::{self, PartFile};
+use gonio_cli::say;
 use gonio_station::DetectorCamera;
 use gonio_station::replay::{TurnReplay, replay_turn};
 use serde::Serialize;
@@ -75,35 +76,35 @@ pub fn run(a: Args) -> Result<()> {
         frames += n_frames;
         if !to_stdout {
             if diffs == 0 {
-                println!(
+                say!(
                     "{} ({}): {} turns, {n_frames} frames: identical to the record",
                     part.serial,
                     dir.display(),
                     replayed.len()
-                );
+                )?;
             } else {
-                println!(
+                say!(
                     "{} ({}): DIFFERS from the record",
                     part.serial,
                     dir.display()
-                );
+                )?;
                 for (i, t) in replayed.iter().enumerate() {
                     if t.frames_differing > 0 {
-                        println!(
+                        say!(
                             "  turn {}: {} of {} frames give another detector result",
                             i + 1,
                             t.frames_differing,
                             t.frames
-                        );
+                        )?;
                     }
                     for d in &t.differences {
-                        println!(
+                        say!(
                             "  turn {} {}: recorded {}, replayed {}",
                             i + 1,
                             d.field,
                             d.recorded,
                             d.replayed
-                        );
+                        )?;
                     }
                 }
             }
@@ -131,10 +132,10 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if !to_stdout {
-        println!(
+        say!(
             "{} part(s), {turns} turns, {frames} frames replayed: bit-identical to the record",
             parts.len()
-        );
+        )?;
     }
     Ok(())
 }

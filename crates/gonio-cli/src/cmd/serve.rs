@@ -97,7 +97,7 @@ fn bind(addr: &str, allow_remote: bool) -> Result<TcpListener> {
                 "--addr {addr}: not a loopback address; the dashboard has no authentication, so listening on the network needs --allow-remote"
             );
         }
-        eprintln!(
+        gonio_cli::note!(
             "warning: listening on {sa}: the dashboard (read-only, no authentication) is reachable from the network"
         );
     }
@@ -143,7 +143,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         None => None,
     };
-    eprintln!(
+    gonio_cli::note!(
         "gonio dashboard on http://{bound}/ (read-only{}); Ctrl-C stops",
         if a.station.is_some() {
             ", simulated station running"
@@ -239,13 +239,13 @@ fn spawn_station(
         let p = match prepared {
             station::Start::Run(p) => p,
             station::Start::Complete(note) => {
-                eprintln!("{note}");
+                gonio_cli::note!("{note}");
                 hub.batch_finished(&note);
                 return;
             }
         };
         if let Some(note) = &p.note {
-            eprintln!("{note}");
+            gonio_cli::note!("{note}");
         }
         let mut live = LiveObserver::new(hub.clone());
         let h = hub.clone();
@@ -285,11 +285,11 @@ fn spawn_station(
             },
             Err(e) => {
                 let m = format!("station stopped: {}", gonio_cli::input::one_line(&e));
-                eprintln!("error: {m}");
+                gonio_cli::note!("error: {m}");
                 m
             }
         };
-        eprintln!("{message}; the dashboard stays up until Ctrl-C");
+        gonio_cli::note!("{message}; the dashboard stays up until Ctrl-C");
         hub.batch_finished(&message);
     })
 }
