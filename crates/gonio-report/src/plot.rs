@@ -9,7 +9,10 @@ use crate::batch::{BatchView, PartView, TurnView};
 use crate::font::{self, FAMILY};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::compare::Comparison;
+use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -121,6 +124,121 @@ fn render(
     Ok(svg)
 }
 
+/// Margins and label areas of one chart, px.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    margin: u32,
+    margin_right: u32,
+    x_area: u32,
+    y_area: u32,
+}
+
+impl Frame {
+    /// This frame with an x label area of `px`.
+    const fn x_area(self, px: u32) -> Self {
+        Self { x_area: px, ..self }
+    }
+}
+
+/// The frame of a standard figure.
+const FRAME: Frame = Frame {
+    margin: 14,
+    margin_right: 24,
+    x_area: 52,
+    y_area: 86,
+};
+
+/// A Cartesian chart of plotters over the ranges `X` and `Y`.
+type Chart<'a, DB, X, Y> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<<X as AsRangedCoord>::CoordDescType, <Y as AsRangedCoord>::CoordDescType>,
+>;
+
+/// A Cartesian chart on `area` in `frame`, with an optional caption above it.
+fn cartesian<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
+    area: &'a DrawingArea<DB, Shift>,
+    id: &str,
+    frame: Frame,
+    caption: Option<&str>,
+    x: X,
+    y: Y,
+) -> Result<Chart<'a, DB, X, Y>, ReportError> {
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .margin(frame.margin)
+        .margin_right(frame.margin_right);
+    if let Some(c) = caption {
+        builder.caption(c, bold(TICK));
+    }
+    builder
+        .x_label_area_size(frame.x_area)
+        .y_label_area_size(frame.y_area)
+        .build_cartesian_2d(x, y)
+        .map_err(err(id))
+}
+
+/// The house mesh of `chart`: axis descriptions (`y_desc` none for a labelled category
+/// axis), text styles and the grid; the caller adds the labels and draws it.
+fn mesh<'a, 'b, DB, X, Y, XT, YT>(
+    chart: &'b mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    x_desc: &str,
+    y_desc: Option<&str>,
+) -> MeshStyle<'a, 'b, X, Y, DB>
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = XT> + ValueFormatter<XT>,
+    Y: Ranged<ValueType = YT> + ValueFormatter<YT>,
+{
+    let mut m = chart.configure_mesh();
+    m.x_desc(x_desc);
+    if let Some(y) = y_desc {
+        m.y_desc(y);
+    }
+    m.axis_desc_style(desc())
+        .label_style(tick())
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(GRID);
+    m
+}
+
+/// The mesh of a chart over a whole turn (x 0…360°, a label every 30°) with `y_labels` values
+/// on a y span of `y_span`, drawn.
+fn turn_mesh<'a, DB: DrawingBackend, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
+    id: &str,
+    (x_desc, y_desc): (&str, &str),
+    y_span: f64,
+    y_labels: usize,
+) -> Result<(), ReportError>
+where
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    mesh(chart, x_desc, Some(y_desc))
+        .x_labels(13)
+        .y_labels(y_labels)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| fixed(*v, decimals(y_span, y_labels)))
+        .draw()
+        .map_err(err(id))
+}
+
+/// The legend box (upper right) of `chart`, its text `size` px, drawn.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    id: &str,
+    size: u32,
+) -> Result<(), ReportError> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(GREY)
+        .label_font(note(size, BLACK))
+        .draw()
+        .map_err(err(id))
+}
+
 /// Indices of at most ~`max` points keeping each bucket's smallest and largest value (the
 /// envelope survives decimation).
 fn decimate(values: &[f64], max: usize) -> Vec<usize> {
@@ -186,27 +304,14 @@ pub fn alpha(cert: &Certificate) -> Result<Figure, ReportError> {
         .unwrap_or_default();
     let k = pts.iter().find_map(|p| p.k);
     let svg = render("alpha", SIZE, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
-            .build_cartesian_2d(0f64..360f64, y0..y1)
-            .map_err(err("alpha"))?;
-        chart
-            .configure_mesh()
-            .x_desc("angle θ / °")
-            .y_desc("encoder error α / ″")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
-            .x_labels(13)
-            .y_labels(9)
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| fixed(*v, decimals(y1 - y0, 9)))
-            .draw()
-            .map_err(err("alpha"))?;
+        let mut chart = cartesian(root, "alpha", FRAME, None, 0f64..360f64, y0..y1)?;
+        turn_mesh(
+            &mut chart,
+            "alpha",
+            ("angle θ / °", "encoder error α / ″"),
+            y1 - y0,
+            9,
+        )?;
         if has_u {
             let mut band: Vec<(f64, f64)> = keep
                 .iter()
@@ -274,14 +379,7 @@ pub fn alpha(cert: &Certificate) -> Result<Figure, ReportError> {
                 }
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(GREY)
-            .label_font(note(TICK, BLACK))
-            .draw()
-            .map_err(err("alpha"))?;
+        legend(&mut chart, "alpha", TICK)?;
         Ok(())
     })?;
     let caption = if has_u {
@@ -316,27 +414,14 @@ pub fn compensation(cert: &Certificate) -> Result<Figure, ReportError> {
     let (y0, y1) = range(values.iter().copied(), 0.08);
     let svg =
         render("compensation", SIZE, |root| {
-            let mut chart = ChartBuilder::on(root)
-                .margin(14)
-                .margin_right(24)
-                .x_label_area_size(52)
-                .y_label_area_size(86)
-                .build_cartesian_2d(0f64..360f64, y0..y1)
-                .map_err(err("compensation"))?;
-            chart
-                .configure_mesh()
-                .x_desc("encoder reading θ / °")
-                .y_desc("correction −α / ″")
-                .axis_desc_style(desc())
-                .label_style(tick())
-                .light_line_style(TRANSPARENT)
-                .bold_line_style(GRID)
-                .x_labels(13)
-                .y_labels(9)
-                .x_label_formatter(&|v| format!("{v:.0}"))
-                .y_label_formatter(&|v| fixed(*v, decimals(y1 - y0, 9)))
-                .draw()
-                .map_err(err("compensation"))?;
+            let mut chart = cartesian(root, "compensation", FRAME, None, 0f64..360f64, y0..y1)?;
+            turn_mesh(
+                &mut chart,
+                "compensation",
+                ("encoder reading θ / °", "correction −α / ″"),
+                y1 - y0,
+                9,
+            )?;
             chart
                 .draw_series(LineSeries::new(
                     keep.iter()
@@ -387,21 +472,8 @@ pub fn pitch(cert: &Certificate) -> Result<Option<Figure>, ReportError> {
     );
     let n = b.len() as f64;
     let svg = render("pitch", SIZE, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
-            .build_cartesian_2d(0.5f64..n + 0.5, y0..y1)
-            .map_err(err("pitch"))?;
-        chart
-            .configure_mesh()
-            .x_desc("polygon face k")
-            .y_desc("pitch deviation β / ″")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
+        let mut chart = cartesian(root, "pitch", FRAME, None, 0.5f64..n + 0.5, y0..y1)?;
+        mesh(&mut chart, "polygon face k", Some("pitch deviation β / ″"))
             .x_labels((b.len() + 1).min(25))
             .y_labels(9)
             .x_label_formatter(&|v| {
@@ -487,27 +559,25 @@ pub fn residuals(cert: &Certificate) -> Result<Vec<Figure>, ReportError> {
     let ytop = top.max(expected_peak) * 1.12;
     let dec = decimals(2.0 * max, 8);
     let hist = render("residual-histogram", SIZE, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
-            .build_cartesian_2d(-max..max, 0.0..ytop)
-            .map_err(err("residual-histogram"))?;
-        chart
-            .configure_mesh()
-            .x_desc("residual (reading − model) / ″")
-            .y_desc("readings per bin")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
-            .x_labels(9)
-            .y_labels(7)
-            .x_label_formatter(&|v| fixed(*v, dec))
-            .y_label_formatter(&|v| format!("{v:.0}"))
-            .draw()
-            .map_err(err("residual-histogram"))?;
+        let mut chart = cartesian(
+            root,
+            "residual-histogram",
+            FRAME,
+            None,
+            -max..max,
+            0.0..ytop,
+        )?;
+        mesh(
+            &mut chart,
+            "residual (reading − model) / ″",
+            Some("readings per bin"),
+        )
+        .x_labels(9)
+        .y_labels(7)
+        .x_label_formatter(&|v| fixed(*v, dec))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .draw()
+        .map_err(err("residual-histogram"))?;
         chart
             .draw_series(counts.iter().enumerate().map(|(i, &c)| {
                 let x = -max + i as f64 * width;
@@ -530,39 +600,30 @@ pub fn residuals(cert: &Certificate) -> Result<Vec<Figure>, ReportError> {
             .map_err(err("residual-histogram"))?
             .label(format!("normal, σ̂ = {}", arcsec(sigma)))
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], VERMILION.stroke_width(2)));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(GREY)
-            .label_font(note(TICK, BLACK))
-            .draw()
-            .map_err(err("residual-histogram"))?;
+        legend(&mut chart, "residual-histogram", TICK)?;
         Ok(())
     })?;
     let n = r.len() as f64;
     let order = render("residuals", SIZE, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
-            .build_cartesian_2d(0.0..n + 1.0, -max * 1.05..max * 1.05)
-            .map_err(err("residuals"))?;
-        chart
-            .configure_mesh()
-            .x_desc("reading number (file order)")
-            .y_desc("residual / ″")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
-            .x_labels(10)
-            .y_labels(9)
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| fixed(*v, dec))
-            .draw()
-            .map_err(err("residuals"))?;
+        let mut chart = cartesian(
+            root,
+            "residuals",
+            FRAME,
+            None,
+            0.0..n + 1.0,
+            -max * 1.05..max * 1.05,
+        )?;
+        mesh(
+            &mut chart,
+            "reading number (file order)",
+            Some("residual / ″"),
+        )
+        .x_labels(10)
+        .y_labels(9)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| fixed(*v, dec))
+        .draw()
+        .map_err(err("residuals"))?;
         chart
             .draw_series(
                 r.iter()
@@ -639,34 +700,32 @@ pub fn spectrum(cert: &Certificate) -> Result<Option<Figure>, ReportError> {
     noise.sort_by(f64::total_cmp);
     let noise2 = noise.get(noise.len() / 2).map(|u| 2.0 * u);
     let svg = render("spectrum", SIZE, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
-            .build_cartesian_2d(0f64..kmax + 1.0, (y0..y1).log_scale())
-            .map_err(err("spectrum"))?;
-        chart
-            .configure_mesh()
-            .x_desc("harmonic order (cycles per turn)")
-            .y_desc("amplitude / ″")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
-            .x_labels(12)
-            .y_labels(8)
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| {
-                if *v >= 1.0 {
-                    format!("{v:.0}")
-                } else {
-                    let d = (-(v.log10().floor()) as usize).min(7);
-                    format!("{v:.d$}")
-                }
-            })
-            .draw()
-            .map_err(err("spectrum"))?;
+        let mut chart = cartesian(
+            root,
+            "spectrum",
+            FRAME,
+            None,
+            0f64..kmax + 1.0,
+            (y0..y1).log_scale(),
+        )?;
+        mesh(
+            &mut chart,
+            "harmonic order (cycles per turn)",
+            Some("amplitude / ″"),
+        )
+        .x_labels(12)
+        .y_labels(8)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| {
+            if *v >= 1.0 {
+                format!("{v:.0}")
+            } else {
+                let d = (-(v.log10().floor()) as usize).min(7);
+                format!("{v:.d$}")
+            }
+        })
+        .draw()
+        .map_err(err("spectrum"))?;
         let marks = [VERMILION, PURPLE, ORANGE];
         for (i, inv) in s.invisible.iter().enumerate() {
             let color = marks[i % marks.len()];
@@ -719,14 +778,7 @@ pub fn spectrum(cert: &Certificate) -> Result<Option<Figure>, ReportError> {
             .legend(|(x, y)| {
                 PathElement::new([(x + 9, y - 7), (x + 9, y + 7)], BLUE.stroke_width(2))
             });
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(GREY)
-            .label_font(note(TICK, BLACK))
-            .draw()
-            .map_err(err("spectrum"))?;
+        legend(&mut chart, "spectrum", TICK)?;
         Ok(())
     })?;
     let blind: Vec<String> = s
@@ -777,21 +829,21 @@ pub fn budget_shares(cert: &Certificate) -> Result<Option<Figure>, ReportError> 
     let height = (70 + 38 * n as u32).max(180);
     let names: Vec<String> = rows.iter().map(|r| r.name.clone()).collect();
     let svg = render("budget", (SIZE.0, height), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(14)
-            .margin_right(40)
-            .x_label_area_size(52)
-            .y_label_area_size(label_px)
-            .build_cartesian_2d(0f64..100f64, -0.5f64..n as f64 - 0.5)
-            .map_err(err("budget"))?;
-        chart
-            .configure_mesh()
+        let frame = Frame {
+            margin_right: 40,
+            y_area: label_px,
+            ..FRAME
+        };
+        let mut chart = cartesian(
+            root,
+            "budget",
+            frame,
+            None,
+            0f64..100f64,
+            -0.5f64..n as f64 - 0.5,
+        )?;
+        mesh(&mut chart, "share of u_c² / %", None)
             .disable_y_mesh()
-            .x_desc("share of u_c² / %")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
             .x_labels(11)
             .y_labels(n)
             .x_label_formatter(&|v| format!("{v:.0}"))
@@ -865,27 +917,21 @@ pub fn comparison(c: &Comparison) -> Result<Figure, ReportError> {
         .max_by(|a, b| a.en.unwrap_or(0.0).total_cmp(&b.en.unwrap_or(0.0)));
     let svg = render("comparison", (SIZE.0, 640), |root| {
         let (top, bottom) = root.split_vertically(360);
-        let mut chart = ChartBuilder::on(&top)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(44)
-            .y_label_area_size(86)
-            .build_cartesian_2d(0f64..360f64, y0..y1)
-            .map_err(err("comparison"))?;
-        chart
-            .configure_mesh()
-            .x_desc("angle θ / °")
-            .y_desc("difference A − B / ″")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
-            .x_labels(13)
-            .y_labels(8)
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| fixed(*v, decimals(y1 - y0, 8)))
-            .draw()
-            .map_err(err("comparison"))?;
+        let mut chart = cartesian(
+            &top,
+            "comparison",
+            FRAME.x_area(44),
+            None,
+            0f64..360f64,
+            y0..y1,
+        )?;
+        turn_mesh(
+            &mut chart,
+            "comparison",
+            ("angle θ / °", "difference A − B / ″"),
+            y1 - y0,
+            8,
+        )?;
         chart
             .draw_series(std::iter::once(PathElement::new(
                 [(0.0, 0.0), (360.0, 0.0)],
@@ -915,28 +961,16 @@ pub fn comparison(c: &Comparison) -> Result<Figure, ReportError> {
             .map_err(err("comparison"))?
             .label("A − B")
             .legend(|(x, y)| Circle::new((x + 9, y), 3, BLUE.filled()));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(GREY)
-            .label_font(note(TICK, BLACK))
-            .draw()
-            .map_err(err("comparison"))?;
-        let mut en = ChartBuilder::on(&bottom)
-            .margin(14)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
-            .build_cartesian_2d(0f64..360f64, 0f64..en_top)
-            .map_err(err("comparison"))?;
-        en.configure_mesh()
-            .x_desc("angle θ / °")
-            .y_desc("normalised error En")
-            .axis_desc_style(desc())
-            .label_style(tick())
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(GRID)
+        legend(&mut chart, "comparison", TICK)?;
+        let mut en = cartesian(
+            &bottom,
+            "comparison",
+            FRAME,
+            None,
+            0f64..360f64,
+            0f64..en_top,
+        )?;
+        mesh(&mut en, "angle θ / °", Some("normalised error En"))
             .x_labels(13)
             .y_labels(7)
             .x_label_formatter(&|v| format!("{v:.0}"))
@@ -1092,18 +1126,14 @@ fn c_theta_grid(id: &str, panels: &[(String, &TurnView)]) -> Result<String, Repo
             let fit = gonio_station::fit::fit(s, &gonio_station::fit::FitOptions::default()).ok();
             let (y0, y1) = range(s.iter().map(|q| q.c_px), 0.12);
             let (x0, x1) = range(s.iter().map(|q| q.theta_deg), 0.0);
-            let mut chart = ChartBuilder::on(area)
-                .margin(10)
-                .margin_right(18)
-                .caption(caption, bold(TICK))
-                .x_label_area_size(46)
-                .y_label_area_size(74)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(err(id))?;
-            chart
-                .configure_mesh()
-                .x_desc("servo angle θ / °")
-                .y_desc("ring column c / px")
+            let frame = Frame {
+                margin: 10,
+                margin_right: 18,
+                x_area: 46,
+                y_area: 74,
+            };
+            let mut chart = cartesian(area, id, frame, Some(caption), x0..x1, y0..y1)?;
+            mesh(&mut chart, "servo angle θ / °", Some("ring column c / px"))
                 .axis_desc_style(note(TICK, BLACK))
                 .label_style(note(15, BLACK))
                 .light_line_style(TRANSPARENT)
@@ -1165,39 +1195,37 @@ pub fn batch_pushes(b: &BatchView) -> Result<Option<Figure>, ReportError> {
     );
     let svg =
         render("e-pushes", SIZE, |root| {
-            let mut chart = ChartBuilder::on(root)
-                .margin(14)
-                .margin_right(24)
-                .x_label_area_size(52)
-                .y_label_area_size(86)
-                .build_cartesian_2d(-0.2f64..nmax - 0.8, (lo..hi).log_scale())
-                .map_err(err("e-pushes"))?;
-            chart
-                .configure_mesh()
-                .x_desc("pushes made")
-                .y_desc("measured eccentricity e / µm")
-                .axis_desc_style(desc())
-                .label_style(tick())
-                .light_line_style(TRANSPARENT)
-                .bold_line_style(GRID)
-                .x_labels(nmax as usize + 1)
-                .y_labels(8)
-                .x_label_formatter(&|v| {
-                    if (v - v.round()).abs() < 1e-9 && *v >= 0.0 {
-                        format!("{v:.0}")
-                    } else {
-                        String::new()
-                    }
-                })
-                .y_label_formatter(&|v| {
-                    if *v >= 10.0 {
-                        format!("{v:.0}")
-                    } else {
-                        format!("{v:.1}")
-                    }
-                })
-                .draw()
-                .map_err(err("e-pushes"))?;
+            let mut chart = cartesian(
+                root,
+                "e-pushes",
+                FRAME,
+                None,
+                -0.2f64..nmax - 0.8,
+                (lo..hi).log_scale(),
+            )?;
+            mesh(
+                &mut chart,
+                "pushes made",
+                Some("measured eccentricity e / µm"),
+            )
+            .x_labels(nmax as usize + 1)
+            .y_labels(8)
+            .x_label_formatter(&|v| {
+                if (v - v.round()).abs() < 1e-9 && *v >= 0.0 {
+                    format!("{v:.0}")
+                } else {
+                    String::new()
+                }
+            })
+            .y_label_formatter(&|v| {
+                if *v >= 10.0 {
+                    format!("{v:.0}")
+                } else {
+                    format!("{v:.1}")
+                }
+            })
+            .draw()
+            .map_err(err("e-pushes"))?;
             for s in &seqs {
                 chart
                     .draw_series(LineSeries::new(
@@ -1240,25 +1268,20 @@ pub fn batch_parts(b: &BatchView) -> Result<Option<Figure>, ReportError> {
         let (top, bottom) = root.split_vertically(300);
         for (area, is_time) in [(top, false), (bottom, true)] {
             let ytop = if is_time { tmax } else { pmax };
-            let mut chart = ChartBuilder::on(&area)
-                .margin(14)
-                .margin_right(24)
-                .x_label_area_size(46)
-                .y_label_area_size(86)
-                .build_cartesian_2d(0.5f64..n + 0.5, 0f64..ytop)
-                .map_err(err("parts"))?;
-            chart
-                .configure_mesh()
-                .x_desc("part number")
-                .y_desc(if is_time {
-                    "time per part / s"
-                } else {
-                    "pushes per part"
-                })
-                .axis_desc_style(desc())
-                .label_style(tick())
-                .light_line_style(TRANSPARENT)
-                .bold_line_style(GRID)
+            let mut chart = cartesian(
+                &area,
+                "parts",
+                FRAME.x_area(46),
+                None,
+                0.5f64..n + 0.5,
+                0f64..ytop,
+            )?;
+            let y_desc = if is_time {
+                "time per part / s"
+            } else {
+                "pushes per part"
+            };
+            mesh(&mut chart, "part number", Some(y_desc))
                 .x_labels(((n as usize) + 1).min(26))
                 .y_labels(7)
                 .x_label_formatter(&|v| {
@@ -1305,14 +1328,7 @@ pub fn batch_parts(b: &BatchView) -> Result<Option<Figure>, ReportError> {
                 .map_err(err("parts"))?
                 .label(format!("Yu et al., 2024 (25 parts): mean {paper}"))
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.stroke_width(2)));
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(GREY)
-                .label_font(note(15, BLACK))
-                .draw()
-                .map_err(err("parts"))?;
+            legend(&mut chart, "parts", 15)?;
         }
         Ok(())
     })?;
