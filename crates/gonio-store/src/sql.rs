@@ -51,7 +51,12 @@ struct Row<'a> {
     key: i64,
 }
 
-impl Row<'_> {
+impl<'a> Row<'a> {
+    /// The row `v` of `table`, keyed by its first column (-1 when that is not an integer).
+    fn new(v: &'a [Value], table: &'static str) -> Self {
+        let key = v[0].int().unwrap_or(-1);
+        Row { v, table, key }
+    }
     fn int(&self, i: usize, col: &'static str) -> Result<i64, StoreError> {
         self.v[i]
             .int()
@@ -155,15 +160,22 @@ fn part_filter(q: &PartQuery) -> Result<(String, Vec<Value>), StoreError> {
     Ok((w, p))
 }
 
-const PART_COLS: &str = "id, serial, station, batch_id, batch_index, recipe_name, recipe_hash, \
-    strategy, software_version, started_at, ended_at, initial_e_um, final_e_um, pushes, time_s, \
-    result, verdict, reject_reason, remeasured_turns, focus_um, focus_s, measure_s, push_s, \
-    device, device_error_kind, device_error_message, learned_gain, learned_offset_deg, \
-    learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um";
+/// The columns of a part summary: the first columns of [`PART_COLS`].
+macro_rules! summary_cols {
+    () => {
+        "id, serial, station, batch_id, batch_index, recipe_name, strategy, started_at, ended_at, \
+         initial_e_um, final_e_um, pushes, time_s, result, verdict, reject_reason, remeasured_turns"
+    };
+}
 
-const SUMMARY_COLS: &str = "id, serial, station, batch_id, batch_index, recipe_name, strategy, \
-    started_at, ended_at, initial_e_um, final_e_um, pushes, time_s, result, verdict, \
-    reject_reason, remeasured_turns";
+const SUMMARY_COLS: &str = summary_cols!();
+
+const PART_COLS: &str = concat!(
+    summary_cols!(),
+    ", recipe_hash, software_version, focus_um, focus_s, measure_s, push_s, device, \
+     device_error_kind, device_error_message, learned_gain, learned_offset_deg, \
+     learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um"
+);
 
 const TURN_COLS: &str = "part_id, turn_index, kind, t_start_s, frames_taken, valid_frames, \
     invalid_frames, e_um, u_e_um, theta_max_deg, c0_px, residual_rms_px, outliers, focus_um, \
@@ -181,13 +193,10 @@ fn verdict_of(s: &str, key: i64) -> Result<Verdict, StoreError> {
     }
 }
 
+/// A whole part's row ([`PART_COLS`]): its summary, then the rest.
 fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
-    let key = v[0].int().unwrap_or(-1);
-    let r = Row {
-        v,
-        table: "parts",
-        key,
-    };
+    let r = Row::new(v, "parts");
+    let key = r.key;
     let device_error = match r.opt_text(23) {
         Some(device) => Some(DeviceFault {
             device,
@@ -201,26 +210,27 @@ fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
         }),
         None => None,
     };
+    let s = summary_row(v)?;
     Ok(StoredPart {
-        part: key,
-        serial: r.text(1, "serial")?,
-        station: r.text(2, "station")?,
-        batch: r.int(3, "batch_id")?,
-        batch_index: r.count(4, "batch_index")?,
-        recipe: r.text(5, "recipe_name")?,
-        recipe_hash: r.text(6, "recipe_hash")?,
-        strategy: r.text(7, "strategy")?,
-        software_version: r.text(8, "software_version")?,
-        started_at: r.text(9, "started_at")?,
-        ended_at: r.text(10, "ended_at")?,
-        initial_e_um: r.real(11),
-        final_e_um: r.real(12),
-        pushes: r.count(13, "pushes")? as u32,
-        time_s: r.real(14),
-        result: r.text(15, "result")?,
-        verdict: verdict_of(&r.text(16, "verdict")?, key)?,
-        reject_reason: r.opt_text(17),
-        remeasured_turns: r.count(18, "remeasured_turns")? as u32,
+        part: s.part,
+        serial: s.serial,
+        station: s.station,
+        batch: s.batch,
+        batch_index: s.batch_index,
+        recipe: s.recipe,
+        recipe_hash: r.text(17, "recipe_hash")?,
+        strategy: s.strategy,
+        software_version: r.text(18, "software_version")?,
+        started_at: s.started_at,
+        ended_at: s.ended_at,
+        initial_e_um: s.initial_e_um,
+        final_e_um: s.final_e_um,
+        pushes: s.pushes,
+        time_s: s.time_s,
+        result: s.result,
+        verdict: s.verdict,
+        reject_reason: s.reject_reason,
+        remeasured_turns: s.remeasured_turns,
         focus_um: r.real(19),
         phase_times: PhaseTimes {
             focus_s: r.real(20),
@@ -241,13 +251,10 @@ fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
     })
 }
 
+/// A part summary's row ([`SUMMARY_COLS`], also the first columns of [`PART_COLS`]).
 fn summary_row(v: &[Value]) -> Result<PartSummary, StoreError> {
-    let key = v[0].int().unwrap_or(-1);
-    let r = Row {
-        v,
-        table: "parts",
-        key,
-    };
+    let r = Row::new(v, "parts");
+    let key = r.key;
     Ok(PartSummary {
         part: key,
         serial: r.text(1, "serial")?,
@@ -270,12 +277,8 @@ fn summary_row(v: &[Value]) -> Result<PartSummary, StoreError> {
 }
 
 fn turn_row(v: &[Value]) -> Result<(i64, StoredTurn), StoreError> {
-    let key = v[0].int().unwrap_or(-1);
-    let r = Row {
-        v,
-        table: "turns",
-        key,
-    };
+    let r = Row::new(v, "turns");
+    let key = r.key;
     let quality = match r.opt_text(14) {
         Some(_) => Some(r.json::<serde_json::Value>(14, "quality_json")?),
         None => None,
@@ -302,12 +305,8 @@ fn turn_row(v: &[Value]) -> Result<(i64, StoredTurn), StoreError> {
 }
 
 fn push_row(v: &[Value]) -> Result<(i64, PushRecord), StoreError> {
-    let key = v[0].int().unwrap_or(-1);
-    let r = Row {
-        v,
-        table: "pushes",
-        key,
-    };
+    let r = Row::new(v, "pushes");
+    let key = r.key;
     Ok((
         key,
         PushRecord {
@@ -335,12 +334,8 @@ fn push_row(v: &[Value]) -> Result<(i64, PushRecord), StoreError> {
 }
 
 fn batch_row(v: &[Value]) -> Result<BatchInfo, StoreError> {
-    let key = v[0].int().unwrap_or(-1);
-    let r = Row {
-        v,
-        table: "batches",
-        key,
-    };
+    let r = Row::new(v, "batches");
+    let key = r.key;
     let seed = match r.opt_text(2) {
         Some(s) => Some(
             s.parse::<u64>()
@@ -369,12 +364,8 @@ const CAL_COLS: &str = "id, item, procedure, method, calibration_date, max_abs_e
     max_expanded_arcsec, source, software_version, stored_at";
 
 fn calibration_row(v: &[Value], with_cert: bool) -> Result<StoredCalibration, StoreError> {
-    let key = v[0].int().unwrap_or(-1);
-    let r = Row {
-        v,
-        table: "calibrations",
-        key,
-    };
+    let r = Row::new(v, "calibrations");
+    let key = r.key;
     Ok(StoredCalibration {
         calibration: key,
         item: r.opt_text(1),
