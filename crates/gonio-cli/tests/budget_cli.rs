@@ -3,27 +3,15 @@
 //! that would echo a megabyte, a diamond of 60 nested budgets, a 1,000-row correlation chain and a
 //! Monte Carlo run beyond the work limit. Correctness only: speed is in the criterion benches.
 
+mod common;
+
+use common::{gonio, stderr, stdout};
 #[path = "../../gonio-uncertainty/tests/support/hostile_inputs.rs"]
 mod hostile_inputs;
 
 use hostile_inputs::{chain, diamond, rows};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use std::process::Output;
 
 /// Writes `bytes` to `dir/name` and runs `gonio budget` on it with `extra` arguments.
 fn budget(dir: &Path, name: &str, bytes: &[u8], extra: &[&str]) -> Output {

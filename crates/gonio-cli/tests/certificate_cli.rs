@@ -4,33 +4,14 @@
 
 mod common;
 
+use common::{example, gonio};
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
+/// Runs `gonio`, asserting success.
 fn ok(args: &[&str]) {
-    let o = gonio(args);
-    assert!(
-        o.status.success(),
-        "gonio {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
+    common::ok(args);
 }
 
 fn keys_of(files: &[PathBuf]) -> BTreeSet<String> {

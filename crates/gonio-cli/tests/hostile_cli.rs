@@ -4,20 +4,15 @@
 //! output (closed pipe, full disk), finite results, helpful messages. Every input is generated
 //! here; none is large.
 
+mod common;
+
+use common::{gonio, stderr as err};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_gonio"))
-}
-
-fn gonio(args: &[&str]) -> Output {
-    bin().args(args).output().expect("gonio runs")
-}
-
-fn err(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// A refused run: exit code 2, one line `error: …` of at most 500 characters containing `want`.

@@ -1,18 +1,10 @@
 //! `gonio import elcomat`: simulated and hand-written autocollimator logs into readings CSVs.
 
+mod common;
+
+use common::{gonio, stderr};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::Command;
 
 /// The file without its `#` comment lines.
 fn data(p: &Path) -> String {

@@ -1,17 +1,9 @@
 //! `gonio joint` end to end on simulated polygon and head readings, and its bad-input errors.
 
-use std::process::{Command, Output};
+mod common;
 
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{gonio, stderr};
+use std::process::Command;
 
 #[test]
 fn joint_result_matches_the_truth_and_lists_the_blind_orders() {

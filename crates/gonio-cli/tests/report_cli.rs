@@ -5,24 +5,15 @@
 //! Both tools are Debian packages (`libxml2-utils`, `chromium`) that `.ci/run` installs; the tests
 //! fail, naming the package, when one is missing.
 
+mod common;
+
+use common::gonio;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
+/// Standard output of a successful `gonio` run.
 fn ok(args: &[&str]) -> String {
-    let o = gonio(args);
-    assert!(
-        o.status.success(),
-        "gonio {args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    common::ok(args).0
 }
 
 fn repo(p: &str) -> String {

@@ -1,18 +1,9 @@
 //! `gonio simulate shift-angle` and `gonio shift-angle` end to end, and their bad-input errors.
 
+mod common;
+
+use common::{gonio, stderr};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn gonio(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gonio"))
-        .args(args)
-        .output()
-        .expect("gonio runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// Runs `gonio shift-angle` on CSV text; returns (exit code, stderr).
 fn on_csv(dir: &Path, text: &str, extra: &[&str]) -> (i32, String) {
