@@ -33,3 +33,17 @@ pub fn store_certificate(
     gonio_cli::note!("stored as calibration {id} in {loc}");
     Ok(id)
 }
+
+/// Where a calibration command sends its certificate: `--json` and `--db`, flattened into
+/// `shift-angle`, `selfcal` and `joint` (the same flags and help in each).
+#[derive(Debug, clap::Args)]
+pub struct CertificateTargets {
+    /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
+    #[arg(long)]
+    pub json: Option<std::path::PathBuf>,
+    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
+    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
+    /// dashboard (`gonio serve`) lists it.
+    #[arg(long, value_name = "PATH|postgres://…")]
+    pub db: Option<String>,
+}

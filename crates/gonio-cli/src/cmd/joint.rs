@@ -82,14 +82,9 @@ pub struct Args {
     /// Coverage probability of U (default: the instrument file's, else 0.95).
     #[arg(long)]
     pub coverage: Option<f64>,
-    /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
-    #[arg(long)]
-    pub json: Option<PathBuf>,
-    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
-    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
-    /// dashboard (`gonio serve`) lists it.
-    #[arg(long, value_name = "PATH|postgres://…")]
-    pub db: Option<String>,
+    // `--json` and `--db`, shared with the other calibration commands.
+    #[command(flatten)]
+    pub to: db::CertificateTargets,
     /// Certificate metadata (TOML, ISO/IEC 17025 §7.8), carried in the certificate. See
     /// examples/certificate-meta.toml.
     #[arg(long)]
@@ -148,7 +143,7 @@ pub fn run(args: Args) -> Result<()> {
         anyhow::bail!("--max-order and --blind-max-order: expected at most 100000");
     }
     let mut out = Outputs::new();
-    let json = out.optional("--json", args.json.as_deref())?;
+    let json = out.optional("--json", args.to.json.as_deref())?;
     let comp = out.optional("--compensation", args.compensation.as_deref())?;
     let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
     let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
@@ -182,7 +177,7 @@ pub fn run(args: Args) -> Result<()> {
         gonio_cli::term::out(&summary(&cert))?;
     }
     out.commit()?;
-    if let Some(loc) = &args.db {
+    if let Some(loc) = &args.to.db {
         db::store_certificate(
             loc,
             &cert,
@@ -194,7 +189,7 @@ pub fn run(args: Args) -> Result<()> {
         )?;
     }
     if !to_stdout {
-        for p in [&args.json, &args.compensation].into_iter().flatten() {
+        for p in [&args.to.json, &args.compensation].into_iter().flatten() {
             gonio_cli::note!("wrote {}", p.display());
         }
     }

@@ -60,14 +60,9 @@ pub struct Args {
     /// Coverage probability of U (default: the instrument file's, else 0.95).
     #[arg(long)]
     pub coverage: Option<f64>,
-    /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
-    #[arg(long)]
-    pub json: Option<PathBuf>,
-    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
-    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
-    /// dashboard (`gonio serve`) lists it.
-    #[arg(long, value_name = "PATH|postgres://…")]
-    pub db: Option<String>,
+    // `--json` and `--db`, shared with the other calibration commands.
+    #[command(flatten)]
+    pub to: db::CertificateTargets,
     /// Certificate metadata (TOML, ISO/IEC 17025 §7.8), carried in the certificate. See
     /// examples/certificate-meta.toml.
     #[arg(long)]
@@ -94,7 +89,7 @@ fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
 /// Runs `gonio selfcal`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let json = out.optional("--json", args.json.as_deref())?;
+    let json = out.optional("--json", args.to.json.as_deref())?;
     let (heads, _) = heads::load(&args.heads)?;
     check_max_order(args.max_order)?;
     let method = match args.method.as_str() {
@@ -129,7 +124,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(j) = json {
         out.json(j, &cert)?;
     }
-    if let Some(loc) = &args.db {
+    if let Some(loc) = &args.to.db {
         db::store_certificate(loc, &cert, &args.readings.display().to_string())?;
     }
     if !to_stdout {

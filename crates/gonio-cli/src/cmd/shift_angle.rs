@@ -39,14 +39,9 @@ pub struct Args {
     /// Harmonic order of the setup-error check (Hsieh et al., 2022, §3.1 uses 2).
     #[arg(long, default_value_t = 2)]
     pub check_order: u32,
-    /// Write the certificate (gonio.certificate/1 JSON) here (`-` for standard output).
-    #[arg(long)]
-    pub json: Option<PathBuf>,
-    /// Store the certificate whole in this results store (a SQLite file, created if missing, or
-    /// a postgres:// URL), indexed by item, method, date, largest |α| and largest U; the
-    /// dashboard (`gonio serve`) lists it.
-    #[arg(long, value_name = "PATH|postgres://…")]
-    pub db: Option<String>,
+    // `--json` and `--db`, shared with the other calibration commands.
+    #[command(flatten)]
+    pub to: db::CertificateTargets,
     /// Certificate metadata (TOML, ISO/IEC 17025 §7.8: laboratory, customer, item, dates …),
     /// carried in the certificate. See examples/certificate-meta.toml.
     #[arg(long)]
@@ -78,7 +73,7 @@ pub fn parse_method(s: &str) -> Result<Method> {
 pub fn run(args: Args) -> Result<()> {
     let method = parse_method(&args.method)?;
     let mut out = Outputs::new();
-    let json = out.optional("--json", args.json.as_deref())?;
+    let json = out.optional("--json", args.to.json.as_deref())?;
     let comp = out.optional("--compensation", args.compensation.as_deref())?;
     let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
     let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
@@ -107,12 +102,12 @@ pub fn run(args: Args) -> Result<()> {
         print_summary(&cert)?;
     }
     out.commit()?;
-    for p in [&args.json, &args.compensation].into_iter().flatten() {
+    for p in [&args.to.json, &args.compensation].into_iter().flatten() {
         if p.as_os_str() != "-" {
             gonio_cli::note!("wrote {}", p.display());
         }
     }
-    if let Some(loc) = &args.db {
+    if let Some(loc) = &args.to.db {
         db::store_certificate(loc, &cert, &args.readings.display().to_string())?;
     }
     Ok(())
