@@ -41,38 +41,10 @@ fn extremes(c: &Value) -> (f64, Option<f64>) {
 fn certificates_are_stored_whole_with_their_index_fields() {
     let d = tempfile::tempdir().unwrap();
     let d = d.path();
-    let enc = d.join("enc.json");
-    ok(&["simulate", "encoder", "--seed", "7", "--out", &s(&enc)]);
-    let (lab, heads) = (d.join("lab"), d.join("heads"));
-    ok(&[
-        "simulate",
-        "shift-angle",
-        "--encoder",
-        &s(&enc),
-        "--shifts",
-        "0:1:14",
-        "--seed",
-        "1",
-        "--out",
-        &s(&lab),
-    ]);
-    ok(&[
-        "simulate",
-        "selfcal",
-        "--encoder",
-        &s(&enc),
-        "--heads",
-        "selfa12",
-        "--positions",
-        "3600",
-        "--seed",
-        "2",
-        "--out",
-        &s(&heads),
-    ]);
+    let (lab, heads) = common::simulated_lab(d, "7", &["--seed", "1"], &["--seed", "2"]);
     let db = s(&d.join("results.sqlite"));
     let (sa, sc) = (d.join("sa.json"), d.join("sc.json"));
-    let sa_readings = s(&lab.join("readings.csv"));
+    let sa_readings = s(&lab);
     let (_, msg) = ok(&[
         "shift-angle",
         &sa_readings,
@@ -88,7 +60,7 @@ fn certificates_are_stored_whole_with_their_index_fields() {
     assert!(msg.contains("stored as calibration 1 in "), "{msg}");
     ok(&[
         "selfcal",
-        &s(&heads.join("readings.csv")),
+        &s(&heads),
         "--heads",
         "selfa12",
         "--instrument",

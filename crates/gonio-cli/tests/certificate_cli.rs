@@ -35,44 +35,13 @@ fn old_keys(name: &str) -> BTreeSet<String> {
 
 /// Simulated readings for both methods in `d`: (shift-angle readings, selfcal readings).
 fn lab(d: &Path) -> (String, String) {
-    let s = |p: &Path| p.display().to_string();
-    let enc = d.join("enc.json");
-    ok(&["simulate", "encoder", "--seed", "7", "--out", &s(&enc)]);
-    let lab = d.join("lab");
-    ok(&[
-        "simulate",
-        "shift-angle",
-        "--encoder",
-        &s(&enc),
-        "--shifts",
-        "0:1:14",
-        "--repeats",
-        "2",
-        "--sigma",
-        "0.05",
-        "--seed",
-        "1",
-        "--out",
-        &s(&lab),
-    ]);
-    let heads = d.join("heads");
-    ok(&[
-        "simulate",
-        "selfcal",
-        "--encoder",
-        &s(&enc),
-        "--heads",
-        "selfa12",
-        "--positions",
-        "3600",
-        "--sigma",
-        "0.01",
-        "--seed",
-        "2",
-        "--out",
-        &s(&heads),
-    ]);
-    (s(&lab.join("readings.csv")), s(&heads.join("readings.csv")))
+    let (sa, sc) = common::simulated_lab(
+        d,
+        "7",
+        &["--repeats", "2", "--sigma", "0.05", "--seed", "1"],
+        &["--sigma", "0.01", "--seed", "2"],
+    );
+    (sa.display().to_string(), sc.display().to_string())
 }
 
 #[test]

@@ -30,42 +30,12 @@ fn s(p: &Path) -> String {
 
 /// Certificates of both methods and their comparison, from the simulator.
 fn certificates(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
-    let enc = d.join("enc.json");
-    ok(&["simulate", "encoder", "--seed", "3", "--out", &s(&enc)]);
-    let lab = d.join("lab");
-    ok(&[
-        "simulate",
-        "shift-angle",
-        "--encoder",
-        &s(&enc),
-        "--shifts",
-        "0:1:14",
-        "--repeats",
-        "2",
-        "--seed",
-        "3",
-        "--out",
-        &s(&lab),
-    ]);
-    let heads = d.join("heads");
-    ok(&[
-        "simulate",
-        "selfcal",
-        "--encoder",
-        &s(&enc),
-        "--heads",
-        "selfa12",
-        "--positions",
-        "3600",
-        "--seed",
-        "4",
-        "--out",
-        &s(&heads),
-    ]);
+    let (lab, heads) =
+        common::simulated_lab(d, "3", &["--repeats", "2", "--seed", "3"], &["--seed", "4"]);
     let (sa, sc, cmp) = (d.join("sa.json"), d.join("sc.json"), d.join("cmp.json"));
     ok(&[
         "shift-angle",
-        &s(&lab.join("readings.csv")),
+        &s(&lab),
         "--instrument",
         &repo("examples/instrument-shift-angle.toml"),
         "--json",
@@ -73,7 +43,7 @@ fn certificates(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
     ]);
     ok(&[
         "selfcal",
-        &s(&heads.join("readings.csv")),
+        &s(&heads),
         "--heads",
         "selfa12",
         "--instrument",

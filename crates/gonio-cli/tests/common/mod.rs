@@ -7,7 +7,7 @@ use serde_json::Value;
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};
 use std::sync::mpsc;
 use std::time::Duration;
@@ -48,6 +48,52 @@ pub fn example(name: &str) -> String {
         .join(name)
         .display()
         .to_string()
+}
+
+/// A simulated lab in `dir`: an encoder (`--seed encoder_seed`), then shift-angle readings
+/// (shifts 0…14°) and SelfA head readings (3600 positions) of it, each simulation with its
+/// `extra` arguments (seed, σ, repeats); the two readings files (shift-angle, selfcal).
+pub fn simulated_lab(
+    dir: &Path,
+    encoder_seed: &str,
+    shift_angle: &[&str],
+    selfcal: &[&str],
+) -> (PathBuf, PathBuf) {
+    let (enc, lab, heads) = (dir.join("enc.json"), dir.join("lab"), dir.join("heads"));
+    let [enc_s, lab_s, heads_s] = [&enc, &lab, &heads].map(|p| p.display().to_string());
+    ok(&[
+        "simulate",
+        "encoder",
+        "--seed",
+        encoder_seed,
+        "--out",
+        &enc_s,
+    ]);
+    let sa = [
+        "simulate",
+        "shift-angle",
+        "--encoder",
+        &enc_s,
+        "--shifts",
+        "0:1:14",
+    ];
+    ok(&[&sa[..], shift_angle, &["--out", &lab_s]].concat());
+    let sc = [
+        "simulate",
+        "selfcal",
+        "--encoder",
+        &enc_s,
+        "--heads",
+        "selfa12",
+    ];
+    ok(&[
+        &sc[..],
+        &["--positions", "3600"],
+        selfcal,
+        &["--out", &heads_s],
+    ]
+    .concat());
+    (lab.join("readings.csv"), heads.join("readings.csv"))
 }
 
 /// Every key path of a JSON value into `out` (`edges[].slope` for the members of an array's
