@@ -6,6 +6,10 @@ pub mod selfcal;
 pub mod shift_angle;
 
 use anyhow::Result;
+use gonio_cli::formats::encoder as encoder_file;
+use gonio_cli::output::{OutId, Outputs};
+use gonio_sim::EncoderModel;
+use std::path::Path;
 
 /// What to simulate.
 #[derive(Debug, clap::Subcommand)]
@@ -28,4 +32,36 @@ pub fn run(s: Simulate) -> Result<()> {
         Simulate::ShiftAngle(a) => shift_angle::run(a),
         Simulate::Selfcal(a) => selfcal::run(a),
     }
+}
+
+/// The files of a simulated calibration lab in `--out`.
+struct LabFiles {
+    /// `readings.csv`.
+    readings: OutId,
+    /// `truth.json`.
+    truth: OutId,
+    /// `encoder.json`.
+    encoder: OutId,
+}
+
+/// Claims the lab's files in the directory `dir` (new, or empty unless `force`), and loads the
+/// encoder from `encoder_file` (default: the built-in model with `seed`).
+fn lab(
+    out: &mut Outputs,
+    dir: &Path,
+    force: bool,
+    encoder_file: Option<&Path>,
+    seed: u64,
+) -> Result<(LabFiles, EncoderModel)> {
+    out.dir("--out", dir, force)?;
+    let files = LabFiles {
+        readings: out.file("--out", &dir.join("readings.csv"))?,
+        truth: out.file("--out", &dir.join("truth.json"))?,
+        encoder: out.file("--out", &dir.join("encoder.json"))?,
+    };
+    let model = match encoder_file {
+        Some(p) => encoder_file::load(p)?,
+        None => EncoderModel::default_with_seed(seed),
+    };
+    Ok((files, model))
 }

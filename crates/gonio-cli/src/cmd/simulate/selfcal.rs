@@ -1,9 +1,8 @@
 //! `gonio simulate selfcal`: multi-head readings of one encoder scale, with ground truth.
 
 use anyhow::{Result, bail};
-use gonio_cli::formats::{encoder, heads};
+use gonio_cli::formats::heads;
 use gonio_cli::output::Outputs;
-use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::{SelfcalSimConfig, simulate};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -64,14 +63,18 @@ pub struct Args {
 /// Runs `gonio simulate selfcal`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    out.dir("--out", &args.out, args.force)?;
-    let readings_csv = out.file("--out", &args.out.join("readings.csv"))?;
-    let truth = out.file("--out", &args.out.join("truth.json"))?;
-    let encoder_json = out.file("--out", &args.out.join("encoder.json"))?;
-    let encoder = match &args.encoder {
-        Some(p) => encoder::load(p)?,
-        None => EncoderModel::default_with_seed(args.seed),
-    };
+    let (files, encoder) = super::lab(
+        &mut out,
+        &args.out,
+        args.force,
+        args.encoder.as_deref(),
+        args.seed,
+    )?;
+    let super::LabFiles {
+        readings: readings_csv,
+        truth,
+        encoder: encoder_json,
+    } = files;
     let (heads, offsets) = heads::load(&args.heads)?;
     if args.positions > 10_000_000 {
         bail!(

@@ -3,9 +3,8 @@
 use anyhow::{Context, Result, bail};
 use gonio_cli::formats::elcomat::{self, Mode};
 use gonio_cli::formats::plan::{Level, ModeRule, Plan, ShiftPlan};
-use gonio_cli::formats::{encoder, readings};
+use gonio_cli::formats::readings;
 use gonio_cli::output::Outputs;
-use gonio_sim::EncoderModel;
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, simulate};
 use std::path::PathBuf;
 
@@ -130,14 +129,18 @@ pub fn format_reading(v: f64, resolution: f64) -> String {
 /// Runs `gonio simulate shift-angle`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    out.dir("--out", &args.out, args.force)?;
-    let readings_csv = out.file("--out", &args.out.join("readings.csv"))?;
-    let truth = out.file("--out", &args.out.join("truth.json"))?;
-    let encoder_json = out.file("--out", &args.out.join("encoder.json"))?;
-    let encoder = match &args.encoder {
-        Some(p) => encoder::load(p)?,
-        None => EncoderModel::default_with_seed(args.seed),
-    };
+    let (files, encoder) = super::lab(
+        &mut out,
+        &args.out,
+        args.force,
+        args.encoder.as_deref(),
+        args.seed,
+    )?;
+    let super::LabFiles {
+        readings: readings_csv,
+        truth,
+        encoder: encoder_json,
+    } = files;
     let rows = Rows::parse(&args.rows)
         .with_context(|| format!("--rows {:?}: expected full, one or seed", args.rows))?;
     let cfg = ShiftAngleConfig {
