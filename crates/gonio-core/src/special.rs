@@ -83,23 +83,15 @@ fn gamma_series(a: f64, x: f64) -> f64 {
 }
 
 fn gamma_cf(a: f64, x: f64) -> f64 {
-    let tiny = 1e-300;
     let mut b = x + 1.0 - a;
-    let mut c = 1.0 / tiny;
+    let mut c = 1.0 / TINY;
     let mut d = 1.0 / b;
     let mut h = d;
     for i in 1..100_000 {
         let an = -(i as f64) * (i as f64 - a);
         b += 2.0;
-        d = an * d + b;
-        if d.abs() < tiny {
-            d = tiny;
-        }
-        c = b + an / c;
-        if c.abs() < tiny {
-            c = tiny;
-        }
-        d = 1.0 / d;
+        d = 1.0 / away_from_zero(an * d + b);
+        c = away_from_zero(b + an / c);
         let del = d * c;
         h *= del;
         if (del - 1.0).abs() < 1e-16 {
@@ -133,48 +125,38 @@ pub fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
 }
 
 fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
-    let tiny = 1e-300;
     let qab = a + b;
     let qap = a + 1.0;
     let qam = a - 1.0;
     let mut c = 1.0;
-    let mut d = 1.0 - qab * x / qap;
-    if d.abs() < tiny {
-        d = tiny;
-    }
-    d = 1.0 / d;
+    let mut d = 1.0 / away_from_zero(1.0 - qab * x / qap);
     let mut h = d;
+    // One step of the modified Lentz method with the partial numerator `aa`: the factor that
+    // multiplies h.
+    let mut step = |aa: f64| {
+        d = 1.0 / away_from_zero(1.0 + aa * d);
+        c = away_from_zero(1.0 + aa / c);
+        d * c
+    };
     for m in 1..100_000 {
         let m = m as f64;
         let m2 = 2.0 * m;
-        let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
-        d = 1.0 + aa * d;
-        if d.abs() < tiny {
-            d = tiny;
-        }
-        c = 1.0 + aa / c;
-        if c.abs() < tiny {
-            c = tiny;
-        }
-        d = 1.0 / d;
-        h *= d * c;
-        let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
-        d = 1.0 + aa * d;
-        if d.abs() < tiny {
-            d = tiny;
-        }
-        c = 1.0 + aa / c;
-        if c.abs() < tiny {
-            c = tiny;
-        }
-        d = 1.0 / d;
-        let del = d * c;
+        h *= step(m * (b - m) * x / ((qam + m2) * (a + m2)));
+        let del = step(-(a + m) * (qab + m) * x / ((a + m2) * (qap + m2)));
         h *= del;
         if (del - 1.0).abs() < 1e-16 {
             break;
         }
     }
     h
+}
+
+/// The smallest magnitude of a denominator in the modified Lentz method.
+const TINY: f64 = 1e-300;
+
+/// `v`, or [`TINY`] when |v| is below it (Lentz's guard against a zero denominator).
+fn away_from_zero(v: f64) -> f64 {
+    if v.abs() < TINY { TINY } else { v }
 }
 
 /// The complementary error function erfc(x), via Q(½, x²).
