@@ -513,20 +513,36 @@ fn fit_least_squares(
     let (mut beta, _) = solve(&w, 1e-6 * n as f64, false)?;
     let mut sigma = robust_sigma(&resid(&beta)).max(1e-9);
     let prior2 = opts.roundness_prior_px * opts.roundness_prior_px;
-    for _ in 0..100 {
-        let r = resid(&beta);
-        sigma = robust_sigma(&r).max(1e-9);
-        let k = opts.huber_k * sigma;
-        for i in 0..n {
-            w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
+    // Huber-reweighted solves until β settles, at most `iterations`. In the first pass
+    // (`first`) σ is re-estimated from each step's residuals and every weight is recomputed;
+    // after the hard rejection σ stays and a rejected point's zero weight stays zero.
+    let irls = |w: &mut [f64],
+                beta: &mut DVector<f64>,
+                sigma: &mut f64,
+                iterations: usize,
+                first: bool|
+     -> Result<(), StationError> {
+        for _ in 0..iterations {
+            let r = resid(beta);
+            if first {
+                *sigma = robust_sigma(&r).max(1e-9);
+            }
+            let k = opts.huber_k * *sigma;
+            for i in 0..n {
+                if first || w[i] > 0.0 {
+                    w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
+                }
+            }
+            let (nb, _) = solve(w, *sigma * *sigma / prior2, false)?;
+            let delta = (&nb - &*beta).amax();
+            *beta = nb;
+            if delta < 1e-10 * (1.0 + beta.amax()) {
+                break;
+            }
         }
-        let (nb, _) = solve(&w, sigma * sigma / prior2, false)?;
-        let delta = (&nb - &beta).amax();
-        beta = nb;
-        if delta < 1e-10 * (1.0 + beta.amax()) {
-            break;
-        }
-    }
+        Ok(())
+    };
+    irls(&mut w, &mut beta, &mut sigma, 100, true)?;
     // Hard rejection of gross outliers, then a final reweighted solve.
     let r = resid(&beta);
     let cut = opts.outlier_sigma * sigma;
@@ -540,21 +556,7 @@ fn fit_least_squares(
         for &i in &outliers {
             w[i] = 0.0;
         }
-        for _ in 0..50 {
-            let r = resid(&beta);
-            let k = opts.huber_k * sigma;
-            for i in 0..n {
-                if w[i] > 0.0 {
-                    w[i] = if r[i].abs() <= k { 1.0 } else { k / r[i].abs() };
-                }
-            }
-            let (nb, _) = solve(&w, sigma * sigma / prior2, false)?;
-            let delta = (&nb - &beta).amax();
-            beta = nb;
-            if delta < 1e-10 * (1.0 + beta.amax()) {
-                break;
-            }
-        }
+        irls(&mut w, &mut beta, &mut sigma, 50, false)?;
     }
     let inv = solve(&w, sigma * sigma / prior2, true)?
         .1
