@@ -198,38 +198,30 @@ fn two_rings_alike_are_ambiguous_not_a_guess() {
 fn a_bad_scene_file_names_its_line() {
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("scene.toml");
-    std::fs::write(&p, "ring_present = true\nring_widht_px = 11.0\n").unwrap();
-    let o = gonio(
-        &[
-            "simulate",
-            "frames",
-            "--scene-file",
-            p.to_str().unwrap(),
-            "--count",
-            "1",
-            "--seed",
-            "1",
-            "--out",
-            d.path().join("o").to_str().unwrap(),
-        ],
-        None,
-    );
+    let out = d.path().join("o");
+    // `gonio simulate frames` of one frame from the scene file `text`.
+    let frames = |text: &str| {
+        std::fs::write(&p, text).unwrap();
+        gonio(
+            &[
+                "simulate",
+                "frames",
+                "--scene-file",
+                p.to_str().unwrap(),
+                "--count",
+                "1",
+                "--seed",
+                "1",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            None,
+        )
+    };
+    let o = frames("ring_present = true\nring_widht_px = 11.0\n");
     assert_error(&o, "scene.toml:2:1");
-    std::fs::write(&p, "[[scratches]]\nx_px = 1.0\ny_px = 2.0\nangle_deg = 3.0\nwidth_px = -1.0\ndepth_grey = 9.0\n").unwrap();
-    let o = gonio(
-        &[
-            "simulate",
-            "frames",
-            "--scene-file",
-            p.to_str().unwrap(),
-            "--count",
-            "1",
-            "--seed",
-            "1",
-            "--out",
-            d.path().join("o").to_str().unwrap(),
-        ],
-        None,
+    let o = frames(
+        "[[scratches]]\nx_px = 1.0\ny_px = 2.0\nangle_deg = 3.0\nwidth_px = -1.0\ndepth_grey = 9.0\n",
     );
     assert_error(&o, "scratches.width_px = -1: expected a finite number > 0");
 }
