@@ -70,11 +70,6 @@ pub fn run(args: Args) -> Result<()> {
         args.encoder.as_deref(),
         args.seed,
     )?;
-    let super::LabFiles {
-        readings: readings_csv,
-        truth,
-        encoder: encoder_json,
-    } = files;
     let (heads, offsets) = heads::load(&args.heads)?;
     if args.positions > 10_000_000 {
         bail!(
@@ -123,9 +118,9 @@ pub fn run(args: Args) -> Result<()> {
             s.push('\n');
         }
     }
-    out.write(readings_csv, s.as_bytes())?;
-    out.json(truth, &sim.truth)?;
-    out.write(encoder_json, encoder.to_json().as_bytes())?;
+    out.write(files.readings, s.as_bytes())?;
+    out.json(files.truth, &sim.truth)?;
+    out.write(files.encoder, encoder.to_json().as_bytes())?;
     out.commit()?;
     gonio_cli::say!(
         "wrote {} ({} heads × {} positions × {} turn(s)), truth.json and encoder.json",

@@ -136,11 +136,6 @@ pub fn run(args: Args) -> Result<()> {
         args.encoder.as_deref(),
         args.seed,
     )?;
-    let super::LabFiles {
-        readings: readings_csv,
-        truth,
-        encoder: encoder_json,
-    } = files;
     let rows = Rows::parse(&args.rows)
         .with_context(|| format!("--rows {:?}: expected full, one or seed", args.rows))?;
     let cfg = ShiftAngleConfig {
@@ -181,12 +176,12 @@ pub fn run(args: Args) -> Result<()> {
             ));
         }
     }
-    out.write(readings_csv, csv.as_bytes())?;
+    out.write(files.readings, csv.as_bytes())?;
     if let Some(log) = &args.elcomat_log {
         write_elcomat(&mut out, &args, &cfg, &sim.readings, log)?;
     }
-    out.json(truth, &sim.truth)?;
-    out.write(encoder_json, encoder.to_json().as_bytes())?;
+    out.json(files.truth, &sim.truth)?;
+    out.write(files.encoder, encoder.to_json().as_bytes())?;
     out.commit()?;
     if let Some(log) = &args.elcomat_log {
         gonio_cli::note!(
