@@ -63,13 +63,8 @@ pub struct Args {
 /// Runs `gonio simulate selfcal`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let (files, encoder) = super::lab(
-        &mut out,
-        &args.out,
-        args.force,
-        args.encoder.as_deref(),
-        args.seed,
-    )?;
+    let model = args.encoder.as_deref();
+    let (files, encoder) = super::lab(&mut out, &args.out, args.force, model, args.seed)?;
     let (heads, offsets) = heads::load(&args.heads)?;
     if args.positions > 10_000_000 {
         bail!(

@@ -129,13 +129,8 @@ pub fn format_reading(v: f64, resolution: f64) -> String {
 /// Runs `gonio simulate shift-angle`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let (files, encoder) = super::lab(
-        &mut out,
-        &args.out,
-        args.force,
-        args.encoder.as_deref(),
-        args.seed,
-    )?;
+    let model = args.encoder.as_deref();
+    let (files, encoder) = super::lab(&mut out, &args.out, args.force, model, args.seed)?;
     let rows = Rows::parse(&args.rows)
         .with_context(|| format!("--rows {:?}: expected full, one or seed", args.rows))?;
     let cfg = ShiftAngleConfig {
