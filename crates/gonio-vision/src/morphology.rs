@@ -83,8 +83,12 @@ enum Source {
     Chain(usize, usize),
 }
 
-/// Columns per block of the vertical combination (eight AVX2 registers of running extremes).
+/// Columns per block of the vertical combination.
 const BLOCK: usize = 256;
+
+/// Output rows the vertical combination makes at once (per block, one set of running extremes
+/// each): a chord-class row loaded once serves every row of the batch that uses it.
+const BATCH: usize = 4;
 
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
@@ -148,17 +152,24 @@ struct MorphCore<const MAX: bool> {
     stride: usize,
     /// Doubling pyramid, level k at row k (level 0, the row itself, only for radius 0).
     levels: Aligned<u8>,
-    /// (2r + 1) slots × classes rows.
+    /// Ring slots (input rows kept): 2r + the batch size.
+    depth: usize,
+    /// `depth` slots × classes rows.
     ring: Aligned<u8>,
-    /// Ring offsets of the rows combined for the current output row.
-    offs: Vec<usize>,
+    /// The class rows combined for the current batch: ring offset of column 0 and the bit set
+    /// of the batch's rows that use it.
+    offs: Vec<(usize, u8)>,
 }
 
 impl<const MAX: bool> MorphCore<MAX> {
     const NEUTRAL: u8 = if MAX { 0 } else { 255 };
 
-    fn new(width: usize, disk: &Disk) -> Self {
+    /// A kernel for rows of `width` pixels that makes up to `batch` (≤ [`BATCH`]) output rows
+    /// at once.
+    fn new(width: usize, disk: &Disk, batch: usize) -> Self {
+        debug_assert!((1..=BATCH).contains(&batch));
         let r = disk.radius;
+        let depth = 2 * r + batch;
         let mut class_half: Vec<usize> = Vec::new();
         let mut class_of_dy = Vec::with_capacity(r + 1);
         for dy in 0..=r {
@@ -207,10 +218,11 @@ impl<const MAX: bool> MorphCore<MAX> {
             stride,
             plan,
             levels: Aligned::new((top_level + 1) * stride, Self::NEUTRAL),
-            ring: Aligned::new((2 * r + 1) * class_half.len() * stride, Self::NEUTRAL),
+            depth,
+            ring: Aligned::new(depth * class_half.len() * stride, Self::NEUTRAL),
             class_half,
             class_of_dy,
-            offs: Vec::with_capacity(2 * r + 1),
+            offs: Vec::with_capacity(depth * BATCH),
         }
     }
 
@@ -247,7 +259,7 @@ impl<const MAX: bool> MorphCore<MAX> {
                 pass::<MAX>(&mut hi[..st - s], &src[..st - s], &src[s..]);
             }
         }
-        let row0 = (n % (2 * r + 1)) * self.class_half.len();
+        let row0 = (n % self.depth) * self.class_half.len();
         for &(c, src) in &self.plan {
             let hw = self.class_half[c];
             let margin = r - hw;
@@ -279,73 +291,82 @@ impl<const MAX: bool> MorphCore<MAX> {
         }
     }
 
-    /// Output row `y` from the class rows of input rows y − r … y + r that exist (rows 0 …
-    /// `n` − 1; the others are outside the frame).
-    fn combine(&mut self, y: usize, n: usize, out: &mut [u8]) {
+    /// Output rows `y0` … `y0 + nb − 1` (nb ≤ the batch size) from the class rows of input rows
+    /// y0 − r … y0 + nb − 1 + r that exist (rows 0 … `n` − 1; the others are outside the frame),
+    /// row b into `out[b·ostride ..][.. width]`.
+    fn combine(&mut self, y0: usize, nb: usize, n: usize, out: &mut [u8], ostride: usize) {
         crate::simd::dispatch(
             #[inline(always)]
-            || self.combine_impl(y, n, out),
+            || self.combine_impl(y0, nb, n, out, ostride),
         )
     }
 
     #[inline(always)]
-    fn combine_impl(&mut self, y: usize, n: usize, out: &mut [u8]) {
-        let (y, r) = (y as isize, self.radius as isize);
-        let lo = (y - r).max(0);
-        let hi = (y + r).min(n as isize - 1);
+    fn combine_impl(&mut self, y0: usize, nb: usize, n: usize, out: &mut [u8], ostride: usize) {
+        debug_assert!(nb >= 1 && nb <= self.depth - 2 * self.radius);
+        let (r, y0i) = (self.radius as isize, y0 as isize);
+        let lo = (y0i - r).max(0);
+        let hi = (y0i + nb as isize - 1 + r).min(n as isize - 1);
+        let (st, lead, depth, nc) = (self.stride, self.lead, self.depth, self.class_half.len());
+        // Per input row, each class it contributes once, with the batch rows that use it.
         self.offs.clear();
-        // Ring slots step by one row (no division per row).
-        let (depth, nc) = (2 * self.radius + 1, self.class_half.len());
         let mut slot = lo as usize % depth;
         for yy in lo..=hi {
-            let c = self.class_of_dy[(yy - y).unsigned_abs()];
-            let class_row = if self.radius == 0 {
-                // Radius 0: the row itself, in level 0 (one slot).
-                usize::MAX
-            } else {
-                slot * nc + c
-            };
-            self.offs.push(class_row);
+            let first = self.offs.len();
+            for b in 0..nb {
+                let dy = (yy - y0i - b as isize).unsigned_abs();
+                if dy > self.radius {
+                    continue;
+                }
+                let o = (slot * nc + self.class_of_dy[dy]) * st + lead;
+                match self.offs[first..].iter_mut().find(|e| e.0 == o) {
+                    Some(e) => e.1 |= 1 << b,
+                    None => self.offs.push((o, 1 << b)),
+                }
+            }
             slot = if slot + 1 == depth { 0 } else { slot + 1 };
         }
-        let (st, lead) = (self.stride, self.lead);
-        let src: &[u8] = if self.radius == 0 {
-            &self.levels
-        } else {
-            &self.ring
-        };
-        for o in self.offs.iter_mut() {
-            *o = if *o == usize::MAX { 0 } else { *o * st } + lead;
-        }
-        // Blocks of BLOCK columns: the running extreme stays in registers while the rows stream
-        // by (one load per row and pixel instead of two loads and a store).
+        // Blocks of BLOCK columns: the running extremes of the batch's rows stay in registers
+        // while the class rows stream by.
         const B: usize = BLOCK;
-        let w = self.width;
+        let (w, src, offs) = (self.width, &self.ring[..], &self.offs[..]);
         let block = |x0: usize| {
-            let mut acc = [Self::NEUTRAL; B];
-            for &o in &self.offs {
+            let mut acc = [[Self::NEUTRAL; B]; BATCH];
+            for &(o, m) in offs {
                 let s: &[u8; B] = src[o + x0..o + x0 + B].try_into().expect("block");
-                for i in 0..B {
-                    acc[i] = ext::<MAX>(acc[i], s[i]);
+                for (b, acc) in acc.iter_mut().enumerate() {
+                    if m & (1 << b) != 0 {
+                        for i in 0..B {
+                            acc[i] = ext::<MAX>(acc[i], s[i]);
+                        }
+                    }
                 }
             }
             acc
         };
+        let mut store = |x0: usize, acc: &[[u8; B]; BATCH], len: usize| {
+            for (b, a) in acc.iter().enumerate().take(nb) {
+                let o = &mut out[b * ostride + x0..b * ostride + x0 + len];
+                if len == B {
+                    // Fixed size: vector stores, not a memcpy call per block.
+                    let o: &mut [u8; B] = o.try_into().expect("block");
+                    *o = *a;
+                } else {
+                    o.copy_from_slice(&a[..len]);
+                }
+            }
+        };
         let mut x0 = 0;
         while x0 + B <= w {
-            // Fixed size: vector stores, not a memcpy call per block.
-            let o: &mut [u8; B] = (&mut out[x0..x0 + B]).try_into().expect("block");
-            *o = block(x0);
+            store(x0, &block(x0), B);
             x0 += B;
         }
         if x0 < w {
             if w >= B {
                 // The last block overlaps the one before: the same values again, whole stores.
-                let o: &mut [u8; B] = (&mut out[w - B..w]).try_into().expect("block");
-                *o = block(w - B);
+                store(w - B, &block(w - B), B);
             } else {
-                let acc = block(x0);
-                out[x0..w].copy_from_slice(&acc[..w - x0]);
+                store(x0, &block(x0), w - x0);
             }
         }
     }
@@ -369,7 +390,7 @@ impl<const MAX: bool> Morph<MAX> {
     /// (2r + 1) × (distinct chord widths) rows plus a pyramid of a few rows.
     pub fn new(width: usize, disk: Disk) -> Self {
         Morph {
-            core: MorphCore::new(width, &disk),
+            core: MorphCore::new(width, &disk, 1),
             input: Aligned::new(width, 0),
             rows: RowLag::new(disk.radius),
         }
@@ -392,26 +413,32 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
         self.core.add_row(&self.input, self.rows.received());
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], _: &mut O) {
+        let w = out.len();
         self.core
-            .combine(self.rows.output_row(), self.rows.received(), out);
+            .combine(self.rows.output_row(), 1, self.rows.received(), out, w);
     }
 }
 
 /// Two morphological operations by one disk in a row, optionally minus the input: the closing
 /// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
-/// (erode, then dilate); lag 2r. The first operation's rows are made as the second one needs
-/// them; the last 2r + 1 input rows are kept for the subtraction.
+/// (erode, then dilate); lag 2r + 3. Both operations make [`BATCH`] rows at a time (the first
+/// one's rows as the second one needs them), which is what the extra 3 rows of lag buy; the
+/// last 2r + 4 input rows are kept for the subtraction.
 #[derive(Debug, Clone)]
 pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
     first: MorphCore<FIRST_MAX>,
     second: MorphCore<SECOND_MAX>,
-    /// The last 2r + 1 input rows, `rstride` apart (cache-line aligned).
+    /// The last `lag + 1` input rows, `rstride` apart (cache-line aligned).
     raw: Aligned<u8>,
     rstride: usize,
-    /// One row of the first operation.
+    /// A batch of the first operation's rows, then of the second one's, `rstride` apart.
     mid: Aligned<u8>,
+    done: Aligned<u8>,
     /// Rows of the first operation made so far.
     mid_rows: usize,
+    /// The second operation's rows in `done`: the first one's index and how many.
+    done_from: usize,
+    done_rows: usize,
     width: usize,
     radius: usize,
     rows: RowLag,
@@ -420,7 +447,7 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
 /// Streaming morphological closing (dilate, then erode) by a disk.
 pub type Closing = MorphPair<true, false, false>;
 /// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
-/// bright ones); lag 2r.
+/// bright ones); lag 2r + 3.
 pub type BlackTopHat = MorphPair<true, false, true>;
 /// Streaming morphological opening (erode, then dilate) by a disk.
 pub type Opening = MorphPair<false, true, false>;
@@ -429,17 +456,50 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
     /// A filter for rows of `width` pixels with the given disk.
     pub fn new(width: usize, disk: Disk) -> Self {
         let r = disk.radius;
+        let lag = 2 * r + BATCH - 1;
+        let rstride = width.div_ceil(64) * 64;
         MorphPair {
-            first: MorphCore::new(width, &disk),
-            second: MorphCore::new(width, &disk),
-            raw: Aligned::new((2 * r + 1) * width.div_ceil(64) * 64, 0),
-            rstride: width.div_ceil(64) * 64,
-            mid: Aligned::new(width, 0),
+            first: MorphCore::new(width, &disk, BATCH),
+            second: MorphCore::new(width, &disk, BATCH),
+            raw: Aligned::new((lag + 1) * rstride, 0),
+            rstride,
+            mid: Aligned::new(BATCH * rstride, 0),
+            done: Aligned::new(BATCH * rstride, 0),
             mid_rows: 0,
+            done_from: 0,
+            done_rows: 0,
             width,
             radius: r,
-            rows: RowLag::new(2 * r),
+            rows: RowLag::new(lag),
         }
+    }
+
+    /// Ring offset of input row `y`.
+    fn raw_slot(&self, y: usize) -> usize {
+        y % (self.rows.lag() + 1) * self.rstride
+    }
+
+    /// Makes the second operation's rows from `y` on (a batch, fewer at the frame's end).
+    fn make_batch(&mut self, y: usize) {
+        let (n, r, rs) = (self.rows.received(), self.radius, self.rstride);
+        let nb = BATCH.min(n - y);
+        // The second operation's rows need the first one's rows up to y + nb − 1 + r; each of
+        // those needs input rows up to r further, all received (the lag covers both).
+        let need = (y + nb - 1 + r).min(n - 1);
+        while self.mid_rows <= need {
+            let z = self.mid_rows;
+            let k = BATCH.min(need + 1 - z);
+            self.first.combine(z, k, n, &mut self.mid, rs);
+            for j in 0..k {
+                self.second
+                    .add_row(&self.mid[j * rs..j * rs + self.width], z + j);
+            }
+            self.mid_rows += k;
+        }
+        self.second
+            .combine(y, nb, self.mid_rows, &mut self.done, rs);
+        self.done_from = y;
+        self.done_rows = nb;
     }
 }
 
@@ -455,35 +515,35 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
     fn reset(&mut self) {
         self.rows.reset();
         self.mid_rows = 0;
+        self.done_rows = 0;
     }
     fn input(&mut self) -> &mut [u8] {
-        let s = self.rows.received() % (2 * self.radius + 1) * self.rstride;
+        let s = self.raw_slot(self.rows.received());
         &mut self.raw[s..s + self.width]
     }
     fn accept(&mut self) {
         let n = self.rows.received();
-        let s = n % (2 * self.radius + 1) * self.rstride;
+        let s = self.raw_slot(n);
         self.first.add_row(&self.raw[s..s + self.width], n);
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
-        let (y, n) = (self.rows.output_row(), self.rows.received());
-        // The second operation at row y needs the first one's rows up to y + r.
-        let need = (y + self.radius).min(n - 1);
-        while self.mid_rows <= need {
-            let z = self.mid_rows;
-            self.first.combine(z, n, &mut self.mid);
-            self.second.add_row(&self.mid, z);
-            self.mid_rows += 1;
+        let y = self.rows.output_row();
+        if y >= self.done_from + self.done_rows || self.done_rows == 0 {
+            self.make_batch(y);
         }
-        self.second.combine(y, self.mid_rows, out);
+        let d = (y - self.done_from) * self.rstride;
+        let row = &self.done[d..d + self.width];
         if SUB {
-            let s = y % (2 * self.radius + 1) * self.rstride;
-            for (o, &i) in out.iter_mut().zip(&self.raw[s..s + self.width]) {
-                *o = o.saturating_sub(i);
+            let s = self.raw_slot(y);
+            for ((o, &c), &i) in out.iter_mut().zip(row).zip(&self.raw[s..s + self.width]) {
+                *o = c.saturating_sub(i);
             }
             obs.tophat(out);
-        } else if !F {
-            obs.opened(out);
+        } else {
+            out.copy_from_slice(row);
+            if !F {
+                obs.opened(out);
+            }
         }
     }
 }
