@@ -295,15 +295,30 @@ impl<const MAX: bool> MorphCore<MAX> {
     /// y0 − r … y0 + nb − 1 + r that exist (rows 0 … `n` − 1; the others are outside the frame),
     /// row b into `out[b·ostride ..][.. width]`.
     fn combine(&mut self, y0: usize, nb: usize, n: usize, out: &mut [u8], ostride: usize) {
-        crate::simd::dispatch(
-            #[inline(always)]
-            || self.combine_impl(y0, nb, n, out, ostride),
-        )
+        if self.depth == 2 * self.radius + 1 {
+            // Single rows: one set of running extremes.
+            crate::simd::dispatch(
+                #[inline(always)]
+                || self.combine_impl::<1>(y0, nb, n, out, ostride),
+            )
+        } else {
+            crate::simd::dispatch(
+                #[inline(always)]
+                || self.combine_impl::<BATCH>(y0, nb, n, out, ostride),
+            )
+        }
     }
 
     #[inline(always)]
-    fn combine_impl(&mut self, y0: usize, nb: usize, n: usize, out: &mut [u8], ostride: usize) {
-        debug_assert!(nb >= 1 && nb <= self.depth - 2 * self.radius);
+    fn combine_impl<const NB: usize>(
+        &mut self,
+        y0: usize,
+        nb: usize,
+        n: usize,
+        out: &mut [u8],
+        ostride: usize,
+    ) {
+        debug_assert!(nb >= 1 && nb <= NB && nb <= self.depth - 2 * self.radius);
         let (r, y0i) = (self.radius as isize, y0 as isize);
         let lo = (y0i - r).max(0);
         let hi = (y0i + nb as isize - 1 + r).min(n as isize - 1);
@@ -331,11 +346,11 @@ impl<const MAX: bool> MorphCore<MAX> {
         const B: usize = BLOCK;
         let (w, src, offs) = (self.width, &self.ring[..], &self.offs[..]);
         let block = |x0: usize| {
-            let mut acc = [[Self::NEUTRAL; B]; BATCH];
+            let mut acc = [[Self::NEUTRAL; B]; NB];
             for &(o, m) in offs {
                 let s: &[u8; B] = src[o + x0..o + x0 + B].try_into().expect("block");
                 for (b, acc) in acc.iter_mut().enumerate() {
-                    if m & (1 << b) != 0 {
+                    if NB == 1 || m & (1 << b) != 0 {
                         for i in 0..B {
                             acc[i] = ext::<MAX>(acc[i], s[i]);
                         }
@@ -344,7 +359,7 @@ impl<const MAX: bool> MorphCore<MAX> {
             }
             acc
         };
-        let mut store = |x0: usize, acc: &[[u8; B]; BATCH], len: usize| {
+        let mut store = |x0: usize, acc: &[[u8; B]; NB], len: usize| {
             for (b, a) in acc.iter().enumerate().take(nb) {
                 let o = &mut out[b * ostride + x0..b * ostride + x0 + len];
                 if len == B {
@@ -421,9 +436,11 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 
 /// Two morphological operations by one disk in a row, optionally minus the input: the closing
 /// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
-/// (erode, then dilate); lag 2r + 3. Both operations make [`BATCH`] rows at a time (the first
-/// one's rows as the second one needs them), which is what the extra 3 rows of lag buy; the
-/// last 2r + 4 input rows are kept for the subtraction.
+/// (erode, then dilate); lag 2r + b − 1. Both operations make b rows at a time (the first
+/// one's rows as the second one needs them): b = 4 for radii ≥ 4, where each chord-class row
+/// loaded serves up to 4 output rows (the top-hat's 23×23 disk: the class rows come from L2),
+/// else 1 (the opening's 5×5 disk: its class rows stay in L1 and batching only adds work).
+/// The last 2r + b input rows are kept for the subtraction.
 #[derive(Debug, Clone)]
 pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
     first: MorphCore<FIRST_MAX>,
@@ -436,6 +453,8 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
     done: Aligned<u8>,
     /// Rows of the first operation made so far.
     mid_rows: usize,
+    /// Output rows made at once.
+    batch: usize,
     /// The second operation's rows in `done`: the first one's index and how many.
     done_from: usize,
     done_rows: usize,
@@ -447,7 +466,7 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
 /// Streaming morphological closing (dilate, then erode) by a disk.
 pub type Closing = MorphPair<true, false, false>;
 /// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
-/// bright ones); lag 2r + 3.
+/// bright ones); lag 2r + 3 (r ≥ 4).
 pub type BlackTopHat = MorphPair<true, false, true>;
 /// Streaming morphological opening (erode, then dilate) by a disk.
 pub type Opening = MorphPair<false, true, false>;
@@ -456,15 +475,17 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
     /// A filter for rows of `width` pixels with the given disk.
     pub fn new(width: usize, disk: Disk) -> Self {
         let r = disk.radius;
-        let lag = 2 * r + BATCH - 1;
+        let batch = if r >= 4 { BATCH } else { 1 };
+        let lag = 2 * r + batch - 1;
         let rstride = width.div_ceil(64) * 64;
         MorphPair {
-            first: MorphCore::new(width, &disk, BATCH),
-            second: MorphCore::new(width, &disk, BATCH),
+            batch,
+            first: MorphCore::new(width, &disk, batch),
+            second: MorphCore::new(width, &disk, batch),
             raw: Aligned::new((lag + 1) * rstride, 0),
             rstride,
-            mid: Aligned::new(BATCH * rstride, 0),
-            done: Aligned::new(BATCH * rstride, 0),
+            mid: Aligned::new(batch * rstride, 0),
+            done: Aligned::new(batch * rstride, 0),
             mid_rows: 0,
             done_from: 0,
             done_rows: 0,
@@ -479,16 +500,15 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         y % (self.rows.lag() + 1) * self.rstride
     }
 
-    /// Makes the second operation's rows from `y` on (a batch, fewer at the frame's end).
-    fn make_batch(&mut self, y: usize) {
+    /// Makes the first operation's rows up to the one the second one's rows `y` … `y + nb − 1`
+    /// need (y + nb − 1 + r; each of those needs input rows up to r further, all received: the
+    /// lag covers both).
+    fn make_mid(&mut self, y: usize, nb: usize) {
         let (n, r, rs) = (self.rows.received(), self.radius, self.rstride);
-        let nb = BATCH.min(n - y);
-        // The second operation's rows need the first one's rows up to y + nb − 1 + r; each of
-        // those needs input rows up to r further, all received (the lag covers both).
         let need = (y + nb - 1 + r).min(n - 1);
         while self.mid_rows <= need {
             let z = self.mid_rows;
-            let k = BATCH.min(need + 1 - z);
+            let k = self.batch.min(need + 1 - z);
             self.first.combine(z, k, n, &mut self.mid, rs);
             for j in 0..k {
                 self.second
@@ -496,8 +516,15 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             }
             self.mid_rows += k;
         }
+    }
+
+    /// Makes the second operation's rows from `y` on into `done` (a batch, fewer at the frame's
+    /// end).
+    fn make_batch(&mut self, y: usize) {
+        let nb = self.batch.min(self.rows.received() - y);
+        self.make_mid(y, nb);
         self.second
-            .combine(y, nb, self.mid_rows, &mut self.done, rs);
+            .combine(y, nb, self.mid_rows, &mut self.done, self.rstride);
         self.done_from = y;
         self.done_rows = nb;
     }
@@ -515,6 +542,7 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
     fn reset(&mut self) {
         self.rows.reset();
         self.mid_rows = 0;
+        self.done_from = 0;
         self.done_rows = 0;
     }
     fn input(&mut self) -> &mut [u8] {
@@ -527,23 +555,35 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         self.first.add_row(&self.raw[s..s + self.width], n);
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
-        let y = self.rows.output_row();
-        if y >= self.done_from + self.done_rows || self.done_rows == 0 {
-            self.make_batch(y);
-        }
-        let d = (y - self.done_from) * self.rstride;
-        let row = &self.done[d..d + self.width];
-        if SUB {
-            let s = self.raw_slot(y);
-            for ((o, &c), &i) in out.iter_mut().zip(row).zip(&self.raw[s..s + self.width]) {
-                *o = c.saturating_sub(i);
+        let (y, w) = (self.rows.output_row(), self.width);
+        let s = self.raw_slot(y);
+        if self.batch == 1 {
+            // Single rows: straight into `out`.
+            self.make_mid(y, 1);
+            self.second.combine(y, 1, self.mid_rows, out, w);
+            if SUB {
+                for (o, &i) in out.iter_mut().zip(&self.raw[s..s + w]) {
+                    *o = o.saturating_sub(i);
+                }
             }
-            obs.tophat(out);
         } else {
-            out.copy_from_slice(row);
-            if !F {
-                obs.opened(out);
+            if y >= self.done_from + self.done_rows {
+                self.make_batch(y);
             }
+            let d = (y - self.done_from) * self.rstride;
+            let row = &self.done[d..d + w];
+            if SUB {
+                for ((o, &c), &i) in out.iter_mut().zip(row).zip(&self.raw[s..s + w]) {
+                    *o = c.saturating_sub(i);
+                }
+            } else {
+                out.copy_from_slice(row);
+            }
+        }
+        if SUB {
+            obs.tophat(out);
+        } else if !F {
+            obs.opened(out);
         }
     }
 }
