@@ -255,26 +255,12 @@ fn scalar_and_avx2_paths_give_the_same_bits() {
 }
 
 fn stream_morph<const MAX: bool>(img: &[u8], w: usize, r: usize) -> Vec<u8> {
-    let mut m =
-        gonio_vision::morphology::Morph::<MAX>::new(w, gonio_vision::morphology::Disk::new(r));
-    let mut out = vec![0u8; w];
-    let mut got = Vec::new();
-    for row in img.chunks_exact(w) {
-        if m.push_row(row, &mut out) {
-            got.extend_from_slice(&out);
-        }
-    }
-    while m.flush_row(&mut out) {
-        got.extend_from_slice(&out);
-    }
-    got
+    use gonio_vision::morphology::{Disk, Morph};
+    stream_stage(&mut Morph::<MAX>::new(w, Disk::new(r)), img, w)
 }
 
-fn stream_stage<S: gonio_vision::rows::RowStage<In = [u8], Out = [u8]>>(
-    m: &mut S,
-    img: &[u8],
-    w: usize,
-) -> Vec<u8> {
+/// Every output row of one frame through a streaming stage (pushed, then flushed).
+fn stream_stage<S: RowStage<In = [u8], Out = [u8]>>(m: &mut S, img: &[u8], w: usize) -> Vec<u8> {
     let mut out = vec![0u8; w];
     let mut got = Vec::new();
     for row in img.chunks_exact(w) {
@@ -309,7 +295,7 @@ proptest! {
             // A second frame through the same stage (its state reset by `reset`).
             let mut again = BlackTopHat::new(w, Disk::new(r));
             let _ = stream_stage(&mut again, &img, w);
-            gonio_vision::rows::RowStage::reset(&mut again);
+            RowStage::reset(&mut again);
             let t2 = stream_stage(&mut again, &img, w);
             gonio_vision::simd::set_enabled(true);
             prop_assert_eq!(&t, &want_t);
