@@ -13,7 +13,7 @@
 //! 4. [`select`]: the ring's two edges chosen by the ring's model (polarity, separation from
 //!    the optics, parallel, shared rows, a flat inside), with a score and a margin over the
 //!    runner-up; [`features`]: validity checks and reasons, c, each edge's fitted line;
-//! 5. the focus measure, in the same pass ([`pipeline`]).
+//! 5. the focus measure, in the same pass ([`pipeline`], its sums in [`focus`]).
 //!
 //! [`Detector`] chains them into one cascade ([`rows::Then`]); [`Optics`] derives every parameter
 //! and cuts the window out of a sensor frame; [`source`] brings frames in ([`FrameSource`]: files,
@@ -35,6 +35,7 @@
 pub mod error;
 pub mod features;
 pub mod fill;
+pub mod focus;
 pub mod gaussian;
 pub mod gradient;
 pub mod label;

@@ -27,6 +27,7 @@
 use crate::VisionError;
 use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, saturated_runs};
 use crate::fill::EdgeFill;
+use crate::focus::abs_diff_sums;
 use crate::gaussian::Gaussian5;
 use crate::gradient::{GradRow, Sobel};
 use crate::label::{Component, Labeller};
@@ -118,39 +119,6 @@ impl StageObserver for StageImages {
     fn filled(&mut self, row: &SparseEdgeRow) {
         self.filled.push(row, self.width);
     }
-}
-
-/// Σ|a − b| and Σ(a − b)² over two rows, in exact integer arithmetic: 64 columns at a time,
-/// the differences as bytes, their sums and squares in sixteen 32-bit lanes (no overflow: a lane
-/// takes at most 4·255² per 64 columns, 512 steps for the widest window of 32768 px).
-#[inline(always)]
-fn abs_diff_sums(a: &[u8], b: &[u8]) -> (u64, u64) {
-    const C: usize = 64;
-    let (mut s1, mut s2) = (0u64, 0u64);
-    let (ac, bc) = (a.chunks_exact(C), b.chunks_exact(C));
-    let (ar, br) = (ac.remainder(), bc.remainder());
-    let (mut acc1, mut acc2) = ([0u32; 16], [0u32; 16]);
-    for (x, y) in ac.zip(bc) {
-        let mut d = [0u8; C];
-        for k in 0..C {
-            d[k] = x[k].abs_diff(y[k]);
-        }
-        for k in 0..16 {
-            let q = [d[4 * k], d[4 * k + 1], d[4 * k + 2], d[4 * k + 3]].map(u32::from);
-            acc1[k] += q[0] + q[1] + q[2] + q[3];
-            acc2[k] += q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-        }
-    }
-    for k in 0..16 {
-        s1 += acc1[k] as u64;
-        s2 += acc2[k] as u64;
-    }
-    for (&x, &y) in ar.iter().zip(br) {
-        let d = x.abs_diff(y) as u64;
-        s1 += d;
-        s2 += d * d;
-    }
-    (s1, s2)
 }
 
 /// The detector's stages, chained.

@@ -857,16 +857,20 @@ pub fn tracks(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Tra
     // Top to bottom, ties by the unique first pixel: the same order whatever the input order.
     frags.sort_by_key(|t| (t.comp.min_row, t.comp.first_index));
     let mut out: Vec<Track> = Vec::with_capacity(frags.len());
+    // Each track's polarity and last row, side by side: the scan below rejects most tracks on
+    // these two alone, without touching the tracks themselves.
+    let mut meta: Vec<(i8, u32)> = Vec::with_capacity(frags.len());
     for f in frags {
         let f_first = f.comp.min_row as f64;
         let mut best: Option<(usize, f64)> = None;
-        for (i, t) in out.iter().enumerate() {
-            if t.polarity != f.polarity || t.last_row() > f.comp.min_row + 12 {
+        for (i, &(pol, last)) in meta.iter().enumerate() {
+            if pol != f.polarity || last > f.comp.min_row + 12 {
                 continue;
             }
+            let t = &out[i];
             // Where they meet: the track continued down to the fragment's first row, and the
             // fragment continued up to the track's last row.
-            let t_last = t.last_row() as f64;
+            let t_last = last as f64;
             let gap = (f_first - t_last).max(0.0);
             let reach = (f_first - t.comp.sum_row as f64 / t.comp.pos_n.max(1) as f64)
                 .max(f.comp.sum_row as f64 / f.comp.pos_n.max(1) as f64 - t_last);
@@ -879,8 +883,14 @@ pub fn tracks(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Tra
             }
         }
         match best {
-            Some((i, _)) => out[i].absorb(&f, h, q),
-            None => out.push(f),
+            Some((i, _)) => {
+                out[i].absorb(&f, h, q);
+                meta[i].1 = out[i].last_row();
+            }
+            None => {
+                meta.push((f.polarity, f.last_row()));
+                out.push(f);
+            }
         }
     }
     (out, q)
