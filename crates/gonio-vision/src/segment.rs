@@ -496,14 +496,16 @@ impl Segmenter {
             self.class[x] = segment_pixel(cur.gx[x], cur.gy[x], m3(x), p).0;
         }
         out.clear();
-        for (k, chunk) in self.class.chunks_exact(8).enumerate() {
-            let word = u64::from_le_bytes(chunk.try_into().unwrap_or([0; 8]));
-            if word == 0 {
-                continue;
+        // The kept columns 64 at a time (eight words of class bytes gathered into one mask,
+        // branch-free): the loop over them ends once a block, not once every eight columns.
+        for (k, block) in self.class.chunks(64).enumerate() {
+            let mut bits = 0u64;
+            for (j, chunk) in block.chunks_exact(8).enumerate() {
+                let word = u64::from_le_bytes(chunk.try_into().unwrap_or([0; 8]));
+                bits |= byte_mask(word) << (8 * j);
             }
-            let mut bits = byte_mask(word);
             while bits != 0 {
-                let x = k * 8 + bits.trailing_zeros() as usize;
+                let x = k * 64 + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 if x >= w {
                     break;
