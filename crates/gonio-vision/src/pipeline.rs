@@ -267,11 +267,27 @@ impl Detector {
         if self.rows == 0 {
             self.begin_frame();
         }
+        // Rows y − 2 and y − 1 are kept here only for the streaming caller; `detect` reads them
+        // from the frame.
+        let mut prev = std::mem::take(&mut self.raw_prev);
+        let k = self.rows % 2;
+        self.feed(
+            row,
+            (self.rows >= 2).then(|| (&prev[k][..], &prev[1 - k][..])),
+        );
+        prev[k].copy_from_slice(row);
+        self.raw_prev = prev;
+        Ok(())
+    }
+
+    /// One checked row into the detector: its raw statistics (with rows y − 2 and y − 1 from
+    /// `prev`, absent for the first two rows), then the cascade.
+    #[inline(always)]
+    fn feed(&mut self, row: &[u8], prev: Option<(&[u8], &[u8])>) {
         crate::simd::dispatch(
             #[inline(always)]
-            || self.raw_stats(row),
+            || self.raw_stats(row, prev),
         );
-        self.raw_prev[self.rows % 2].copy_from_slice(row);
         self.rows += 1;
         let input = self.line.input();
         if self.p.invert {
@@ -288,12 +304,11 @@ impl Detector {
             }
             None => self.line.pushed(&mut ()),
         }
-        Ok(())
     }
 
-    /// Saturation count and focus sums for the row just arrived.
+    /// Saturation count and focus sums for the row just arrived; `prev` = rows y − 2, y − 1.
     #[inline(always)]
-    fn raw_stats(&mut self, row: &[u8]) {
+    fn raw_stats(&mut self, row: &[u8], prev: Option<(&[u8], &[u8])>) {
         let w = self.p.width;
         let sat = row.iter().map(|&v| (v == 255) as u32).sum::<u32>();
         if sat > 0 {
@@ -301,11 +316,7 @@ impl Detector {
             saturated_runs(row, self.rows, &mut self.sat_runs);
         }
         // Focus at row y − 1 needs rows y − 2 and y.
-        if self.rows >= 2 {
-            let (a, b) = (
-                &self.raw_prev[self.rows % 2],
-                &self.raw_prev[(self.rows + 1) % 2],
-            );
+        if let Some((a, b)) = prev {
             // a = row y − 2, b = row y − 1: the central differences at row y − 1.
             let (bl, br, rc, ac) = (&b[..w - 2], &b[2..w], &row[1..w - 1], &a[1..w - 1]);
             let (s1x, s2x) = abs_diff_sums(bl, br);
@@ -364,10 +375,68 @@ impl Detector {
                 height: h,
             });
         }
+        // The rows are checked by the frame's size: fed straight in, the focus measure's rows
+        // y − 2 and y − 1 read from the frame (no copy), the frame started once.
         self.begin_frame();
-        for row in frame.chunks_exact(w) {
-            self.push_row(row)?;
+        for (y, row) in frame.chunks_exact(w).enumerate() {
+            let prev =
+                (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
+            self.feed(row, prev);
         }
         self.finish_frame()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `detect` (rows y − 2, y − 1 read from the frame) and row-by-row `push_row` (rows kept in
+    /// the detector) give the same result, the raw statistics included, on frames with a ring,
+    /// noise and a saturated patch, inverted or not; and after a frame abandoned half-way.
+    #[test]
+    fn detect_equals_pushing_rows() {
+        let optics = Optics {
+            window_width_px: 160,
+            window_height_px: 48,
+            ..Optics::default()
+        };
+        let (w, h) = (160usize, 48usize);
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for invert in [false, true] {
+            let mut p = optics.params().unwrap();
+            p.invert = invert;
+            let mut streamed = Detector::from_params(p.clone());
+            let mut whole = Detector::from_params(p);
+            for f in 0..4 {
+                let frame: Vec<u8> = (0..w * h)
+                    .map(|i| {
+                        let (x, y) = (i % w, i / w);
+                        s ^= s << 13;
+                        s ^= s >> 7;
+                        s ^= s << 17;
+                        let noise = (s >> 61) as u8;
+                        match x {
+                            _ if f == 2 && (100..110).contains(&x) && (5..9).contains(&y) => 255,
+                            50..=60 => 40 + noise,
+                            _ => 200 + noise,
+                        }
+                    })
+                    .collect();
+                if f == 1 {
+                    // Half a frame, then a new one: the new frame starts from scratch.
+                    streamed.push_row(&frame[..w]).unwrap();
+                    streamed.begin_frame();
+                }
+                for row in frame.chunks_exact(w) {
+                    streamed.push_row(row).unwrap();
+                }
+                let a = streamed.finish_frame().unwrap();
+                let b = whole.detect(&frame).unwrap();
+                assert_eq!(a, b, "frame {f}, invert {invert}");
+                assert!(a.focus > 0.0, "frame {f}: the focus sums were taken");
+                assert_eq!(a.saturated_px > 0, f == 2, "frame {f}: the saturated patch");
+            }
+        }
     }
 }
