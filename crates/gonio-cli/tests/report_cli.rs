@@ -7,21 +7,13 @@
 
 mod common;
 
-use common::gonio;
+use common::{example, gonio, repo};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Standard output of a successful `gonio` run.
 fn ok(args: &[&str]) -> String {
     common::ok(args).0
-}
-
-fn repo(p: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(p)
-        .display()
-        .to_string()
 }
 
 fn s(p: &Path) -> String {
@@ -37,7 +29,7 @@ fn certificates(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
         "shift-angle",
         &s(&lab),
         "--instrument",
-        &repo("examples/instrument-shift-angle.toml"),
+        &example("instrument-shift-angle.toml"),
         "--json",
         &s(&sa),
     ]);
@@ -47,7 +39,7 @@ fn certificates(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
         "--heads",
         "selfa12",
         "--instrument",
-        &repo("examples/instrument-selfcal.toml"),
+        &example("instrument-selfcal.toml"),
         "--json",
         &s(&sc),
     ]);
@@ -71,7 +63,7 @@ fn xmllint(file: &Path) -> Output {
 fn dcc_export_validates_against_the_dcc_schema() {
     let d = tempfile::tempdir().unwrap();
     let (sa, sc, _) = certificates(d.path());
-    let meta = repo("examples/certificate-meta.toml");
+    let meta = example("certificate-meta.toml");
     for (cert, name) in [(&sa, "sa.xml"), (&sc, "sc.xml")] {
         let xml = d.path().join(name);
         let out = ok(&["certificate", &s(cert), "--meta", &meta, "--dcc", &s(&xml)]);
@@ -215,7 +207,7 @@ fn report_renders_in_headless_chromium() {
         &s(&cmp),
         &s(&batch),
         "--meta",
-        &repo("examples/certificate-meta.toml"),
+        &example("certificate-meta.toml"),
         "--out",
         &s(&html),
         "--plots",

@@ -41,13 +41,18 @@ pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
-/// A file of the repository's `examples/`.
-pub fn example(name: &str) -> String {
+/// A file of the repository, by its path from the repository's root.
+pub fn repo(path: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
+        .join("../..")
+        .join(path)
         .display()
         .to_string()
+}
+
+/// A file of the repository's `examples/`.
+pub fn example(name: &str) -> String {
+    repo(&format!("examples/{name}"))
 }
 
 /// A simulated lab in `dir`: an encoder (`--seed encoder_seed`), then shift-angle readings
