@@ -212,10 +212,10 @@ fn check(c: &Curve) -> Result<(), CompareError> {
         if !(p.u_arcsec >= 0.0 && p.u_arcsec.is_finite()) {
             return bad("u_arcsec must be finite and ≥ 0");
         }
-        if let Some(x) = p.expanded_arcsec {
-            if !(x >= 0.0 && x.is_finite()) {
-                return bad("U_arcsec must be finite and ≥ 0");
-            }
+        if let Some(x) = p.expanded_arcsec
+            && !(x >= 0.0 && x.is_finite())
+        {
+            return bad("U_arcsec must be finite and ≥ 0");
         }
     }
     Ok(())
@@ -293,11 +293,11 @@ pub fn compare(a: &Curve, b: &Curve) -> Result<Comparison, CompareError> {
             maxd = p.difference_arcsec.abs();
             maxd_at = p.angle_deg;
         }
-        if let Some(e) = p.en {
-            if e > maxen {
-                maxen = e;
-                maxen_at = p.angle_deg;
-            }
+        if let Some(e) = p.en
+            && e > maxen
+        {
+            maxen = e;
+            maxen_at = p.angle_deg;
         }
     }
     let mean = points.iter().map(|p| p.difference_arcsec).sum::<f64>() / n;

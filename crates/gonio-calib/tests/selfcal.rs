@@ -108,7 +108,7 @@ fn eda_passes_non_multiples_and_removes_multiples_of_nh() {
             let k = row.order;
             let (a, b) = cos_sin(&r, k);
             let planted = h.iter().find(|x| x.order == k).unwrap();
-            if k as usize % nh == 0 {
+            if (k as usize).is_multiple_of(nh) {
                 assert!(!row.detectable, "NH={nh} k={k}");
                 assert!(row.amplitude_arcsec < 1e-10, "NH={nh} k={k}: {row:?}");
             } else {
@@ -120,7 +120,9 @@ fn eda_passes_non_multiples_and_removes_multiples_of_nh() {
                 );
             }
         }
-        let want: Vec<u32> = (1..=40).filter(|k| *k as usize % nh == 0).collect();
+        let want: Vec<u32> = (1..=40)
+            .filter(|k| (*k as usize).is_multiple_of(nh))
+            .collect();
         assert_eq!(r.undetectable_orders, want);
         // The spectral EDA is the seed's Eq. 9 computed literally.
         let direct = eda_direct(&heads.sets()[0], &turn);

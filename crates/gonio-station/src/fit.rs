@@ -142,14 +142,15 @@ impl FitOptions {
                 expected: "at least 1 point on each side",
             });
         }
-        if let Some(n) = samples {
-            if self.method == FitMethod::Paper && 2 * self.paper_half_window + 1 > n {
-                return Err(StationError::OutOfRange {
-                    name: "paper_half_window",
-                    value: self.paper_half_window as f64,
-                    expected: "a window (2·half + 1 points) no larger than the samples",
-                });
-            }
+        if let Some(n) = samples
+            && self.method == FitMethod::Paper
+            && 2 * self.paper_half_window + 1 > n
+        {
+            return Err(StationError::OutOfRange {
+                name: "paper_half_window",
+                value: self.paper_half_window as f64,
+                expected: "a window (2·half + 1 points) no larger than the samples",
+            });
         }
         Ok(())
     }
@@ -634,10 +635,10 @@ fn window(samples: &[Sample], i: usize, half: usize, full_turn: bool) -> (Vec<f6
         };
         let s = samples[idx as usize];
         let t = s.theta_deg + shift;
-        if let Some(&last) = xs.last() {
-            if t <= last {
-                continue;
-            }
+        if let Some(&last) = xs.last()
+            && t <= last
+        {
+            continue;
         }
         xs.push(t);
         ys.push(s.c_px);

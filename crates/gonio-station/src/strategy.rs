@@ -277,10 +277,10 @@ impl LiveFeedback {
         self.readings += 1;
         self.last_along_um = along_um;
         // The gain of this push, measured from the previous step under feedback.
-        if let Some((a_prev, d_prev)) = self.prev {
-            if d_prev * self.k_live > ps.live_gain_min_move_um {
-                self.k_live = ((a_prev - along_um) / d_prev).clamp(self.gain_min, self.gain_max);
-            }
+        if let Some((a_prev, d_prev)) = self.prev
+            && d_prev * self.k_live > ps.live_gain_min_move_um
+        {
+            self.k_live = ((a_prev - along_um) / d_prev).clamp(self.gain_min, self.gain_max);
         }
         let remaining = along_um - self.goal_um;
         if remaining < ps.live_tolerance_um {

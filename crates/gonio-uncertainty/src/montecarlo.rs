@@ -362,7 +362,7 @@ fn interval_indices(m: usize, p: f64) -> (usize, usize) {
         (pm + 0.5).floor() as usize
     };
     let rest = m - q;
-    let r = if rest % 2 == 0 {
+    let r = if rest.is_multiple_of(2) {
         rest / 2
     } else {
         rest.div_ceil(2)

@@ -35,12 +35,11 @@ impl Pool {
             None => gonio_store::open(&self.location)?,
         };
         let r = f(s.as_mut());
-        if r.is_ok() {
-            if let Ok(mut v) = self.idle.lock() {
-                if v.len() < 8 {
-                    v.push(s);
-                }
-            }
+        if r.is_ok()
+            && let Ok(mut v) = self.idle.lock()
+            && v.len() < 8
+        {
+            v.push(s);
         }
         r
     }

@@ -106,10 +106,10 @@ impl<'a> Attach<'a> {
         nu_random: f64,
     ) -> Result<Option<Combined>, CertificateError> {
         let key = (u_random.to_bits(), nu_random.to_bits());
-        if let Some((k, c)) = self.last {
-            if k == key {
-                return Ok(c);
-            }
+        if let Some((k, c)) = self.last
+            && k == key
+        {
+            return Ok(c);
         }
         let c = if !u_random.is_finite() || nu_random.is_nan() || nu_random <= 0.0 {
             None

@@ -293,7 +293,11 @@ pub fn calibrate(
             format!("β_1 + … + β_{}", i - nq + 1)
         } else {
             let e = (i - nyg) / 2;
-            let part = if (i - nyg) % 2 == 0 { "cos" } else { "sin" };
+            let part = if (i - nyg).is_multiple_of(2) {
+                "cos"
+            } else {
+                "sin"
+            };
             format!("order {} ({part})", selection.estimated[e])
         }
     };

@@ -219,7 +219,7 @@ pub(crate) fn harmonic_table(t: &TableInputs) -> Vec<super::JointHarmonic> {
     let mut vi = 0usize;
     for k in 1..=t.max_order {
         let heads_see = t.heads.sees(k as usize);
-        let polygon_sees = k as usize % t.faces != 0;
+        let polygon_sees = !(k as usize).is_multiple_of(t.faces);
         let seen_by = match (heads_see, polygon_sees) {
             (true, true) => SeenBy::Both,
             (true, false) => SeenBy::Heads,

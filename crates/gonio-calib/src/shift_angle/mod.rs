@@ -97,10 +97,10 @@ pub struct Options {
 /// complete row it needs; [`ShiftAngleError::NoDegreesOfFreedom`] is never returned: without
 /// residual degrees of freedom and without a given σ the uncertainties are NaN.
 pub fn calibrate(set: &ReadingSet, opts: &Options) -> Result<Calibration, ShiftAngleError> {
-    if let Some(s) = opts.sigma_arcsec {
-        if !(s > 0.0 && s.is_finite()) {
-            return Err(ShiftAngleError::InvalidSigma { sigma_arcsec: s });
-        }
+    if let Some(s) = opts.sigma_arcsec
+        && !(s > 0.0 && s.is_finite())
+    {
+        return Err(ShiftAngleError::InvalidSigma { sigma_arcsec: s });
     }
     match opts.method {
         Method::LeastSquares => least_squares::solve(set, opts),

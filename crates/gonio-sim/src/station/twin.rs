@@ -254,14 +254,15 @@ impl Twin {
     pub fn call(&mut self, d: DeviceId) -> Result<(), SimDeviceError> {
         let i = d as usize;
         self.calls[i] += 1;
-        if let Some((dev, n)) = self.faults.device_error {
-            if dev == d && self.calls[i] == n {
-                return Err(SimDeviceError {
-                    device: d,
-                    kind: DeviceErrorKind::Fault,
-                    message: format!("injected fault on call {n}"),
-                });
-            }
+        if let Some((dev, n)) = self.faults.device_error
+            && dev == d
+            && self.calls[i] == n
+        {
+            return Err(SimDeviceError {
+                device: d,
+                kind: DeviceErrorKind::Fault,
+                message: format!("injected fault on call {n}"),
+            });
         }
         Ok(())
     }
