@@ -427,6 +427,284 @@ fn byte_mask(word: u64) -> u64 {
     nz.wrapping_mul(0x0102_0408_1020_4080) >> 56
 }
 
+/// Scratch rows of the AVX-512 path: the neighbours across the edge per column, and the kept
+/// pixels of one row, compact (each with 16 elements of slack for the last vector).
+#[derive(Debug, Clone)]
+struct KeptScratch {
+    /// The neighbour before (a) and after (b) the centre across the edge, per column.
+    a: Aligned<u16>,
+    b: Aligned<u16>,
+    /// The kept columns, in order.
+    cols: Vec<u16>,
+    gx: Vec<i16>,
+    gy: Vec<i16>,
+    c: Vec<u16>,
+    ka: Vec<u16>,
+    kb: Vec<u16>,
+    dir: Vec<u8>,
+    sub: Vec<i8>,
+}
+
+impl KeptScratch {
+    fn new(width: usize) -> Self {
+        let row = width.div_ceil(32) * 32;
+        let n = width + 32;
+        KeptScratch {
+            a: Aligned::new(row, 0),
+            b: Aligned::new(row, 0),
+            cols: vec![0; n],
+            gx: vec![0; n],
+            gy: vec![0; n],
+            c: vec![0; n],
+            ka: vec![0; n],
+            kb: vec![0; n],
+            dir: vec![0; n],
+            sub: vec![0; n],
+        }
+    }
+}
+
+/// The AVX-512 segmentation of a row (AVX-512 F/BW/VL/DQ): the classification with compares
+/// into mask registers, 32 columns a step, the kept columns compressed into a list
+/// (`vpcompressd`), then the direction and the sub-pixel offset of the kept pixels in vector
+/// lanes, 16 at a time, with no data-dependent branch. Every step is the integer (or exact f32)
+/// arithmetic of the scalar path, so the pixels are the same.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod avx512 {
+    use super::{ATAN64, ClassConsts, KeptScratch, STRONG, TAN22_MUL, TAN22_Q8, WEAK};
+    use crate::gradient::GradRow;
+    use crate::label::EdgePixel;
+    use std::arch::x86_64::*;
+
+    /// Classifies row `cur` (between `up` and `down`, zero rows outside the frame; columns
+    /// outside the row count as zero magnitudes, as in [`super::segment_pixel`]); writes the
+    /// kept columns' bits into `bits`, the neighbours across the edge into `s.a`, `s.b` and
+    /// the kept columns into `s.cols`. Returns the number kept.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F/BW/VL/DQ and VBMI2; `up`, `down` and `cur`'s rows have
+    /// the same length, `bits` holds a bit per column.
+    #[target_feature(
+        enable = "avx512f,avx512bw,avx512vl,avx512dq,avx512vbmi2,avx2,bmi1,bmi2,lzcnt,popcnt"
+    )]
+    pub(super) unsafe fn classify<const HORIZ: bool>(
+        cur: &GradRow,
+        up: &[u16],
+        down: &[u16],
+        k: &ClassConsts,
+        s: &mut KeptScratch,
+        bits: &mut [u64],
+    ) -> usize {
+        let w = cur.mag.len();
+        assert!(up.len() == w && down.len() == w && cur.gx.len() == w && cur.gy.len() == w);
+        assert!(bits.len() * 64 >= w && s.a.len() >= w.div_ceil(32) * 32);
+        assert!(s.b.len() == s.a.len() && s.cols.len() >= w + 32 && w <= 1 << 15);
+        let (gxp, gyp, cp) = (cur.gx.as_ptr(), cur.gy.as_ptr(), cur.mag.as_ptr());
+        let (up, dp) = (up.as_ptr(), down.as_ptr());
+        let low = _mm512_set1_epi16(k.low as i16);
+        let tan_mul = _mm512_set1_epi16(k.tan_mul as i16);
+        let tan_all = _mm512_set1_epi16(k.tan_all as i16);
+        let t22 = _mm512_set1_epi16(TAN22_MUL as i16);
+        let zero = _mm512_setzero_si512();
+        let iota = _mm512_set_epi16(
+            31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12, 11, 10,
+            9, 8, 7, 6, 5, 4, 3, 2, 1, 0,
+        );
+        bits.fill(0);
+        let mut n = 0usize;
+        let mut x0 = 0usize;
+        while x0 < w {
+            let rem = w - x0;
+            // Lanes inside the row; for the left/right neighbours, lanes whose neighbour is.
+            let mc: __mmask32 = if rem >= 32 { !0 } else { (1u32 << rem) - 1 };
+            let ml = if x0 == 0 { mc & !1 } else { mc };
+            let mr = if rem > 32 { !0 } else { mc >> 1 };
+            // SAFETY: masked loads read only the lanes of their mask, all inside the rows
+            // (columns 0 … w − 1); the pointers of masked-off lanes are never dereferenced.
+            macro_rules! ld {
+                ($p:expr, $m:expr, $dx:expr) => {
+                    unsafe {
+                        _mm512_maskz_loadu_epi16(
+                            $m,
+                            ($p as *const u16).wrapping_offset(x0 as isize + $dx).cast(),
+                        )
+                    }
+                };
+            }
+            let gx = ld!(gxp, mc, 0);
+            let gy = ld!(gyp, mc, 0);
+            let c = ld!(cp, mc, 0);
+            let cl = ld!(cp, ml, -1);
+            let cr = ld!(cp, mr, 1);
+            let ax = _mm512_abs_epi16(gx);
+            let ay = _mm512_abs_epi16(gy);
+            let lim = _mm512_add_epi16(
+                _mm512_mulhi_epu16(ax, tan_mul),
+                _mm512_and_si512(ax, tan_all),
+            );
+            let cand = _mm512_cmpge_epu16_mask(c, low) & _mm512_cmple_epu16_mask(ay, lim) & mc;
+            let (a, b) = if HORIZ {
+                (cl, cr)
+            } else {
+                let (ul, um, ur) = (ld!(up, ml, -1), ld!(up, mc, 0), ld!(up, mr, 1));
+                let (dl, dm, dr) = (ld!(dp, ml, -1), ld!(dp, mc, 0), ld!(dp, mr, 1));
+                let h = _mm512_cmple_epu16_mask(ay, _mm512_mulhi_epu16(ax, t22));
+                let v = _mm512_cmple_epu16_mask(ax, _mm512_mulhi_epu16(ay, t22));
+                let d = !(_mm512_cmpgt_epi16_mask(gx, zero) ^ _mm512_cmpgt_epi16_mask(gy, zero));
+                // Diagonal: up-left/down-right; anti-diagonal: down-left/up-right.
+                let da = _mm512_mask_blend_epi16(d, dl, ul);
+                let db = _mm512_mask_blend_epi16(d, ur, dr);
+                let va = _mm512_mask_blend_epi16(v, da, um);
+                let vb = _mm512_mask_blend_epi16(v, db, dm);
+                (
+                    _mm512_mask_blend_epi16(h, va, cl),
+                    _mm512_mask_blend_epi16(h, vb, cr),
+                )
+            };
+            let keep = cand & _mm512_cmpge_epu16_mask(c, a) & _mm512_cmpgt_epu16_mask(c, b);
+            // SAFETY: x0 + 32 ≤ the scratch rows' length (w rounded up to 32).
+            unsafe {
+                _mm512_storeu_si512(s.a.as_mut_ptr().add(x0).cast(), a);
+                _mm512_storeu_si512(s.b.as_mut_ptr().add(x0).cast(), b);
+            }
+            bits[x0 / 64] |= (keep as u64) << (x0 % 64);
+            let idx = _mm512_add_epi16(iota, _mm512_set1_epi16(x0 as i16));
+            // SAFETY: n ≤ the columns seen so far < w, and `cols` holds w + 32.
+            unsafe {
+                _mm512_storeu_si512(
+                    s.cols.as_mut_ptr().add(n).cast(),
+                    _mm512_maskz_compress_epi16(keep, idx),
+                );
+            }
+            n += keep.count_ones() as usize;
+            x0 += 32;
+        }
+        n
+    }
+
+    /// Direction (binary angle, [`super::angle256`]) and sub-pixel offset
+    /// ([`super::sub_offset`]) of the `n` kept pixels in `s` (their gx, gy, c, a, b), 16 a
+    /// step, into `s.dir` and `s.sub`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F/BW/VL/DQ; the compact arrays hold n rounded up to 16.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,bmi1,bmi2,lzcnt,popcnt")]
+    pub(super) unsafe fn directions(s: &mut KeptScratch, n: usize) {
+        let m = n.div_ceil(16) * 16;
+        assert!(s.gx.len() >= m && s.gy.len() >= m && s.c.len() >= m);
+        assert!(s.ka.len() >= m && s.kb.len() >= m && s.dir.len() >= m && s.sub.len() >= m);
+        let mut lo = [0i32; 16];
+        let mut hi = [0i32; 16];
+        for i in 0..16 {
+            lo[i] = ATAN64[i] as i32;
+            hi[i] = ATAN64[16 + i] as i32;
+        }
+        let mut lo2 = [0i32; 16];
+        let mut hi2 = [0i32; 16];
+        for i in 0..16 {
+            lo2[i] = ATAN64[32 + i] as i32;
+            hi2[i] = ATAN64[48 + i] as i32;
+        }
+        // SAFETY: 64-byte arrays.
+        let (t0, t1, t2, t3) = unsafe {
+            (
+                _mm512_loadu_si512(lo.as_ptr().cast()),
+                _mm512_loadu_si512(hi.as_ptr().cast()),
+                _mm512_loadu_si512(lo2.as_ptr().cast()),
+                _mm512_loadu_si512(hi2.as_ptr().cast()),
+            )
+        };
+        let zero = _mm512_setzero_si512();
+        let c16 = _mm512_set1_epi32(16);
+        let c32 = _mm512_set1_epi32(32);
+        let c64 = _mm512_set1_epi32(64);
+        let c128 = _mm512_set1_epi32(128);
+        let c256 = _mm512_set1_epi32(256);
+        let c255 = _mm512_set1_epi32(255);
+        let tan22 = _mm512_set1_epi32(TAN22_Q8 as i32);
+        let mut i = 0;
+        while i < n {
+            // SAFETY: i + 16 ≤ m ≤ every array's length.
+            macro_rules! ld16 {
+                ($v:expr) => {
+                    unsafe { _mm256_loadu_si256($v.as_ptr().add(i).cast()) }
+                };
+            }
+            let gx = _mm512_cvtepi16_epi32(ld16!(s.gx));
+            let gy = _mm512_cvtepi16_epi32(ld16!(s.gy));
+            let c = _mm512_cvtepu16_epi32(ld16!(s.c));
+            let a = _mm512_cvtepu16_epi32(ld16!(s.ka));
+            let b = _mm512_cvtepu16_epi32(ld16!(s.kb));
+            // Direction.
+            let ax = _mm512_abs_epi32(gx);
+            let ay = _mm512_abs_epi32(gy);
+            let big = _mm512_max_epi32(ax, ay);
+            let small = _mm512_min_epi32(ax, ay);
+            let num = _mm512_add_epi32(_mm512_slli_epi32::<6>(small), _mm512_srli_epi32::<1>(big));
+            let q = _mm512_cvttps_epi32(_mm512_div_ps(
+                _mm512_cvtepi32_ps(num),
+                _mm512_cvtepi32_ps(big),
+            ));
+            let some = _mm512_cmpgt_epi32_mask(big, zero);
+            // ATAN64[q], q = 0 … 64 (garbage lanes where big = 0 are masked at the end).
+            let ql = _mm512_permutex2var_epi32(t0, q, t1);
+            let qh = _mm512_permutex2var_epi32(t2, q, t3);
+            let tq = _mm512_mask_blend_epi32(_mm512_cmpge_epi32_mask(q, c32), ql, qh);
+            let tq = _mm512_mask_blend_epi32(_mm512_cmpeq_epi32_mask(q, c64), tq, c32);
+            let ge = _mm512_cmpge_epi32_mask(ax, ay);
+            let t = _mm512_mask_blend_epi32(ge, _mm512_sub_epi32(c64, tq), tq);
+            let xp = _mm512_cmpge_epi32_mask(gx, zero);
+            let yp = _mm512_cmpge_epi32_mask(gy, zero);
+            let st = _mm512_mask_sub_epi32(t, xp ^ yp, zero, t);
+            let base = _mm512_mask_blend_epi32(xp, c128, _mm512_mask_blend_epi32(yp, c256, zero));
+            let dir = _mm512_maskz_and_epi32(some, _mm512_add_epi32(base, st), c255);
+            // Sub-pixel offset; no offset for the vertical sector (step 0).
+            let h =
+                _mm512_cmple_epi32_mask(_mm512_slli_epi32::<8>(ay), _mm512_mullo_epi32(tan22, ax));
+            let v =
+                _mm512_cmple_epi32_mask(_mm512_slli_epi32::<8>(ax), _mm512_mullo_epi32(tan22, ay));
+            let den = _mm512_add_epi32(_mm512_sub_epi32(a, _mm512_slli_epi32::<1>(c)), b);
+            let sn = _mm512_slli_epi32::<4>(_mm512_sub_epi32(a, b));
+            let d = _mm512_abs_epi32(den);
+            let nn = _mm512_add_epi32(_mm512_abs_epi32(sn), _mm512_srli_epi32::<1>(d));
+            let qs =
+                _mm512_cvttps_epi32(_mm512_div_ps(_mm512_cvtepi32_ps(nn), _mm512_cvtepi32_ps(d)));
+            let qs = _mm512_min_epi32(qs, c16);
+            let neg = _mm512_movepi32_mask(_mm512_xor_si512(sn, den));
+            let qs = _mm512_mask_sub_epi32(qs, neg, zero, qs);
+            let has = _mm512_cmpneq_epi32_mask(den, zero) & (h | !v);
+            let sub = _mm512_maskz_mov_epi32(has, qs);
+            // SAFETY: i + 16 ≤ m ≤ the byte arrays' lengths.
+            unsafe {
+                _mm_storeu_si128(s.dir.as_mut_ptr().add(i).cast(), _mm512_cvtepi32_epi8(dir));
+                _mm_storeu_si128(s.sub.as_mut_ptr().add(i).cast(), _mm512_cvtepi32_epi8(sub));
+            }
+            i += 16;
+        }
+    }
+
+    /// One row's edge pixels from the kept columns.
+    pub(super) fn pixels(s: &KeptScratch, n: usize, y: usize, high: u16, out: &mut Vec<EdgePixel>) {
+        out.clear();
+        out.extend(
+            s.cols[..n]
+                .iter()
+                .zip(&s.c[..n])
+                .zip(s.dir[..n].iter().zip(&s.sub[..n]))
+                .map(|((&x, &c), (&dir, &sub))| EdgePixel {
+                    row: y as u16,
+                    col: x,
+                    class: if c >= high { STRONG } else { WEAK },
+                    dir,
+                    sub,
+                    mag: c,
+                    comp: 0,
+                }),
+        );
+    }
+}
+
 /// Streaming segmentation of gradient rows.
 #[derive(Debug, Clone)]
 pub struct Segmenter {
@@ -436,6 +714,8 @@ pub struct Segmenter {
     ring: [GradRow; 3],
     zero: Vec<u16>,
     class: Aligned<u8>,
+    /// The AVX-512 path's scratch rows.
+    kept: KeptScratch,
     rows: RowLag,
 }
 
@@ -453,8 +733,66 @@ impl Segmenter {
             ],
             zero: vec![0; width],
             class: Aligned::new(width.div_ceil(8) * 8, 0),
+            kept: KeptScratch::new(width),
             rows: RowLag::new(1),
         }
+    }
+
+    /// [`Segmenter::emit_impl`] with AVX-512 (see the `avx512` module); `false` when the
+    /// level in use is below it.
+    #[allow(unsafe_code)]
+    fn emit_avx512(&mut self, out: &mut SparseEdgeRow) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::level() >= crate::simd::Level::Avx512
+            && std::is_x86_feature_detected!("avx512vbmi2")
+        {
+            let y = self.rows.output_row();
+            let cur = &self.ring[self.rows.clamped(0)];
+            let up: &[u16] = self
+                .rows
+                .neighbour(-1)
+                .map_or(&self.zero, |s| &self.ring[s].mag);
+            let down: &[u16] = self
+                .rows
+                .neighbour(1)
+                .map_or(&self.zero, |s| &self.ring[s].mag);
+            let s = &mut self.kept;
+            // SAFETY: the level is AVX-512 only when the CPU has AVX-512 F/BW/VL/DQ
+            // (`simd::detected`), VBMI2 checked above; the rows and scratch have the lengths the
+            // kernels assert.
+            let n = unsafe {
+                if self.consts.horizontal {
+                    avx512::classify::<true>(cur, up, down, &self.consts, s, &mut out.bits)
+                } else {
+                    avx512::classify::<false>(cur, up, down, &self.consts, s, &mut out.bits)
+                }
+            };
+            // The kept pixels' gradients and neighbours, compact.
+            {
+                let (gx, gy, mag, a, b) =
+                    (&cur.gx[..], &cur.gy[..], &cur.mag[..], &s.a[..], &s.b[..]);
+                let kept = s.cols[..n]
+                    .iter()
+                    .zip(&mut s.gx[..n])
+                    .zip(&mut s.gy[..n])
+                    .zip(&mut s.c[..n])
+                    .zip(s.ka[..n].iter_mut().zip(&mut s.kb[..n]));
+                for ((((&x, ogx), ogy), oc), (oa, ob)) in kept {
+                    let x = x as usize;
+                    *ogx = gx[x];
+                    *ogy = gy[x];
+                    *oc = mag[x];
+                    *oa = a[x];
+                    *ob = b[x];
+                }
+            }
+            // SAFETY: as above.
+            unsafe { avx512::directions(s, n) };
+            avx512::pixels(s, n, y, self.params.high, &mut out.pixels);
+            return true;
+        }
+        let _ = out;
+        false
     }
 
     #[inline(always)]
@@ -546,10 +884,12 @@ impl RowStage for Segmenter {
         &mut self.ring[self.rows.input_slot()]
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut SparseEdgeRow, obs: &mut O) {
-        crate::simd::dispatch(
-            #[inline(always)]
-            || self.emit_impl(out),
-        );
+        if !self.emit_avx512(out) {
+            crate::simd::dispatch(
+                #[inline(always)]
+                || self.emit_impl(out),
+            );
+        }
         obs.edges(out);
     }
 }
