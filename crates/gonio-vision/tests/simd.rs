@@ -1,6 +1,9 @@
 //! Every code path (scalar, AVX2, AVX-512, as far as the CPU has them) gives the same bits at
 //! every stage. One test in its own binary: the level is process-wide.
 
+use gonio_vision::gradient::GradRow;
+use gonio_vision::rows::RowStage;
+use gonio_vision::segment::{SegmentParams, Segmenter, SparseEdgeRow};
 use gonio_vision::simd::{Level, set_level};
 use gonio_vision::{Detector, Optics};
 use rand::{RngExt, SeedableRng};
@@ -27,8 +30,80 @@ fn frame(w: usize, h: usize, seed: u64) -> Vec<u8> {
     f
 }
 
+/// A random gradient value: mostly what a Sobel of 8-bit rows gives (|G| ≤ 1020 a component),
+/// some at the ends of the i16 range.
+fn gradient(rng: &mut ChaCha8Rng) -> i16 {
+    match rng.random_range(0..10) {
+        0 => [i16::MIN, -32767, 32767, -1, 0, 1][rng.random_range(0..6)],
+        1 => rng.random(),
+        _ => rng.random_range(-1020..=1020),
+    }
+}
+
+/// The segmentation alone at every level (the AVX-512 row kernel: classification into mask
+/// registers, the kept columns compressed, direction and sub-pixel offset in vector lanes):
+/// rows of every width 1 … 70 and a few wide ones (every tail after the 32-column steps, the
+/// border columns), random and extreme gradients (i16::MIN, ±32767, magnitudes up to u16::MAX
+/// unrelated to the components), tolerances in the horizontal kernel's range (≤ 22.5°) and
+/// beyond (every sector); the rows out must be identical.
+fn segmentation_rows_at_every_level() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut kept = 0;
+    for width in (1..=70).chain([127, 128, 129, 1440]) {
+        for tan_q10 in [339, 424, 859, 2047] {
+            let params = SegmentParams {
+                low: 40,
+                high: 300,
+                tan_q10,
+            };
+            let rows: Vec<GradRow> = (0..9)
+                .map(|_| {
+                    let mut g = GradRow::new(width);
+                    for x in 0..width {
+                        let (gx, gy) = (gradient(&mut rng), gradient(&mut rng));
+                        g.gx[x] = gx;
+                        g.gy[x] = gy;
+                        g.mag[x] = if rng.random_range(0..8) == 0 {
+                            rng.random()
+                        } else {
+                            gx.unsigned_abs().saturating_add(gy.unsigned_abs())
+                        };
+                    }
+                    g
+                })
+                .collect();
+            let mut outs = Vec::new();
+            for want in [Level::Scalar, Level::Avx2, Level::Avx512] {
+                let got = set_level(want);
+                let mut se = Segmenter::new(width, params);
+                let mut er = SparseEdgeRow::new(width);
+                let mut out = Vec::new();
+                for r in &rows {
+                    if se.push_row(r, &mut er) {
+                        out.push(er.clone());
+                    }
+                }
+                while se.flush_row(&mut er) {
+                    out.push(er.clone());
+                }
+                outs.push((got, out));
+            }
+            set_level(Level::Avx512);
+            let (_, o0) = &outs[0];
+            assert_eq!(o0.len(), rows.len());
+            kept += o0.iter().map(|r| r.pixels.len()).sum::<usize>();
+            for (l, o) in &outs[1..] {
+                assert_eq!(o, o0, "{l:?}, width {width}, tan_q10 {tan_q10}");
+            }
+        }
+    }
+    assert!(kept > 10_000, "only {kept} edge pixels compared");
+}
+
 #[test]
 fn every_level_gives_the_same_bits() {
+    // One test function: the level is process-wide, tests run in parallel threads.
+    segmentation_rows_at_every_level();
     for (w, h, tol) in [(203usize, 101usize, None), (331, 77, Some(40.0))] {
         let o = Optics {
             window_width_px: w as u32,
