@@ -490,8 +490,9 @@ mod avx512 {
 
     /// Classifies row `cur` (between `up` and `down`, zero rows outside the frame; columns
     /// outside the row count as zero magnitudes, as in [`super::segment_pixel`]); writes the
-    /// kept columns' bits into `bits`, the neighbours across the edge into `s.a`, `s.b` and
-    /// the kept columns into `s.cols`. Returns the number kept.
+    /// kept columns' bits into `bits`, the neighbours across the edge into `s.a`, `s.b` (unless
+    /// `HORIZ`: then they are the left and right ones) and the kept columns into `s.cols`.
+    /// Returns the number kept.
     ///
     /// # Safety
     /// The CPU must support AVX-512 F/BW/VL/DQ and VBMI2; `up`, `down` and `cur`'s rows have
@@ -550,10 +551,15 @@ mod avx512 {
             let cr = ld!(cp, mr, 1);
             let ax = _mm512_abs_epi16(gx);
             let ay = _mm512_abs_epi16(gy);
-            let lim = _mm512_add_epi16(
-                _mm512_mulhi_epu16(ax, tan_mul),
-                _mm512_and_si512(ax, tan_all),
-            );
+            // tan_all is zero in the horizontal regime (tan_q10 ≤ 424 < 1024).
+            let lim = if HORIZ {
+                _mm512_mulhi_epu16(ax, tan_mul)
+            } else {
+                _mm512_add_epi16(
+                    _mm512_mulhi_epu16(ax, tan_mul),
+                    _mm512_and_si512(ax, tan_all),
+                )
+            };
             let cand = _mm512_cmpge_epu16_mask(c, low) & _mm512_cmple_epu16_mask(ay, lim) & mc;
             let (a, b) = if HORIZ {
                 (cl, cr)
@@ -574,10 +580,12 @@ mod avx512 {
                 )
             };
             let keep = cand & _mm512_cmpge_epu16_mask(c, a) & _mm512_cmpgt_epu16_mask(c, b);
-            // SAFETY: x0 + 32 ≤ the scratch rows' length (w rounded up to 32).
-            unsafe {
-                _mm512_storeu_si512(s.a.as_mut_ptr().add(x0).cast(), a);
-                _mm512_storeu_si512(s.b.as_mut_ptr().add(x0).cast(), b);
+            if !HORIZ {
+                // SAFETY: x0 + 32 ≤ the scratch rows' length (w rounded up to 32).
+                unsafe {
+                    _mm512_storeu_si512(s.a.as_mut_ptr().add(x0).cast(), a);
+                    _mm512_storeu_si512(s.b.as_mut_ptr().add(x0).cast(), b);
+                }
             }
             bits[x0 / 64] |= (keep as u64) << (x0 % 64);
             let idx = _mm512_add_epi16(iota, _mm512_set1_epi16(x0 as i16));
@@ -788,13 +796,19 @@ impl Segmenter {
                     .zip(&mut s.gy[..n])
                     .zip(&mut s.c[..n])
                     .zip(s.ka[..n].iter_mut().zip(&mut s.kb[..n]));
+                let horizontal = self.consts.horizontal;
                 for ((((&x, ogx), ogy), oc), (oa, ob)) in kept {
                     let x = x as usize;
                     *ogx = gx[x];
                     *ogy = gy[x];
                     *oc = mag[x];
-                    *oa = a[x];
-                    *ob = b[x];
+                    if horizontal {
+                        *oa = if x > 0 { mag[x - 1] } else { 0 };
+                        *ob = mag.get(x + 1).copied().unwrap_or(0);
+                    } else {
+                        *oa = a[x];
+                        *ob = b[x];
+                    }
                 }
             }
             // SAFETY: as above.
