@@ -724,6 +724,18 @@ mod avx512 {
     }
 }
 
+/// The output row's gradients and the magnitudes of the rows above and below it (`zero`
+/// outside the frame).
+#[inline(always)]
+fn rows_around<'a>(
+    rows: &RowLag,
+    ring: &'a [GradRow; 3],
+    zero: &'a [u16],
+) -> (&'a GradRow, &'a [u16], &'a [u16]) {
+    let around = |dy| rows.neighbour(dy).map_or(zero, |s| &ring[s].mag[..]);
+    (&ring[rows.clamped(0)], around(-1), around(1))
+}
+
 /// Streaming segmentation of gradient rows.
 #[derive(Debug, Clone)]
 pub struct Segmenter {
@@ -766,15 +778,7 @@ impl Segmenter {
             && std::is_x86_feature_detected!("avx512vbmi2")
         {
             let y = self.rows.output_row();
-            let cur = &self.ring[self.rows.clamped(0)];
-            let up: &[u16] = self
-                .rows
-                .neighbour(-1)
-                .map_or(&self.zero, |s| &self.ring[s].mag);
-            let down: &[u16] = self
-                .rows
-                .neighbour(1)
-                .map_or(&self.zero, |s| &self.ring[s].mag);
+            let (cur, up, down) = rows_around(&self.rows, &self.ring, &self.zero);
             let s = &mut self.kept;
             // SAFETY: the level is AVX-512 only when the CPU has AVX-512 F/BW/VL/DQ
             // (`simd::detected`), VBMI2 checked above; the rows and scratch have the lengths the
@@ -824,15 +828,7 @@ impl Segmenter {
     fn emit_impl(&mut self, out: &mut SparseEdgeRow) {
         let w = self.width;
         let y = self.rows.output_row();
-        let cur = &self.ring[self.rows.clamped(0)];
-        let up: &[u16] = self
-            .rows
-            .neighbour(-1)
-            .map_or(&self.zero, |s| &self.ring[s].mag);
-        let down: &[u16] = self
-            .rows
-            .neighbour(1)
-            .map_or(&self.zero, |s| &self.ring[s].mag);
+        let (cur, up, down) = rows_around(&self.rows, &self.ring, &self.zero);
         let p = self.params;
         let at = |r: &[u16], x: usize, dx: isize| {
             let xx = x as isize + dx;
