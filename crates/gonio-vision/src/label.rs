@@ -384,19 +384,34 @@ impl EdgeList {
     /// The pixels of the component with this `first_index` within rows `first ..= last`, in
     /// raster order (empty when the list is incomplete).
     pub fn component(&mut self, first_index: u64, first: u32, last: u32) -> Vec<EdgePixel> {
+        let mut v = Vec::new();
+        self.component_into(first_index, first, last, &mut v);
+        v
+    }
+
+    /// As [`EdgeList::component`], into `out` (cleared first; its allocation is reused).
+    pub fn component_into(
+        &mut self,
+        first_index: u64,
+        first: u32,
+        last: u32,
+        out: &mut Vec<EdgePixel>,
+    ) {
+        out.clear();
         let first_index = first_index as u32;
         self.resolve();
         if self.overflow || self.row_start.is_empty() {
-            return Vec::new();
+            return;
         }
         let n = self.row_start.len() - 1;
         let a = self.row_start[(first as usize).min(n)] as usize;
         let b = self.row_start[(last as usize + 1).min(n)] as usize;
-        self.pixels[a..b]
-            .iter()
-            .filter(|p| p.comp == first_index)
-            .copied()
-            .collect()
+        out.extend(
+            self.pixels[a..b]
+                .iter()
+                .filter(|p| p.comp == first_index)
+                .copied(),
+        );
     }
 }
 

@@ -190,13 +190,28 @@ pub fn curve_with(c: &Component, height: usize, q_prior: Option<f64>) -> Option<
     })
 }
 
-/// Rows `[first, last]` covered by a set of intervals (overlaps counted once).
+/// Rows `[first, last]` covered by a set of intervals (overlaps counted once). Small sets are
+/// sorted in a stack buffer (this runs for every pair of tracks: no allocation).
 fn union_len(iv: &[(u32, u32)]) -> u32 {
-    let mut v: Vec<(u32, u32)> = iv.to_vec();
+    const SMALL: usize = 16;
+    match iv.len() {
+        0 => 0,
+        1 => iv[0].1 - iv[0].0 + 1,
+        n if n <= SMALL => {
+            let mut buf = [(0u32, 0u32); SMALL];
+            buf[..n].copy_from_slice(iv);
+            union_len_sorting(&mut buf[..n])
+        }
+        _ => union_len_sorting(&mut iv.to_vec()),
+    }
+}
+
+/// [`union_len`] of intervals it may reorder.
+fn union_len_sorting(v: &mut [(u32, u32)]) -> u32 {
     v.sort_unstable();
     let mut total = 0;
     let mut cur: Option<(u32, u32)> = None;
-    for (a, b) in v {
+    for &(a, b) in v.iter() {
         match cur {
             Some((ca, cb)) if a <= cb + 1 => cur = Some((ca, cb.max(b))),
             Some((ca, cb)) => {
@@ -212,20 +227,41 @@ fn union_len(iv: &[(u32, u32)]) -> u32 {
     total
 }
 
-/// Rows covered by both interval sets, and the first and last of them.
+/// Rows covered by both interval sets, and the first and last of them (0, 0, 0 when none).
+/// Without allocation for up to 16 overlapping parts (one interval each: no sorting at all).
 fn shared(a: &[(u32, u32)], b: &[(u32, u32)]) -> (u32, u32, u32) {
-    let mut parts = Vec::new();
+    const SMALL: usize = 16;
+    let mut buf = [(0u32, 0u32); SMALL];
+    let mut spill: Vec<(u32, u32)> = Vec::new();
+    let mut n = 0;
+    let (mut first, mut last) = (u32::MAX, 0u32);
     for &(a0, a1) in a {
         for &(b0, b1) in b {
             let (lo, hi) = (a0.max(b0), a1.min(b1));
             if lo <= hi {
-                parts.push((lo, hi));
+                first = first.min(lo);
+                last = last.max(hi);
+                if n < SMALL {
+                    buf[n] = (lo, hi);
+                } else {
+                    if n == SMALL {
+                        spill.extend_from_slice(&buf);
+                    }
+                    spill.push((lo, hi));
+                }
+                n += 1;
             }
         }
     }
-    let first = parts.iter().map(|p| p.0).min().unwrap_or(0);
-    let last = parts.iter().map(|p| p.1).max().unwrap_or(0);
-    (union_len(&parts), first, last)
+    if n == 0 {
+        return (0, 0, 0);
+    }
+    let len = if n <= SMALL {
+        union_len(&buf[..n])
+    } else {
+        union_len_sorting(&mut spill)
+    };
+    (len, first, last)
 }
 
 /// One edge of the window seen as a ring edge: linked fragments with their summed statistics.
@@ -249,7 +285,16 @@ pub struct Track {
 
 impl Track {
     fn new(comp: Component, polarity: i8, height: usize, q: Option<f64>) -> Option<Track> {
-        let curve = curve_with(&comp, height, q)?;
+        Some(Track::with_curve(
+            comp,
+            polarity,
+            curve_with(&comp, height, q)?,
+        ))
+    }
+
+    /// A one-fragment track whose curve (`curve_with` of `comp` with the frame's curvature) is
+    /// already known.
+    fn with_curve(comp: Component, polarity: i8, curve: Curve) -> Track {
         let mut t = Track {
             comp,
             rows: vec![(comp.min_row, comp.max_row)],
@@ -260,7 +305,7 @@ impl Track {
             strong_share: 0.0,
         };
         t.update_stats();
-        Some(t)
+        t
     }
 
     fn update_stats(&mut self) {
@@ -300,7 +345,14 @@ fn polarity(c: &Component) -> Option<i8> {
 /// `q` (px per u²): pairs of pixels from the upper and lower halves (in raster order) at least
 /// `min_fragment_rows` rows apart, slope within the baseline filter's tolerance, the line with
 /// most pixels within `gate` px. Returns (row, reduced column, slope) of the line.
-fn ransac(px: &[EdgePixel], q: f64, gate: f64, p: &Params) -> Option<(f64, f64, f64)> {
+fn ransac(
+    px: &[EdgePixel],
+    q: f64,
+    gate: f64,
+    p: &Params,
+    rows: &mut Vec<f64>,
+    cols: &mut Vec<f64>,
+) -> Option<(f64, f64, f64)> {
     let h = p.height;
     let tan = p.tan_tolerance_q10 as f64 / 1024.0;
     let col = |e: &EdgePixel| {
@@ -313,8 +365,11 @@ fn ransac(px: &[EdgePixel], q: f64, gate: f64, p: &Params) -> Option<(f64, f64, 
         return None;
     }
     // Each pixel's row and reduced column once (the same values the tries would compute).
-    let rows: Vec<f64> = px.iter().map(|e| e.row as f64).collect();
-    let cols: Vec<f64> = px.iter().map(col).collect();
+    rows.clear();
+    rows.extend(px.iter().map(|e| e.row as f64));
+    cols.clear();
+    cols.extend(px.iter().map(col));
+    let (rows, cols) = (&rows[..], &cols[..]);
     let mut best: Option<(usize, f64, f64, f64)> = None;
     const TRIES: usize = 48;
     for k in 0..TRIES {
@@ -331,7 +386,7 @@ fn ransac(px: &[EdgePixel], q: f64, gate: f64, p: &Params) -> Option<(f64, f64, 
         let (r0, c0) = (rows[ia], cols[ia]);
         let inl = crate::simd::dispatch(
             #[inline(always)]
-            || inliers(&rows, &cols, r0, c0, slope, gate),
+            || inliers(rows, cols, r0, c0, slope, gate),
         );
         if best.is_none_or(|b| inl > b.0) {
             best = Some((inl, r0, c0, slope));
@@ -355,7 +410,7 @@ fn inliers(rows: &[f64], cols: &[f64], r0: f64, c0: f64, slope: f64, gate: f64) 
 /// inliers within 1.5 px; slope within the baseline filter's tolerance), its pixels within
 /// 1.5 px, then a curve re-fitted to those within 1 px of it, twice. Pieces spanning fewer than
 /// `min_fragment_rows` rows end the search.
-fn split(mut px: Vec<EdgePixel>, p: &Params, q: Option<f64>) -> Vec<Component> {
+fn split(s: &mut Scratch, p: &Params, q: Option<f64>, out: &mut Vec<Component>) {
     let (h, w) = (p.height, p.width);
     let qq = q.unwrap_or(0.0);
     // Columns less the frame's curvature: a concentric edge is straight in these.
@@ -364,35 +419,59 @@ fn split(mut px: Vec<EdgePixel>, p: &Params, q: Option<f64>) -> Vec<Component> {
         e.col32() as f64 / 32.0 - qq * u * u
     };
     let col_px = |e: &EdgePixel| e.col32() as f64 / 32.0;
-    let mut out = Vec::new();
     for _ in 0..4 {
-        if px.len() < p.min_fragment_rows as usize {
+        if s.part.len() < p.min_fragment_rows as usize {
             break;
         }
-        let Some((r0, c0, slope)) = ransac(&px, qq, 1.5, p) else {
+        let Some((r0, c0, slope)) = ransac(&s.part, qq, 1.5, p, &mut s.rows, &mut s.cols) else {
             break;
         };
         let near = |q: &EdgePixel| (col(q) - c0 - slope * (q.row as f64 - r0)).abs() <= 1.5;
-        let (taken, rest): (Vec<EdgePixel>, Vec<EdgePixel>) = px.iter().partition(|q| near(q));
-        px = rest;
-        let mut piece = taken.clone();
+        s.taken.clear();
+        s.rest.clear();
+        for e in &s.part {
+            if near(e) {
+                s.taken.push(*e);
+            } else {
+                s.rest.push(*e);
+            }
+        }
+        std::mem::swap(&mut s.part, &mut s.rest);
+        s.piece.clear();
+        s.piece.extend_from_slice(&s.taken);
         for _ in 0..2 {
-            let Some(cv) = curve_with(&component_of(&piece, w), h, q) else {
+            let Some(cv) = curve_with(&component_of(&s.piece, w), h, q) else {
                 break;
             };
-            piece = taken
-                .iter()
-                .filter(|e| (col_px(e) - cv.at(e.row as f64, h)).abs() <= 1.0)
-                .copied()
-                .collect();
+            s.piece.clear();
+            s.piece.extend(
+                s.taken
+                    .iter()
+                    .filter(|e| (col_px(e) - cv.at(e.row as f64, h)).abs() <= 1.0),
+            );
         }
-        let c = component_of(&piece, w);
+        let c = component_of(&s.piece, w);
         if c.pixels == 0 || c.row_span() < p.min_fragment_rows {
             break;
         }
         out.push(c);
     }
-    out
+}
+
+/// Pixel and value buffers the selection reuses within a frame: no allocation per component
+/// split or pair refitted.
+#[derive(Debug, Default)]
+struct Scratch {
+    /// A component's pixels.
+    comp: Vec<EdgePixel>,
+    /// The pixels of one polarity still to split.
+    part: Vec<EdgePixel>,
+    rest: Vec<EdgePixel>,
+    taken: Vec<EdgePixel>,
+    piece: Vec<EdgePixel>,
+    /// RANSAC's rows and reduced columns.
+    rows: Vec<f64>,
+    cols: Vec<f64>,
 }
 
 /// The fragments of the frame and its curvature: clean candidate components as they are; a
@@ -401,7 +480,12 @@ fn split(mut px: Vec<EdgePixel>, p: &Params, q: Option<f64>) -> Vec<Component> {
 /// frame's curvature (px per u²) is the median of the clean fragments spanning half the window
 /// or more (`None` without one): every edge in the window is concentric with the ring, and a
 /// shorter piece bends with it.
-fn fragments(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Track>, Option<f64>) {
+fn fragments(
+    cands: &[Component],
+    edges: &mut EdgeList,
+    p: &Params,
+    s: &mut Scratch,
+) -> (Vec<Track>, Option<f64>) {
     let h = p.height;
     let mut sorted: Vec<&Component> = cands
         .iter()
@@ -417,21 +501,22 @@ fn fragments(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Trac
         .collect();
     let q = (!qs.is_empty()).then(|| median(&mut qs));
     let mut out = Vec::with_capacity(sorted.len());
+    let mut pieces = Vec::new();
     for c in sorted {
-        let pol = polarity(c);
-        let clean = curve_with(c, h, q).is_some_and(|cv| cv.rms_px <= p.max_fragment_rms_px);
-        if let (Some(pol), true) = (pol, clean) {
-            out.extend(Track::new(*c, pol, h, q));
+        let clean = curve_with(c, h, q).filter(|cv| cv.rms_px <= p.max_fragment_rms_px);
+        // A clean fragment's track has the curve just fitted (the same `curve_with`).
+        if let (Some(pol), Some(cv)) = (polarity(c), clean) {
+            out.push(Track::with_curve(*c, pol, cv));
             continue;
         }
-        let px = edges.component(c.first_index, c.min_row, c.max_row);
+        edges.component_into(c.first_index, c.min_row, c.max_row, &mut s.comp);
         for rising in [true, false] {
-            let part: Vec<EdgePixel> = px
-                .iter()
-                .filter(|e| e.rising() == rising)
-                .copied()
-                .collect();
-            for piece in split(part, p, q) {
+            s.part.clear();
+            s.part
+                .extend(s.comp.iter().filter(|e| e.rising() == rising).copied());
+            pieces.clear();
+            split(s, p, q, &mut pieces);
+            for &piece in &pieces {
                 out.extend(Track::new(piece, if rising { 1 } else { -1 }, h, q));
             }
         }
@@ -479,14 +564,18 @@ fn gather(
 }
 
 fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
+    // The middle elements by selection, not a full sort: under `total_cmp` (a total order,
+    // equal only for identical bits) the k-th smallest value is the sorted array's v[k].
     let n = v.len();
     if n == 0 {
-        f64::NAN
-    } else if n % 2 == 1 {
-        v[n / 2]
+        return f64::NAN;
+    }
+    let (below, &mut m, _) = v.select_nth_unstable_by(n / 2, f64::total_cmp);
+    if n % 2 == 1 {
+        m
     } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+        let lo = below.iter().copied().max_by(f64::total_cmp).unwrap_or(m);
+        0.5 * (lo + m)
     }
 }
 
@@ -639,18 +728,67 @@ fn joint_fit(
     }
 }
 
-/// Row-wise mean column of a pixel set (NaN where a row has none).
-fn row_means(px: &[EdgePixel], h: usize) -> Vec<f64> {
-    let mut sum = vec![0.0; h];
-    let mut n = vec![0u32; h];
+/// Row-wise mean column of a pixel set (NaN where a row has none), into `mean` (`n`: the
+/// counts).
+fn row_means(px: &[EdgePixel], h: usize, mean: &mut Vec<f64>, n: &mut Vec<u32>) {
+    mean.clear();
+    mean.resize(h, 0.0);
+    n.clear();
+    n.resize(h, 0);
     for e in px {
-        sum[e.row as usize] += e.col32() as f64 / 32.0;
+        mean[e.row as usize] += e.col32() as f64 / 32.0;
         n[e.row as usize] += 1;
     }
-    sum.iter()
-        .zip(&n)
-        .map(|(&s, &k)| if k > 0 { s / k as f64 } else { f64::NAN })
-        .collect()
+    for (s, &k) in mean.iter_mut().zip(n.iter()) {
+        *s = if k > 0 { *s / k as f64 } else { f64::NAN };
+    }
+}
+
+/// The buffers of [`refit_pair`], reused from pair to pair.
+#[derive(Debug, Default)]
+struct RefitScratch {
+    skip: Vec<bool>,
+    pos: Vec<f64>,
+    lpx: Vec<EdgePixel>,
+    rpx: Vec<EdgePixel>,
+    lk: Vec<EdgePixel>,
+    rk: Vec<EdgePixel>,
+    rows: Vec<f64>,
+    cols: Vec<f64>,
+    ml: Vec<f64>,
+    mr: Vec<f64>,
+    count: Vec<u32>,
+    widths: Vec<f64>,
+    near_l: Vec<bool>,
+    near_r: Vec<bool>,
+}
+
+/// An edge's clean majority (step 2 of [`refit_pair`]): the pixels within 0.75 px of a RANSAC
+/// curve (the frame's curvature, else the track's), all of them without one; into `out`.
+#[allow(clippy::too_many_arguments)]
+fn clean_majority(
+    px: &[EdgePixel],
+    t: &Track,
+    q_frame: Option<f64>,
+    p: &Params,
+    rows: &mut Vec<f64>,
+    cols: &mut Vec<f64>,
+    out: &mut Vec<EdgePixel>,
+) {
+    let h = p.height;
+    let q = q_frame.unwrap_or(t.curve.q);
+    let red = |e: &EdgePixel| {
+        let u = 2.0 * e.row as f64 - (h as f64 - 1.0);
+        e.col32() as f64 / 32.0 - q * u * u
+    };
+    out.clear();
+    match ransac(px, q, 0.75, p, rows, cols) {
+        Some((r0, c0, slope)) => out.extend(
+            px.iter()
+                .filter(|e| (red(e) - c0 - slope * (e.row as f64 - r0)).abs() <= 0.75),
+        ),
+        None => out.extend_from_slice(px),
+    }
 }
 
 /// Re-fits a ring candidate's two edges from the frame's pixels (`None` when the frame's edge
@@ -677,33 +815,38 @@ pub fn refit_pair(
     q_frame: Option<f64>,
     p: &Params,
 ) -> Option<PairFit> {
+    refit_pair_with(l, r, edges, skip, q_frame, p, &mut RefitScratch::default())
+}
+
+/// [`refit_pair`] with buffers reused from pair to pair.
+fn refit_pair_with(
+    l: &Track,
+    r: &Track,
+    edges: &mut EdgeList,
+    skip_in: &[bool],
+    q_frame: Option<f64>,
+    p: &Params,
+    s: &mut RefitScratch,
+) -> Option<PairFit> {
     let h = p.height;
     edges.pixels()?;
-    let mut skip = skip.to_vec();
+    let skip = &mut s.skip;
+    skip.clear();
+    skip.extend_from_slice(skip_in);
     skip.resize(h, false);
     // 1. Gather.
-    let mut pos = vec![f64::NAN; h];
-    let (mut lpx, mut rpx) = (Vec::new(), Vec::new());
-    gather(&l.curve, true, 1.5, edges, &skip, h, &mut lpx, &mut pos);
-    gather(&r.curve, false, 1.5, edges, &skip, h, &mut rpx, &mut pos);
+    s.pos.clear();
+    s.pos.resize(h, f64::NAN);
+    s.lpx.clear();
+    s.rpx.clear();
+    gather(&l.curve, true, 1.5, edges, skip, h, &mut s.lpx, &mut s.pos);
+    gather(&r.curve, false, 1.5, edges, skip, h, &mut s.rpx, &mut s.pos);
     let col = |e: &EdgePixel| e.col32() as f64 / 32.0;
     // 2. Clean majorities, then the joint parallel curves.
-    let start = |px: &[EdgePixel], t: &Track| -> Vec<EdgePixel> {
-        let q = q_frame.unwrap_or(t.curve.q);
-        let red = |e: &EdgePixel| {
-            let u = 2.0 * e.row as f64 - (h as f64 - 1.0);
-            col(e) - q * u * u
-        };
-        match ransac(px, q, 0.75, p) {
-            Some((r0, c0, slope)) => px
-                .iter()
-                .filter(|e| (red(e) - c0 - slope * (e.row as f64 - r0)).abs() <= 0.75)
-                .copied()
-                .collect(),
-            None => px.to_vec(),
-        }
-    };
-    let (mut lk, mut rk) = (start(&lpx, l), start(&rpx, r));
+    let (lpx, rpx) = (&s.lpx, &s.rpx);
+    let (lk, rk) = (&mut s.lk, &mut s.rk);
+    clean_majority(lpx, l, q_frame, p, &mut s.rows, &mut s.cols, lk);
+    clean_majority(rpx, r, q_frame, p, &mut s.rows, &mut s.cols, rk);
     let fit_of = |lk: &[EdgePixel], rk: &[EdgePixel], q_fixed: Option<f64>| -> Option<PairFit> {
         let (lc, rc) = (component_of(lk, p.width), component_of(rk, p.width));
         let (a_left, a_right, b, q, c_sigma_px) = joint_fit(&lc, &rc, h, q_fixed)?;
@@ -721,24 +864,31 @@ pub fn refit_pair(
         })
     };
     for _ in 0..2 {
-        let f = fit_of(&lk, &rk, None)?;
+        let f = fit_of(lk, rk, None)?;
         let near =
             |e: &EdgePixel, right: bool| (col(e) - f.at(right, e.row as f64, h)).abs() <= 0.75;
-        lk = lpx.iter().filter(|e| near(e, false)).copied().collect();
-        rk = rpx.iter().filter(|e| near(e, true)).copied().collect();
+        lk.clear();
+        lk.extend(lpx.iter().filter(|e| near(e, false)));
+        rk.clear();
+        rk.extend(rpx.iter().filter(|e| near(e, true)));
     }
     // 3. Rows where the ring is not its own width.
-    let (ml, mr) = (row_means(&lk, h), row_means(&rk, h));
-    let mut widths: Vec<f64> = (0..h)
-        .map(|y| mr[y] - ml[y])
-        .filter(|w| w.is_finite())
-        .collect();
+    let (ml, mr) = (&mut s.ml, &mut s.mr);
+    row_means(lk, h, ml, &mut s.count);
+    row_means(rk, h, mr, &mut s.count);
+    let widths = &mut s.widths;
+    widths.clear();
+    widths.extend((0..h).map(|y| mr[y] - ml[y]).filter(|w| w.is_finite()));
     if widths.is_empty() {
         return None;
     }
-    let w0 = median(&mut widths);
-    let mut dev: Vec<f64> = widths.iter().map(|w| (w - w0).abs()).collect();
-    let thr = (4.0 * 1.4826 * median(&mut dev)).max(0.35);
+    // The median of the widths, then of their deviations from it (in the same buffer: the
+    // widths are not needed once their median is known).
+    let w0 = median(widths);
+    for w in widths.iter_mut() {
+        *w = (*w - w0).abs();
+    }
+    let thr = (4.0 * 1.4826 * median(widths)).max(0.35);
     for y in 0..h {
         let w = mr[y] - ml[y];
         if w.is_finite() && (w - w0).abs() > thr {
@@ -748,10 +898,14 @@ pub fn refit_pair(
     lk.retain(|e| !skip[e.row as usize]);
     rk.retain(|e| !skip[e.row as usize]);
     // 4. Rows where another edge is close enough to pull a ring edge.
-    let f = fit_of(&lk, &rk, None)?;
+    let f = fit_of(lk, rk, None)?;
     let g = |c: &Component| c.sum_mag as f64 / c.pos_n.max(1) as f64;
     let (gl, gr) = (g(&f.left), g(&f.right));
-    let (mut near_l, mut near_r) = (vec![false; h], vec![false; h]);
+    let (near_l, near_r) = (&mut s.near_l, &mut s.near_r);
+    near_l.clear();
+    near_l.resize(h, false);
+    near_r.clear();
+    near_r.resize(h, false);
     let reach = NEIGHBOUR_REACH_PX;
     for y in 0..h {
         let (xl, xr) = (f.at(false, y as f64, h), f.at(true, y as f64, h));
@@ -780,7 +934,7 @@ pub fn refit_pair(
     // fit, else from the frame's concentric edges). A free curvature would have to be pinned
     // by the data, and with rows missing at one end the extrapolated mean would follow its
     // error; with every row present c does not depend on it.
-    let free = fit_of(&lk, &rk, None)?;
+    let free = fit_of(lk, rk, None)?;
     let slope = 2.0 * free.b;
     let q_mag = (1.0 + slope * slope).powf(1.5) / (8.0 * p.ring_radius_px);
     let sign = if (free.q.abs() - q_mag).abs() <= 0.5 * q_mag {
@@ -789,7 +943,7 @@ pub fn refit_pair(
         q_frame.filter(|q| q.abs() > 0.5 * q_mag).map(f64::signum)
     };
     let mut f = match sign {
-        Some(sg) => fit_of(&lk, &rk, Some(sg * q_mag))?,
+        Some(sg) => fit_of(lk, rk, Some(sg * q_mag))?,
         None => free,
     };
     if f.left.row_span() < p.min_fragment_rows || f.right.row_span() < p.min_fragment_rows {
@@ -802,9 +956,11 @@ pub fn refit_pair(
         }
         v
     };
-    f.left_rows = rows(&lk);
-    f.right_rows = rows(&rk);
-    f.width_change_px = width_change(&row_means(&lk, h), &row_means(&rk, h), h);
+    f.left_rows = rows(lk);
+    f.right_rows = rows(rk);
+    row_means(lk, h, ml, &mut s.count);
+    row_means(rk, h, mr, &mut s.count);
+    f.width_change_px = width_change(ml, mr, h);
     Some(f)
 }
 
@@ -845,8 +1001,18 @@ fn width_change(ml: &[f64], mr: &[f64], h: usize) -> f64 {
 
 /// Tracks from the frame's candidate components: fragments of one polarity linked top to bottom.
 pub fn tracks(cands: &[Component], edges: &mut EdgeList, p: &Params) -> (Vec<Track>, Option<f64>) {
+    tracks_with(cands, edges, p, &mut Scratch::default())
+}
+
+/// [`tracks`] with the selection's buffers.
+fn tracks_with(
+    cands: &[Component],
+    edges: &mut EdgeList,
+    p: &Params,
+    s: &mut Scratch,
+) -> (Vec<Track>, Option<f64>) {
     let h = p.height;
-    let (mut frags, q) = fragments(cands, edges, p);
+    let (mut frags, q) = fragments(cands, edges, p, s);
     // Without the frame's curvature, pieces are straight: allow for the ring's own bending
     // (1/radius) over the distance a piece is extrapolated.
     let bend = if q.is_some() {
@@ -966,13 +1132,18 @@ pub fn select(
     p: &Params,
 ) -> Selection {
     let h = p.height;
-    let (tracks, q_frame) = tracks(cands, edges, p);
+    let mut scratch = Scratch::default();
+    let (tracks, q_frame) = tracks_with(cands, edges, p, &mut scratch);
+    let mut refit_scratch = RefitScratch::default();
+    let mut skip: Vec<bool> = Vec::new();
     let long: Vec<usize> = (0..tracks.len())
         .filter(|&i| 2 * tracks[i].coverage as usize >= p.min_edge_pixels)
         .collect();
     let d = p.baseline_width_px as f64;
     let (sep_lo, sep_hi) = p.separation_px;
     let mut pairs: Vec<Candidate> = Vec::new();
+    // Each candidate's edge curves (`curve` of its refitted edges), computed once.
+    let mut pair_curves: Vec<(Curve, Curve)> = Vec::new();
     let mut clipped_out = false;
     let mut coarse_found = false;
     let mut at_side = false;
@@ -984,6 +1155,13 @@ pub fn select(
         for &j in &long {
             let r = &tracks[j];
             if r.polarity != -1 {
+                continue;
+            }
+            // The rows both cover lie within the overlap of their row ranges: without enough
+            // of that, no need to intersect their fragments' rows.
+            let hull = (l.comp.max_row.min(r.comp.max_row) + 1)
+                .saturating_sub(l.comp.min_row.max(r.comp.min_row));
+            if 2 * (hull as usize) < p.min_edge_pixels {
                 continue;
             }
             // Coarse: the tracks as linked (their curves may still carry a crossing's pull).
@@ -1003,7 +1181,8 @@ pub fn select(
                 continue;
             }
             // Rows where saturation reaches the ring or its edges' profiles are left out.
-            let mut skip = vec![false; h];
+            skip.clear();
+            skip.resize(h, false);
             for s in saturated {
                 let y = s.row as f64;
                 let (a, b) = (l.curve.at(y, h) - 3.0, r.curve.at(y, h) + 3.0);
@@ -1018,7 +1197,7 @@ pub fn select(
             // Fine: both edges from their own pixels (without the frame's pixels: the tracks'
             // sums, which only clean fragments make).
             let fit = if edges.pixels().is_some() {
-                refit_pair(l, r, edges, &skip, q_frame, p)
+                refit_pair_with(l, r, edges, &skip, q_frame, p, &mut refit_scratch)
             } else {
                 let rows = |t: &Track| {
                     let mut v = vec![false; h];
@@ -1078,6 +1257,7 @@ pub fn select(
                 continue;
             }
             let share = |c: &Component| c.strong as f64 / c.pixels.max(1) as f64;
+            pair_curves.push((lcv, rcv));
             pairs.push(Candidate {
                 left: i,
                 right: j,
@@ -1095,10 +1275,10 @@ pub fn select(
     // A ring's inside is flat: drop candidates with a track as strong as their edges running
     // between them, parallel to them, over 30 % of their shared rows (two neighbouring lines,
     // not a ring). A scratch crossing the ring at an angle does not count.
+    let mut k = 0;
     pairs.retain(|c| {
-        let (Some(lcv), Some(rcv)) = (curve(&c.fit.left, h), curve(&c.fit.right, h)) else {
-            return false;
-        };
+        let (lcv, rcv) = pair_curves[k];
+        k += 1;
         let lrows = [(c.fit.left.min_row, c.fit.left.max_row)];
         !tracks.iter().enumerate().any(|(k, t)| {
             if k == c.left || k == c.right || t.gradient < p.interior_fraction * c.gradient {
