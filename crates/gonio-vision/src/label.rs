@@ -389,6 +389,44 @@ impl EdgeList {
         v
     }
 
+    /// The pixels of component `c` (by its `first_index`), in raster order, into `out`
+    /// (cleared first; empty when the list is incomplete): as [`EdgeList::component`] over
+    /// its rows, but each row looked at only between its first and last column (found by
+    /// binary search), not whole.
+    pub fn component_pixels_into(&mut self, c: &Component, out: &mut Vec<EdgePixel>) {
+        out.clear();
+        let first_index = c.first_index as u32;
+        self.resolve();
+        if self.overflow || self.row_start.is_empty() {
+            return;
+        }
+        let n = self.row_start.len() - 1;
+        let y0 = (c.min_row as usize).min(n);
+        let y1 = (c.max_row as usize + 1).min(n);
+        for y in y0..y1 {
+            let row = &self.pixels[self.row_start[y] as usize..self.row_start[y + 1] as usize];
+            let lo = row.partition_point(|p| (p.col as u32) < c.min_col);
+            for p in &row[lo..] {
+                if p.col as u32 > c.max_col {
+                    break;
+                }
+                if p.comp == first_index {
+                    out.push(*p);
+                }
+            }
+        }
+    }
+
+    /// The pixels row by row (resolved), or `None` when the frame had more than the list
+    /// holds: a view without the per-call checks of [`EdgeList::row`].
+    pub fn rows(&mut self) -> Option<EdgeRows<'_>> {
+        self.resolve();
+        (!self.overflow).then_some(EdgeRows {
+            pixels: &self.pixels,
+            row_start: &self.row_start,
+        })
+    }
+
     /// As [`EdgeList::component`], into `out` (cleared first; its allocation is reused).
     pub fn component_into(
         &mut self,
@@ -412,6 +450,24 @@ impl EdgeList {
                 .filter(|p| p.comp == first_index)
                 .copied(),
         );
+    }
+}
+
+/// A complete [`EdgeList`]'s pixels, row by row (see [`EdgeList::rows`]).
+#[derive(Debug, Clone, Copy)]
+pub struct EdgeRows<'a> {
+    pixels: &'a [EdgePixel],
+    row_start: &'a [u32],
+}
+
+impl<'a> EdgeRows<'a> {
+    /// The pixels of row `y`, sorted by column (empty outside the frame).
+    #[inline]
+    pub fn row(&self, y: usize) -> &'a [EdgePixel] {
+        if y + 1 >= self.row_start.len() {
+            return &[];
+        }
+        &self.pixels[self.row_start[y] as usize..self.row_start[y + 1] as usize]
     }
 }
 

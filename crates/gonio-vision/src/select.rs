@@ -57,7 +57,7 @@
 //! ```
 
 use crate::features::{InvalidReason, SaturatedRun};
-use crate::label::{Component, EdgeList, EdgePixel, component_of};
+use crate::label::{Component, EdgeList, EdgePixel, EdgeRows, component_of};
 use crate::optics::Params;
 
 /// A least-squares curve of a component's pixels: column = a + b·u + q·u² with
@@ -509,7 +509,7 @@ fn fragments(
             out.push(Track::with_curve(*c, pol, cv));
             continue;
         }
-        edges.component_into(c.first_index, c.min_row, c.max_row, &mut s.comp);
+        edges.component_pixels_into(c, &mut s.comp);
         for rising in [true, false] {
             s.part.clear();
             s.part
@@ -531,7 +531,7 @@ fn gather(
     cv: &Curve,
     rising: bool,
     gate: f64,
-    edges: &mut EdgeList,
+    edges: &EdgeRows,
     skip: &[bool],
     h: usize,
     px: &mut Vec<EdgePixel>,
@@ -829,7 +829,7 @@ fn refit_pair_with(
     s: &mut RefitScratch,
 ) -> Option<PairFit> {
     let h = p.height;
-    edges.pixels()?;
+    let edges = edges.rows()?;
     let skip = &mut s.skip;
     skip.clear();
     skip.extend_from_slice(skip_in);
@@ -839,16 +839,17 @@ fn refit_pair_with(
     s.pos.resize(h, f64::NAN);
     s.lpx.clear();
     s.rpx.clear();
-    gather(&l.curve, true, 1.5, edges, skip, h, &mut s.lpx, &mut s.pos);
-    gather(&r.curve, false, 1.5, edges, skip, h, &mut s.rpx, &mut s.pos);
+    gather(&l.curve, true, 1.5, &edges, skip, h, &mut s.lpx, &mut s.pos);
+    gather(
+        &r.curve, false, 1.5, &edges, skip, h, &mut s.rpx, &mut s.pos,
+    );
     let col = |e: &EdgePixel| e.col32() as f64 / 32.0;
     // 2. Clean majorities, then the joint parallel curves.
     let (lpx, rpx) = (&s.lpx, &s.rpx);
     let (lk, rk) = (&mut s.lk, &mut s.rk);
     clean_majority(lpx, l, q_frame, p, &mut s.rows, &mut s.cols, lk);
     clean_majority(rpx, r, q_frame, p, &mut s.rows, &mut s.cols, rk);
-    let fit_of = |lk: &[EdgePixel], rk: &[EdgePixel], q_fixed: Option<f64>| -> Option<PairFit> {
-        let (lc, rc) = (component_of(lk, p.width), component_of(rk, p.width));
+    let fit_comps = |lc: Component, rc: Component, q_fixed: Option<f64>| -> Option<PairFit> {
         let (a_left, a_right, b, q, c_sigma_px) = joint_fit(&lc, &rc, h, q_fixed)?;
         Some(PairFit {
             left: lc,
@@ -862,6 +863,13 @@ fn refit_pair_with(
             c_sigma_px,
             width_change_px: 0.0,
         })
+    };
+    let fit_of = |lk: &[EdgePixel], rk: &[EdgePixel], q_fixed: Option<f64>| {
+        fit_comps(
+            component_of(lk, p.width),
+            component_of(rk, p.width),
+            q_fixed,
+        )
     };
     for _ in 0..2 {
         let f = fit_of(lk, rk, None)?;
@@ -943,7 +951,8 @@ fn refit_pair_with(
         q_frame.filter(|q| q.abs() > 0.5 * q_mag).map(f64::signum)
     };
     let mut f = match sign {
-        Some(sg) => fit_of(lk, rk, Some(sg * q_mag))?,
+        // The same pixels as the free fit's: its sums.
+        Some(sg) => fit_comps(free.left, free.right, Some(sg * q_mag))?,
         None => free,
     };
     if f.left.row_span() < p.min_fragment_rows || f.right.row_span() < p.min_fragment_rows {
