@@ -336,7 +336,8 @@ impl EdgeList {
         self.overflow = false;
     }
 
-    /// Resolves every pixel's component (once per frame).
+    /// Resolves every pixel's component (once per frame). Row by row, backwards: the events
+    /// are checked once per row, not once per pixel.
     fn resolve(&mut self) {
         if self.resolved {
             return;
@@ -345,10 +346,11 @@ impl EdgeList {
         self.fin.resize(self.labels, u32::MAX);
         let mut e = self.events.len();
         // Backwards in time: a pixel recorded at row y carries its root at the end of row y;
-        // the merges and completions after that row decide its component.
-        for k in (0..self.pixels.len()).rev() {
-            let row = self.pixels[k].row as u32;
-            while e > 0 && self.events[e - 1].row() > row {
+        // the merges and completions after that row decide its component. Row y's pixels are
+        // row_start[y] .. row_start[y + 1] (the last row pushed: to the end).
+        let total = self.pixels.len();
+        for y in (0..self.row_start.len()).rev() {
+            while e > 0 && self.events[e - 1].row() > y as u32 {
                 e -= 1;
                 match self.events[e] {
                     Event::Merge { from, to, .. } => {
@@ -359,8 +361,14 @@ impl EdgeList {
                     } => self.fin[root as usize] = first_index,
                 }
             }
-            let l = self.pixels[k].comp as usize;
-            self.pixels[k].comp = self.fin[l];
+            let a = (self.row_start[y] as usize).min(total);
+            let b = self
+                .row_start
+                .get(y + 1)
+                .map_or(total, |&b| (b as usize).min(total));
+            for px in &mut self.pixels[a..b] {
+                px.comp = self.fin[px.comp as usize];
+            }
         }
         self.resolved = true;
     }
