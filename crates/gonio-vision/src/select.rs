@@ -106,11 +106,22 @@ pub(crate) fn moments(c: &Component, height: usize) -> ([f64; 5], [f64; 3], f64)
     );
     let v1 = 2 * c1 - h * c0;
     let v2 = 4 * c2 - 4 * h * c1 + h * h * c0;
+    let f = to_f64;
     (
-        [n as f64, u1 as f64, u2 as f64, u3 as f64, u4 as f64],
-        [c0 as f64 / 32.0, v1 as f64 / 32.0, v2 as f64 / 32.0],
-        c.sum_col32_sq as f64 / 1024.0,
+        [f(n), f(u1), f(u2), f(u3), f(u4)],
+        [f(c0) / 32.0, f(v1) / 32.0, f(v2) / 32.0],
+        f(c.sum_col32_sq) / 1024.0,
     )
+}
+
+/// `x as f64`, through the hardware's i64 conversion when x fits in an i64 (the usual case;
+/// the i128 conversion is a library call). Both round to nearest: the same value.
+#[inline]
+fn to_f64(x: i128) -> f64 {
+    match i64::try_from(x) {
+        Ok(v) => v as f64,
+        Err(_) => x as f64,
+    }
 }
 
 fn det3(m: [[f64; 3]; 3]) -> f64 {
