@@ -9,6 +9,12 @@
 //! the result with its sums and its label is recycled. Memory: two rows of runs and a label pool
 //! of width + 4 entries, whatever the frame's height or content.
 //!
+//! The positioned pixels can also be kept ([`Labeller::keep_pixels`]) for the ring selection's
+//! robust steps: each with its provisional label, resolved to its component afterwards from
+//! a log of merges and completions, backwards row by row ([`EdgeList`]); the selection reads
+//! them row by row ([`EdgeRows`]) or one component's within its columns
+//! ([`EdgeList::component_pixels_into`]).
+//!
 //! ```
 //! use gonio_vision::label::Labeller;
 //! use gonio_vision::segment::{EdgeRow, STRONG};

@@ -40,6 +40,16 @@
 //! Thresholds are the optics' (the minimum ring contrast sets the segmentation's floor) and the
 //! frame's own (relative to its best candidate); no fixed count of largest components.
 //!
+//! Cost (the `dense` frame: ≈ 170 candidate components, a few dozen pairs refitted): the
+//! selection is written by hand because it is the product, and kept allocation-free per
+//! component and per pair: the pixel, RANSAC and refit buffers live for one frame
+//! (`Scratch`, `RefitScratch`) and are reused from component to component and pair to pair;
+//! interval unions sort on the stack; a clean fragment's curve is fitted once; a split
+//! component's pixels are looked up within its own columns; a pair whose tracks' row ranges
+//! cannot share enough rows is dropped before their fragments are intersected. None of this
+//! changes a value: the same sums (integers) and the same floating-point expressions in the
+//! same order (BENCHMARKS.md, "Labelling and selection (issue 10)").
+//!
 //! ```
 //! use gonio_vision::{Detector, InvalidReason, Optics};
 //! let optics = Optics { window_width_px: 200, window_height_px: 64, ..Optics::default() };
