@@ -465,6 +465,35 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
     width: usize,
     radius: usize,
     rows: RowLag,
+    /// The register chain kernel's state, where the CPU has AVX-512 VBMI.
+    chain: Option<Chain>,
+}
+
+/// State of the two operations' register chains ([`vbmi`]): rows fed so far, 2r vectors per
+/// column vector each, and the first operation's rows of the current batch (padded rows).
+#[derive(Debug, Clone)]
+struct Chain {
+    state1: Aligned<u8>,
+    state2: Aligned<u8>,
+    fed1: usize,
+    fed2: usize,
+    /// Padded rows of the first operation (its neutral value around, `pstride` apart); slot 0
+    /// holds row `mid_from`.
+    mid: Aligned<u8>,
+    mid_from: usize,
+    /// A padded row of each operation's neutral value (rows below the frame).
+    neutral1: Aligned<u8>,
+    neutral2: Aligned<u8>,
+}
+
+/// Columns a padded row carries before column 0 (the register kernel loads the 32 columns either
+/// side of a 64-column vector; with this lead those loads are aligned).
+const PAD: usize = 32;
+
+/// Bytes of a padded row of `width` pixels: [`vbmi::PAD`] columns before column 0 and whole
+/// 64-column vectors plus 64 after it.
+fn padded_stride(width: usize) -> usize {
+    width.div_ceil(64) * 64 + 64
 }
 
 /// Streaming morphological closing (dilate, then erode) by a disk.
@@ -481,12 +510,32 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         let r = disk.radius;
         let batch = if r >= 4 { BATCH } else { 1 };
         let lag = 2 * r + batch - 1;
-        let rstride = width.div_ceil(64) * 64;
+        // Padded rows (the register kernel loads 32 columns either side of a vector).
+        let rstride = padded_stride(width);
+        let neutral = |max: bool| if max { 0 } else { 255 };
+        #[cfg(target_arch = "x86_64")]
+        let chain = vbmi::usable(r).then(|| {
+            let ps = padded_stride(width);
+            let nstate = width.div_ceil(64) * 2 * r * 64;
+            Chain {
+                state1: Aligned::new(nstate, neutral(F)),
+                state2: Aligned::new(nstate, neutral(S)),
+                fed1: 0,
+                fed2: 0,
+                mid: Aligned::new((batch + r) * ps, neutral(S)),
+                mid_from: 0,
+                neutral1: Aligned::new(ps, neutral(F)),
+                neutral2: Aligned::new(ps, neutral(S)),
+            }
+        });
+        #[cfg(not(target_arch = "x86_64"))]
+        let chain = None;
         MorphPair {
             batch,
+            chain,
             first: MorphCore::new(width, &disk, batch),
             second: MorphCore::new(width, &disk, batch),
-            raw: Aligned::new((lag + 1) * rstride, 0),
+            raw: Aligned::new((lag + 1) * rstride, neutral(F)),
             rstride,
             mid: Aligned::new(batch * rstride, 0),
             done: Aligned::new(batch * rstride, 0),
@@ -501,7 +550,58 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
 
     /// Ring offset of input row `y`.
     fn raw_slot(&self, y: usize) -> usize {
-        y % (self.rows.lag() + 1) * self.rstride
+        y % (self.rows.lag() + 1) * self.rstride + PAD
+    }
+
+    /// Makes the output rows from `y` on into `done` (a batch, fewer at the frame's end) with
+    /// the register chain kernel: the first operation fed the input rows its rows up to
+    /// y + nb − 1 + r need (rows below the frame: neutral), then the second one fed those.
+    #[cfg(target_arch = "x86_64")]
+    fn chain_batch(&mut self, y: usize) {
+        let (n, r, w, rs) = (self.rows.received(), self.radius, self.width, self.rstride);
+        let nb = self.batch.min(n - y);
+        let ps = padded_stride(w);
+        let lag1 = self.rows.lag() + 1;
+        let Some(c) = self.chain.as_mut() else {
+            unreachable!("chain_batch without the chain kernel")
+        };
+        // The first operation's rows up to `mid_end` (at most the frame's last).
+        let mid_end = (y + nb - 1 + r).min(n - 1);
+        let (from, to) = (c.fed1, mid_end + r + 1);
+        if from < to {
+            let ins: Vec<&[u8]> = (from..to)
+                .map(|m| {
+                    if m < n {
+                        let s = m % lag1 * rs;
+                        &self.raw[s..s + ps]
+                    } else {
+                        &c.neutral1[..]
+                    }
+                })
+                .collect();
+            let skip = r.saturating_sub(from);
+            c.mid_from = from.max(r) - r;
+            vbmi::feed::<F>(r, &mut c.state1, &ins, &mut c.mid, ps, PAD, skip, w);
+            c.fed1 = to;
+        }
+        // The second operation's rows y … y + nb − 1.
+        let (from, to) = (c.fed2, y + nb + r);
+        debug_assert_eq!(from.max(r) - r, y);
+        let ins: Vec<&[u8]> = (from..to)
+            .map(|m| {
+                if m < n {
+                    let s = (m - c.mid_from) * ps;
+                    &c.mid[s..s + ps]
+                } else {
+                    &c.neutral2[..]
+                }
+            })
+            .collect();
+        let skip = r.saturating_sub(from);
+        vbmi::feed::<S>(r, &mut c.state2, &ins, &mut self.done, rs, 0, skip, w);
+        c.fed2 = to;
+        self.done_from = y;
+        self.done_rows = nb;
     }
 
     /// Makes the first operation's rows up to the one the second one's rows `y` … `y + nb − 1`
@@ -548,20 +648,42 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         self.mid_rows = 0;
         self.done_from = 0;
         self.done_rows = 0;
+        if let Some(c) = self.chain.as_mut() {
+            c.state1.fill(if F { 0 } else { 255 });
+            c.state2.fill(if S { 0 } else { 255 });
+            c.fed1 = 0;
+            c.fed2 = 0;
+        }
     }
     fn input(&mut self) -> &mut [u8] {
         let s = self.raw_slot(self.rows.received());
         &mut self.raw[s..s + self.width]
     }
     fn accept(&mut self) {
-        let n = self.rows.received();
-        let s = self.raw_slot(n);
-        self.first.add_row(&self.raw[s..s + self.width], n);
+        if self.chain.is_none() {
+            let n = self.rows.received();
+            let s = self.raw_slot(n);
+            self.first.add_row(&self.raw[s..s + self.width], n);
+        }
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
         let (y, w) = (self.rows.output_row(), self.width);
         let s = self.raw_slot(y);
-        if self.batch == 1 {
+        if self.chain.is_some() {
+            #[cfg(target_arch = "x86_64")]
+            if y >= self.done_from + self.done_rows {
+                self.chain_batch(y);
+            }
+            let d = (y - self.done_from) * self.rstride;
+            let row = &self.done[d..d + w];
+            if SUB {
+                for ((o, &c), &i) in out.iter_mut().zip(row).zip(&self.raw[s..s + w]) {
+                    *o = c.saturating_sub(i);
+                }
+            } else {
+                out.copy_from_slice(row);
+            }
+        } else if self.batch == 1 {
             // Single rows: straight into `out`.
             self.make_mid(y, 1);
             self.second.combine(y, 1, self.mid_rows, out, w);
@@ -589,5 +711,250 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         } else if !F {
             obs.opened(out);
         }
+    }
+}
+
+/// The register chain kernel of the closing and the opening, written with AVX-512 VBMI
+/// intrinsics (used only where the CPU has them, see [`crate::simd::vbmi`]).
+///
+/// Per 64-column vector, an input row's chord classes are made in registers: the row's 128
+/// columns x − 32 … x + 95 (two aligned loads of a padded row), a doubling pyramid over them
+/// with `vpermt2b` byte shifts across the two vectors, each class as the max of two shifted
+/// pyramid vectors. The vertical union is the chain of the module doc: with G_j the class of
+/// |dy| = j, T_j(m) = G_j(m) ∨ T_{j+1}(m − 1) (T_r = G_r) and R_j(m) = G_j(m) ∨ R_{j−1}(m − 1)
+/// (R_0 = T_0) give the operation's row m − r as R_r(m): 2r max operations per vector and row,
+/// and 2r vectors of state, which stay in registers while a batch of rows streams through one
+/// column vector. Nothing but the input, the output and the state touches memory.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod vbmi {
+    use std::arch::x86_64::*;
+
+    use super::PAD;
+    /// Largest radius of the kernel (2r state vectors; the pyramid window reaches 32 columns).
+    pub(super) const MAX_RADIUS: usize = 12;
+
+    /// `vpermt2b` index vectors: row s selects bytes s … s + 63 of two concatenated vectors.
+    #[repr(C, align(64))]
+    struct Shifts([[u8; 64]; 33]);
+
+    const fn shifts() -> Shifts {
+        let mut t = [[0u8; 64]; 33];
+        let mut s = 0;
+        while s < 33 {
+            let mut i = 0;
+            while i < 64 {
+                t[s][i] = (i + s) as u8;
+                i += 1;
+            }
+            s += 1;
+        }
+        Shifts(t)
+    }
+
+    static SHIFTS: Shifts = shifts();
+
+    /// The disk's half chord widths, as constants per radius.
+    struct Plan<const R: usize>;
+
+    impl<const R: usize> Plan<R> {
+        const HW: [usize; MAX_RADIUS + 2] = {
+            let mut hw = [0; MAX_RADIUS + 2];
+            let lim = R * R + R;
+            let mut dy = 0;
+            while dy <= R {
+                let mut w = R;
+                while w * w + dy * dy > lim {
+                    w -= 1;
+                }
+                hw[dy] = w;
+                dy += 1;
+            }
+            hw
+        };
+    }
+
+    /// Pyramid level (windows of 2^k) whose two windows cover a chord of half width h.
+    const fn level(h: usize) -> usize {
+        let span = 2 * h + 1;
+        (usize::BITS - 1 - span.leading_zeros()) as usize
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    fn idx(s: usize) -> __m512i {
+        // SAFETY: an aligned 64-byte row of a static table.
+        unsafe { _mm512_load_si512(SHIFTS.0[s].as_ptr().cast()) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    fn load(s: &[u8], o: usize) -> __m512i {
+        let s = &s[o..o + 64];
+        // SAFETY: 64 bytes in bounds (checked by the slice).
+        unsafe { _mm512_loadu_si512(s.as_ptr().cast()) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    fn store(s: &mut [u8], o: usize, v: __m512i, mask: u64) {
+        let s = &mut s[o..o + 64];
+        // SAFETY: 64 bytes in bounds (checked by the slice); only the masked bytes are written.
+        unsafe {
+            if mask == !0 {
+                _mm512_storeu_si512(s.as_mut_ptr().cast(), v)
+            } else {
+                _mm512_mask_storeu_epi8(s.as_mut_ptr().cast(), mask, v)
+            }
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    fn ext<const MAX: bool>(a: __m512i, b: __m512i) -> __m512i {
+        if MAX {
+            _mm512_max_epu8(a, b)
+        } else {
+            _mm512_min_epu8(a, b)
+        }
+    }
+
+    /// Calls `f(d)` for d = 12, 11, … 0 (constants after inlining).
+    macro_rules! down {
+        ($f:ident) => {
+            $f(12);
+            $f(11);
+            $f(10);
+            $f(9);
+            $f(8);
+            $f(7);
+            $f(6);
+            $f(5);
+            $f(4);
+            $f(3);
+            $f(2);
+            $f(1);
+            $f(0);
+        };
+    }
+
+    /// Feeds the rows `ins` (padded rows: column c at `PAD + c`, the operation's neutral value
+    /// around) through the chain `state` of every column vector; the output of input row i ≥
+    /// `skip` goes to `out[(i − skip)·ostride + ooff ..][.. width]`.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    #[allow(clippy::too_many_arguments)]
+    fn run<const MAX: bool, const R: usize>(
+        state: &mut [u8],
+        ins: &[&[u8]],
+        out: &mut [u8],
+        ostride: usize,
+        ooff: usize,
+        skip: usize,
+        width: usize,
+    ) {
+        let hw = Plan::<R>::HW;
+        let nvec = width.div_ceil(64);
+        let tail = width - (nvec - 1) * 64;
+        for v in 0..nvec {
+            let mask = if v + 1 < nvec || tail == 64 {
+                !0u64
+            } else {
+                (1u64 << tail) - 1
+            };
+            let sb = v * 2 * R * 64;
+            let zero = _mm512_setzero_si512();
+            // T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
+            let mut t = [zero; R];
+            let mut q = [zero; R];
+            let mut ld = |d: usize| {
+                if d < R {
+                    t[d] = load(state, sb + d * 64);
+                    q[d] = load(state, sb + (R + d) * 64);
+                }
+            };
+            down!(ld);
+            for (i, row) in ins.iter().enumerate() {
+                let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
+                let mut lk = 0;
+                let mut g = zero;
+                let mut tprev = zero;
+                let mut o = zero;
+                let mut step = |d: usize| {
+                    if d > R {
+                        return;
+                    }
+                    let h = hw[d];
+                    if d == R || h != hw[d + 1] {
+                        let k = level(h);
+                        while lk < k {
+                            let s = idx(1 << lk);
+                            let a = ext::<MAX>(la, _mm512_permutex2var_epi8(la, s, lb));
+                            let b = ext::<MAX>(lb, _mm512_permutex2var_epi8(lb, s, lb));
+                            (la, lb) = (a, b);
+                            lk += 1;
+                        }
+                        let x = _mm512_permutex2var_epi8(la, idx(PAD - h), lb);
+                        let y = _mm512_permutex2var_epi8(la, idx(PAD + h + 1 - (1 << k)), lb);
+                        g = ext::<MAX>(x, y);
+                    }
+                    if d == R {
+                        o = ext::<MAX>(g, q[R - 1]);
+                        tprev = t[R - 1];
+                        t[R - 1] = g;
+                    } else if d > 0 {
+                        let nt = ext::<MAX>(g, tprev);
+                        tprev = t[d - 1];
+                        t[d - 1] = nt;
+                        q[d] = ext::<MAX>(g, q[d - 1]);
+                    } else {
+                        q[0] = ext::<MAX>(g, tprev);
+                    }
+                };
+                down!(step);
+                if i >= skip {
+                    store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
+                }
+            }
+            let mut st = |d: usize| {
+                if d < R {
+                    store(state, sb + d * 64, t[d], !0);
+                    store(state, sb + (R + d) * 64, q[d], !0);
+                }
+            };
+            down!(st);
+        }
+    }
+
+    /// True when [`feed`] runs for radius `r` on this CPU.
+    pub(super) fn usable(r: usize) -> bool {
+        (1..=MAX_RADIUS).contains(&r) && crate::simd::vbmi()
+    }
+
+    /// [`run`] for radius `r` (1 … [`MAX_RADIUS`]); `state` holds 2r vectors per column vector.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn feed<const MAX: bool>(
+        r: usize,
+        state: &mut [u8],
+        ins: &[&[u8]],
+        out: &mut [u8],
+        ostride: usize,
+        ooff: usize,
+        skip: usize,
+        width: usize,
+    ) {
+        assert!(
+            crate::simd::vbmi_detected(),
+            "VBMI kernel on a CPU without VBMI"
+        );
+        macro_rules! go {
+            ($($r:literal)*) => {
+                match r {
+                    // SAFETY: the CPU has AVX-512 F/BW and VBMI (asserted above).
+                    $($r => unsafe { run::<MAX, $r>(state, ins, out, ostride, ooff, skip, width) },)*
+                    _ => unreachable!("radius {r} outside the VBMI kernel"),
+                }
+            };
+        }
+        go!(1 2 3 4 5 6 7 8 9 10 11 12)
     }
 }

@@ -115,3 +115,42 @@ pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
     }
     f()
 }
+
+/// 0 = not yet checked, 1 = VBMI kernels off, 2 = on.
+static VBMI: AtomicU8 = AtomicU8::new(0);
+
+/// True when the CPU has AVX-512 VBMI (`vpermb`, `vpermt2b`) besides the AVX-512 level
+/// (checked once with `is_x86_feature_detected!`).
+pub fn vbmi_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if detected() == Level::Avx512 {
+            return std::is_x86_feature_detected!("avx512vbmi");
+        }
+    }
+    false
+}
+
+/// True when the kernels written with AVX-512 VBMI intrinsics are used: the level in use is
+/// AVX-512, the CPU has VBMI and [`set_vbmi`] did not turn them off.
+#[inline]
+pub fn vbmi() -> bool {
+    let on = match VBMI.load(Ordering::Relaxed) {
+        1 => false,
+        2 => true,
+        _ => {
+            let on = vbmi_detected();
+            VBMI.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+            on
+        }
+    };
+    on && level() == Level::Avx512
+}
+
+/// Turns the VBMI kernels off (`false`: the AVX-512 level then runs the compiler-vectorised
+/// loops, as on a CPU without VBMI) or back on where the CPU has them (`true`). Process-wide;
+/// meant for tests and benchmarks.
+pub fn set_vbmi(enabled: bool) {
+    let on = enabled && vbmi_detected();
+    VBMI.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+}
