@@ -94,6 +94,11 @@ const BLOCK: usize = 256;
 /// each): a chord-class row loaded once serves every row of the batch that uses it.
 const BATCH: usize = 4;
 
+/// Output rows the register chain kernel makes per pass over the column vectors (radii ≥ 4,
+/// and below): its 2r state vectors per column vector are loaded and stored once per pass.
+const CHAIN_BATCH_WIDE: usize = 8;
+const CHAIN_BATCH_NARROW: usize = 4;
+
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
     if MAX { a.max(b) } else { a.min(b) }
@@ -475,6 +480,8 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
 struct Chain {
     state1: Aligned<u8>,
     state2: Aligned<u8>,
+    /// The chord classes of a chunk of rows of one column vector.
+    scratch: Aligned<u8>,
     fed1: usize,
     fed2: usize,
     /// Padded rows of the first operation (its neutral value around, `pstride` apart); slot 0
@@ -508,18 +515,28 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
     /// A filter for rows of `width` pixels with the given disk.
     pub fn new(width: usize, disk: Disk) -> Self {
         let r = disk.radius;
-        let batch = if r >= 4 { BATCH } else { 1 };
+        #[cfg(target_arch = "x86_64")]
+        let chained = vbmi::usable(r);
+        #[cfg(not(target_arch = "x86_64"))]
+        let chained = false;
+        let batch = match (chained, r >= 4) {
+            (true, true) => CHAIN_BATCH_WIDE,
+            (true, false) => CHAIN_BATCH_NARROW,
+            (false, true) => BATCH,
+            (false, false) => 1,
+        };
         let lag = 2 * r + batch - 1;
         // Padded rows (the register kernel loads 32 columns either side of a vector).
         let rstride = padded_stride(width);
         let neutral = |max: bool| if max { 0 } else { 255 };
         #[cfg(target_arch = "x86_64")]
-        let chain = vbmi::usable(r).then(|| {
+        let chain = chained.then(|| {
             let ps = padded_stride(width);
             let nstate = width.div_ceil(64) * 2 * r * 64;
             Chain {
                 state1: Aligned::new(nstate, neutral(F)),
                 state2: Aligned::new(nstate, neutral(S)),
+                scratch: Aligned::new(vbmi::CHUNK * (r + 1) * 64, 0),
                 fed1: 0,
                 fed2: 0,
                 mid: Aligned::new((batch + r) * ps, neutral(S)),
@@ -533,8 +550,8 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         MorphPair {
             batch,
             chain,
-            first: MorphCore::new(width, &disk, batch),
-            second: MorphCore::new(width, &disk, batch),
+            first: MorphCore::new(width, &disk, batch.min(BATCH)),
+            second: MorphCore::new(width, &disk, batch.min(BATCH)),
             raw: Aligned::new((lag + 1) * rstride, neutral(F)),
             rstride,
             mid: Aligned::new(batch * rstride, 0),
@@ -581,7 +598,17 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
                 .collect();
             let skip = r.saturating_sub(from);
             c.mid_from = from.max(r) - r;
-            vbmi::feed::<F>(r, &mut c.state1, &ins, &mut c.mid, ps, PAD, skip, w);
+            vbmi::feed::<F>(
+                r,
+                &mut c.state1,
+                &mut c.scratch,
+                &ins,
+                &mut c.mid,
+                ps,
+                PAD,
+                skip,
+                w,
+            );
             c.fed1 = to;
         }
         // The second operation's rows y … y + nb − 1.
@@ -598,7 +625,17 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             })
             .collect();
         let skip = r.saturating_sub(from);
-        vbmi::feed::<S>(r, &mut c.state2, &ins, &mut self.done, rs, 0, skip, w);
+        vbmi::feed::<S>(
+            r,
+            &mut c.state2,
+            &mut c.scratch,
+            &ins,
+            &mut self.done,
+            rs,
+            0,
+            skip,
+            w,
+        );
         c.fed2 = to;
         self.done_from = y;
         self.done_rows = nb;
@@ -772,6 +809,24 @@ mod vbmi {
             }
             hw
         };
+        /// Index of each |dy|'s chord class: classes numbered from |dy| = r (narrowest) up.
+        const CLASS: [usize; MAX_RADIUS + 2] = {
+            let hw = Self::HW;
+            let mut cls = [0; MAX_RADIUS + 2];
+            let mut c = 0;
+            let mut d = R;
+            loop {
+                if d < R && hw[d] != hw[d + 1] {
+                    c += 1;
+                }
+                cls[d] = c;
+                if d == 0 {
+                    break;
+                }
+                d -= 1;
+            }
+            cls
+        };
     }
 
     /// Pyramid level (windows of 2^k) whose two windows cover a chord of half width h.
@@ -838,12 +893,127 @@ mod vbmi {
         };
     }
 
+    /// Rows whose chord classes are made before they are combined (one pass over them with
+    /// the index vectors in registers, the classes kept in an L1 scratch, then the chain with
+    /// its state in registers).
+    pub(super) const CHUNK: usize = 16;
+
+    /// Largest radius [`run_direct`] handles.
+    const DIRECT_MAX: usize = 4;
+
     /// Feeds the rows `ins` (padded rows: column c at `PAD + c`, the operation's neutral value
     /// around) through the chain `state` of every column vector; the output of input row i ≥
     /// `skip` goes to `out[(i − skip)·ostride + ooff ..][.. width]`.
     #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
     #[allow(clippy::too_many_arguments)]
     fn run<const MAX: bool, const R: usize>(
+        state: &mut [u8],
+        scratch: &mut [u8],
+        ins: &[&[u8]],
+        out: &mut [u8],
+        ostride: usize,
+        ooff: usize,
+        skip: usize,
+        width: usize,
+    ) {
+        if R <= DIRECT_MAX {
+            return run_direct::<MAX, R>(state, ins, out, ostride, ooff, skip, width);
+        }
+        let (hw, cls) = (Plan::<R>::HW, Plan::<R>::CLASS);
+        let nvec = width.div_ceil(64);
+        let tail = width - (nvec - 1) * 64;
+        let zero = _mm512_setzero_si512();
+        let nc = cls[0] + 1;
+        for v in 0..nvec {
+            let mask = if v + 1 < nvec || tail == 64 {
+                !0u64
+            } else {
+                (1u64 << tail) - 1
+            };
+            let sb = v * 2 * R * 64;
+            for (c, rows) in ins.chunks(CHUNK).enumerate() {
+                // The chord classes of each row, narrowest first.
+                for (j, row) in rows.iter().enumerate() {
+                    let sc = j * nc * 64;
+                    let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
+                    let mut lk = 0;
+                    let mut class = |d: usize| {
+                        if d > R || (d < R && hw[d] == hw[d + 1]) {
+                            return;
+                        }
+                        let h = hw[d];
+                        let k = level(h);
+                        while lk < k {
+                            let s = idx(1 << lk);
+                            let a = ext::<MAX>(la, _mm512_permutex2var_epi8(la, s, lb));
+                            let b = ext::<MAX>(lb, _mm512_permutex2var_epi8(lb, s, lb));
+                            (la, lb) = (a, b);
+                            lk += 1;
+                        }
+                        let x = _mm512_permutex2var_epi8(la, idx(PAD - h), lb);
+                        let y = _mm512_permutex2var_epi8(la, idx(PAD + h + 1 - (1 << k)), lb);
+                        store(scratch, sc + cls[d] * 64, ext::<MAX>(x, y), !0);
+                    };
+                    down!(class);
+                }
+                // The chain: T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
+                let mut t = [zero; R];
+                let mut q = [zero; R];
+                let mut ld = |d: usize| {
+                    if d < R {
+                        t[d] = load(state, sb + d * 64);
+                        q[d] = load(state, sb + (R + d) * 64);
+                    }
+                };
+                down!(ld);
+                for j in 0..rows.len() {
+                    let sc = j * nc * 64;
+                    let mut g = zero;
+                    let mut tprev = zero;
+                    let mut o = zero;
+                    let mut step = |d: usize| {
+                        if d > R {
+                            return;
+                        }
+                        if d == R || hw[d] != hw[d + 1] {
+                            g = load(scratch, sc + cls[d] * 64);
+                        }
+                        if d == R {
+                            o = ext::<MAX>(g, q[R - 1]);
+                            tprev = t[R - 1];
+                            t[R - 1] = g;
+                        } else if d > 0 {
+                            let nt = ext::<MAX>(g, tprev);
+                            tprev = t[d - 1];
+                            t[d - 1] = nt;
+                            q[d] = ext::<MAX>(g, q[d - 1]);
+                        } else {
+                            q[0] = ext::<MAX>(g, tprev);
+                        }
+                    };
+                    down!(step);
+                    let i = c * CHUNK + j;
+                    if i >= skip {
+                        store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
+                    }
+                }
+                let mut st = |d: usize| {
+                    if d < R {
+                        store(state, sb + d * 64, t[d], !0);
+                        store(state, sb + (R + d) * 64, q[d], !0);
+                    }
+                };
+                down!(st);
+            }
+        }
+    }
+
+    /// [`run`] for small radii: the classes are made and combined row by row, all in
+    /// registers (the state and the index vectors fit; a scratch would cost a store and a
+    /// reload per class, and a 64-byte reload right after its store is not forwarded on Zen 4).
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    #[allow(clippy::too_many_arguments)]
+    fn run_direct<const MAX: bool, const R: usize>(
         state: &mut [u8],
         ins: &[&[u8]],
         out: &mut [u8],
@@ -935,6 +1105,7 @@ mod vbmi {
     pub(super) fn feed<const MAX: bool>(
         r: usize,
         state: &mut [u8],
+        scratch: &mut [u8],
         ins: &[&[u8]],
         out: &mut [u8],
         ostride: usize,
@@ -950,7 +1121,7 @@ mod vbmi {
             ($($r:literal)*) => {
                 match r {
                     // SAFETY: the CPU has AVX-512 F/BW and VBMI (asserted above).
-                    $($r => unsafe { run::<MAX, $r>(state, ins, out, ostride, ooff, skip, width) },)*
+                    $($r => unsafe { run::<MAX, $r>(state, scratch, ins, out, ostride, ooff, skip, width) },)*
                     _ => unreachable!("radius {r} outside the VBMI kernel"),
                 }
             };
