@@ -16,6 +16,19 @@
 //! outside the frame are ignored (padding with the operation's neutral value), above, below and
 //! on the sides.
 //!
+//! Where the CPU has AVX-512 VBMI (`vpermt2b`: any byte shift across two 64-byte vectors; see
+//! [`crate::simd::vbmi`]) the closing and the opening of radius 1 … 12 run a second
+//! hand-written kernel, with intrinsics, because no loop the compiler vectorises makes byte
+//! shifts across vectors: per 64-column vector the chord classes are made in registers (the
+//! pyramid and both windows of each class by `vpermt2b` on the 128 columns around the vector),
+//! and the vertical union is a chain with 2r vectors of state per column vector, T_j(m) =
+//! G_j(m) ∨ T_{j+1}(m − 1) and R_j(m) = G_j(m) ∨ R_{j−1}(m − 1) (G_j the class of |dy| = j,
+//! T_r = G_r, R_0 = T_0; the row m − r is R_r(m)): 2r max operations per vector and row, as
+//! the direct union, but the state stays in zmm registers while 8 rows (4 for radii < 4) stream
+//! through one column vector, so there is no class-row ring in L2 at all. Its lag is 2r + 7
+//! (2r + 3 below radius 4). It gives the same bits as the other paths (tests: every level
+//! against the reference, `tests/simd.rs`).
+//!
 //! ```
 //! use gonio_vision::morphology::{Disk, Dilate};
 //! use gonio_vision::rows::RowStage;
@@ -445,7 +458,8 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 
 /// Two morphological operations by one disk in a row, optionally minus the input: the closing
 /// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
-/// (erode, then dilate); lag 2r + b − 1. Both operations make b rows at a time (the first
+/// (erode, then dilate); lag 2r + b − 1 (b = 8, or 4 below radius 4, with the VBMI register
+/// chain, see the module doc). Both operations make b rows at a time (the first
 /// one's rows as the second one needs them): b = 4 for radii ≥ 4, where each chord-class row
 /// loaded serves up to 4 output rows (the top-hat's 23×23 disk: the class rows come from L2),
 /// else 1 (the opening's 5×5 disk: its class rows stay in L1 and batching only adds work).
@@ -506,7 +520,7 @@ fn padded_stride(width: usize) -> usize {
 /// Streaming morphological closing (dilate, then erode) by a disk.
 pub type Closing = MorphPair<true, false, false>;
 /// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
-/// bright ones); lag 2r + 3 (r ≥ 4).
+/// bright ones); lag 2r + 3 (r ≥ 4; 2r + 7 with the VBMI register chain).
 pub type BlackTopHat = MorphPair<true, false, true>;
 /// Streaming morphological opening (erode, then dilate) by a disk.
 pub type Opening = MorphPair<false, true, false>;
@@ -706,21 +720,7 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
         let (y, w) = (self.rows.output_row(), self.width);
         let s = self.raw_slot(y);
-        if self.chain.is_some() {
-            #[cfg(target_arch = "x86_64")]
-            if y >= self.done_from + self.done_rows {
-                self.chain_batch(y);
-            }
-            let d = (y - self.done_from) * self.rstride;
-            let row = &self.done[d..d + w];
-            if SUB {
-                for ((o, &c), &i) in out.iter_mut().zip(row).zip(&self.raw[s..s + w]) {
-                    *o = c.saturating_sub(i);
-                }
-            } else {
-                out.copy_from_slice(row);
-            }
-        } else if self.batch == 1 {
+        if self.batch == 1 && self.chain.is_none() {
             // Single rows: straight into `out`.
             self.make_mid(y, 1);
             self.second.combine(y, 1, self.mid_rows, out, w);
@@ -731,6 +731,13 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
             }
         } else {
             if y >= self.done_from + self.done_rows {
+                #[cfg(target_arch = "x86_64")]
+                if self.chain.is_some() {
+                    self.chain_batch(y);
+                } else {
+                    self.make_batch(y);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
                 self.make_batch(y);
             }
             let d = (y - self.done_from) * self.rstride;

@@ -4,7 +4,7 @@
 use gonio_vision::gradient::GradRow;
 use gonio_vision::rows::RowStage;
 use gonio_vision::segment::{SegmentParams, Segmenter, SparseEdgeRow};
-use gonio_vision::simd::{Level, set_level};
+use gonio_vision::simd::{Level, set_level, set_vbmi};
 use gonio_vision::{Detector, Optics};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -113,14 +113,22 @@ fn every_level_gives_the_same_bits() {
         };
         let f = frame(w, h, w as u64);
         let mut runs = Vec::new();
-        for want in [Level::Scalar, Level::Avx2, Level::Avx512] {
+        // AVX-512 twice: without and with the VBMI kernels (the morphology's register chain).
+        for (want, vbmi) in [
+            (Level::Scalar, false),
+            (Level::Avx2, false),
+            (Level::Avx512, false),
+            (Level::Avx512, true),
+        ] {
             let got = set_level(want);
+            set_vbmi(vbmi);
             let mut det = Detector::new(&o).unwrap();
             det.set_dump(true);
             let r = det.detect(&f).unwrap();
-            runs.push((got, r, det.dump().unwrap().clone()));
+            runs.push(((got, vbmi), r, det.dump().unwrap().clone()));
         }
         set_level(Level::Avx512);
+        set_vbmi(true);
         let (_, r0, d0) = &runs[0];
         assert!(
             d0.filled.class.iter().any(|&c| c != 0),
