@@ -24,9 +24,9 @@
 //! and the vertical union is a chain with 2r vectors of state per column vector, T_j(m) =
 //! G_j(m) ∨ T_{j+1}(m − 1) and R_j(m) = G_j(m) ∨ R_{j−1}(m − 1) (G_j the class of |dy| = j,
 //! T_r = G_r, R_0 = T_0; the row m − r is R_r(m)): 2r max operations per vector and row, as
-//! the direct union, but the state stays in zmm registers while 8 rows (4 for radii < 4) stream
-//! through one column vector, so there is no class-row ring in L2 at all. Its lag is 2r + 7
-//! (2r + 3 below radius 4). It gives the same bits as the other paths (tests: every level
+//! the direct union, but the state stays in zmm registers while 16 rows (8 for radii < 4) stream
+//! through one column vector, so there is no class-row ring in L2 at all. Its lag is 2r + 15
+//! (2r + 7 below radius 4). It gives the same bits as the other paths (tests: every level
 //! against the reference, `tests/simd.rs`).
 //!
 //! ```
@@ -109,8 +109,8 @@ const BATCH: usize = 4;
 
 /// Output rows the register chain kernel makes per pass over the column vectors (radii ≥ 4,
 /// and below): its 2r state vectors per column vector are loaded and stored once per pass.
-const CHAIN_BATCH_WIDE: usize = 8;
-const CHAIN_BATCH_NARROW: usize = 4;
+const CHAIN_BATCH_WIDE: usize = 16;
+const CHAIN_BATCH_NARROW: usize = 8;
 
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
@@ -458,7 +458,7 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 
 /// Two morphological operations by one disk in a row, optionally minus the input: the closing
 /// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
-/// (erode, then dilate); lag 2r + b − 1 (b = 8, or 4 below radius 4, with the VBMI register
+/// (erode, then dilate); lag 2r + b − 1 (b = 16, or 8 below radius 4, with the VBMI register
 /// chain, see the module doc). Both operations make b rows at a time (the first
 /// one's rows as the second one needs them): b = 4 for radii ≥ 4, where each chord-class row
 /// loaded serves up to 4 output rows (the top-hat's 23×23 disk: the class rows come from L2),
@@ -520,7 +520,7 @@ fn padded_stride(width: usize) -> usize {
 /// Streaming morphological closing (dilate, then erode) by a disk.
 pub type Closing = MorphPair<true, false, false>;
 /// Streaming black top-hat: closing(I) − I (keeps dark features narrower than the disk, as
-/// bright ones); lag 2r + 3 (r ≥ 4; 2r + 7 with the VBMI register chain).
+/// bright ones); lag 2r + 3 (r ≥ 4; 2r + 15 with the VBMI register chain).
 pub type BlackTopHat = MorphPair<true, false, true>;
 /// Streaming morphological opening (erode, then dilate) by a disk.
 pub type Opening = MorphPair<false, true, false>;
