@@ -908,6 +908,10 @@ mod vbmi {
     /// Largest radius [`run_direct`] handles.
     const DIRECT_MAX: usize = 4;
 
+    /// Disks whose widest chord has at most this half width make their chords in
+    /// [`run_direct`] from unaligned loads of the row (2h + 1 loads, no permutes).
+    const LOADED_MAX: usize = 2;
+
     /// Feeds the rows `ins` (padded rows: column c at `PAD + c`, the operation's neutral value
     /// around) through the chain `state` of every column vector; the output of input row i ≥
     /// `skip` goes to `out[(i − skip)·ostride + ooff ..][.. width]`.
@@ -1053,6 +1057,9 @@ mod vbmi {
             for (i, row) in ins.iter().enumerate() {
                 let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
                 let mut lk = 0;
+                // Chords of half width ≤ LOADED_MAX: from unaligned loads of the row.
+                let x0 = v * 64 + PAD;
+                let (mut acc, mut acc_h) = (zero, usize::MAX);
                 let mut g = zero;
                 let mut tprev = zero;
                 let mut o = zero;
@@ -1061,7 +1068,17 @@ mod vbmi {
                         return;
                     }
                     let h = hw[d];
-                    if d == R || h != hw[d + 1] {
+                    if (d == R || h != hw[d + 1]) && hw[0] <= LOADED_MAX {
+                        if acc_h == usize::MAX {
+                            (acc, acc_h) = (load(row, x0), 0);
+                        }
+                        while acc_h < h {
+                            acc_h += 1;
+                            let a = ext::<MAX>(load(row, x0 - acc_h), load(row, x0 + acc_h));
+                            acc = ext::<MAX>(acc, a);
+                        }
+                        g = acc;
+                    } else if d == R || h != hw[d + 1] {
                         let k = level(h);
                         while lk < k {
                             let s = idx(1 << lk);
