@@ -24,9 +24,8 @@
 //! and the vertical union is a chain with 2r vectors of state per column vector, T_j(m) =
 //! G_j(m) ∨ T_{j+1}(m − 1) and R_j(m) = G_j(m) ∨ R_{j−1}(m − 1) (G_j the class of |dy| = j,
 //! T_r = G_r, R_0 = T_0; the row m − r is R_r(m)): 2r max operations per vector and row, as
-//! the direct union, but the state stays in zmm registers while 16 rows (8 for radii < 4) stream
-//! through one column vector, so there is no class-row ring in L2 at all. Its lag is 2r + 15
-//! (2r + 7 below radius 4). It gives the same bits as the other paths (tests: every level
+//! the direct union, but the state stays in zmm registers while 16 rows stream through one
+//! column vector, so there is no class-row ring in L2 at all. Its lag is 2r + 15. It gives the same bits as the other paths (tests: every level
 //! against the reference, `tests/simd.rs`).
 //!
 //! ```
@@ -107,10 +106,9 @@ const BLOCK: usize = 256;
 /// each): a chord-class row loaded once serves every row of the batch that uses it.
 const BATCH: usize = 4;
 
-/// Output rows the register chain kernel makes per pass over the column vectors (radii ≥ 4,
-/// and below): its 2r state vectors per column vector are loaded and stored once per pass.
-const CHAIN_BATCH_WIDE: usize = 16;
-const CHAIN_BATCH_NARROW: usize = 8;
+/// Output rows the register chain kernel makes per pass over the column vectors: its 2r state
+/// vectors per column vector are loaded and stored once per pass.
+const CHAIN_BATCH: usize = 16;
 
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
@@ -458,7 +456,7 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 
 /// Two morphological operations by one disk in a row, optionally minus the input: the closing
 /// (dilate, then erode), the black top-hat (the closing minus the input) and the opening
-/// (erode, then dilate); lag 2r + b − 1 (b = 16, or 8 below radius 4, with the VBMI register
+/// (erode, then dilate); lag 2r + b − 1 (b = 16 with the VBMI register
 /// chain, see the module doc). Both operations make b rows at a time (the first
 /// one's rows as the second one needs them): b = 4 for radii ≥ 4, where each chord-class row
 /// loaded serves up to 4 output rows (the top-hat's 23×23 disk: the class rows come from L2),
@@ -534,8 +532,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         #[cfg(not(target_arch = "x86_64"))]
         let chained = false;
         let batch = match (chained, r >= 4) {
-            (true, true) => CHAIN_BATCH_WIDE,
-            (true, false) => CHAIN_BATCH_NARROW,
+            (true, _) => CHAIN_BATCH,
             (false, true) => BATCH,
             (false, false) => 1,
         };
@@ -957,7 +954,7 @@ mod vbmi {
                         while lk < k {
                             let s = idx(1 << lk);
                             let a = ext::<MAX>(la, _mm512_permutex2var_epi8(la, s, lb));
-                            let b = ext::<MAX>(lb, _mm512_permutex2var_epi8(lb, s, lb));
+                            let b = ext::<MAX>(lb, _mm512_permutexvar_epi8(s, lb));
                             (la, lb) = (a, b);
                             lk += 1;
                         }
@@ -1083,7 +1080,7 @@ mod vbmi {
                         while lk < k {
                             let s = idx(1 << lk);
                             let a = ext::<MAX>(la, _mm512_permutex2var_epi8(la, s, lb));
-                            let b = ext::<MAX>(lb, _mm512_permutex2var_epi8(lb, s, lb));
+                            let b = ext::<MAX>(lb, _mm512_permutexvar_epi8(s, lb));
                             (la, lb) = (a, b);
                             lk += 1;
                         }
