@@ -1019,6 +1019,8 @@ mod vbmi {
     /// [`run`] for small radii: the classes are made and combined row by row, all in
     /// registers (the state and the index vectors fit; a scratch would cost a store and a
     /// reload per class, and a 64-byte reload right after its store is not forwarded on Zen 4).
+    /// Written out beside [`run`] rather than sharing helpers with it: the helper form (the
+    /// chain step taking a closure for the classes) measured ≈ 40 % slower.
     #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
     #[allow(clippy::too_many_arguments)]
     fn run_direct<const MAX: bool, const R: usize>(
