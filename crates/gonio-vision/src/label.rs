@@ -183,6 +183,37 @@ impl Component {
         self.first_index = self.first_index.min(row as u64 * width as u64 + a as u64);
     }
 
+    /// Adds one positioned-or-filled pixel of row `row` (its powers `rp`), as
+    /// [`Component::add_pixel`] but without branches: a filled pixel's position terms are
+    /// multiplied by zero instead of skipped (the same integers).
+    #[inline(always)]
+    fn add_one(&mut self, rp: &RowPowers, p: &EdgePixel) {
+        let col = p.col as u32;
+        let strong = (p.class == STRONG) as u64;
+        let pos = (p.sub != FILLED) as i64;
+        let c = (p.col as i64 * 32 + p.sub as i64) * pos;
+        self.pixels += 1;
+        self.strong += strong;
+        self.weak += 1 - strong;
+        self.sum_dev += axial_deviation(p.dir) as i64;
+        self.gx_pos += (p.dir.wrapping_add(64) < 128) as u64;
+        self.pos_n += pos as u64;
+        self.sum_row += rp.r & -pos;
+        self.sum_row2 += rp.r2 & -pos;
+        self.sum_row3 += rp.r3 & -pos;
+        self.sum_row4 += rp.r4 & -pos;
+        self.sum_col32 += c;
+        self.sum_row_col32 += rp.r * c;
+        self.sum_row2_col32 += rp.r2 * c;
+        self.sum_col32_sq += (c * c) as i128;
+        self.sum_mag += p.mag as u64 & (-pos) as u64;
+        self.min_col = self.min_col.min(col);
+        self.max_col = self.max_col.max(col);
+        self.min_row = self.min_row.min(rp.row);
+        self.max_row = self.max_row.max(rp.row);
+        self.first_index = self.first_index.min(rp.first + col as u64);
+    }
+
     /// Adds another component's sums (a merge).
     pub fn merge(&mut self, o: &Component) {
         self.pixels += o.pixels;
@@ -502,6 +533,17 @@ pub fn component_of(pixels: &[EdgePixel], width: usize) -> Component {
     c
 }
 
+/// A row's index and its powers, computed once per row for the one-pixel runs.
+struct RowPowers {
+    row: u32,
+    r: i64,
+    r2: i64,
+    r3: i64,
+    r4: i64,
+    /// row · width.
+    first: u64,
+}
+
 #[derive(Debug, Clone, Copy)]
 struct Run {
     start: u32,
@@ -659,12 +701,26 @@ impl Labeller {
         let y = self.row;
         self.cur.clear();
         self.merged.clear();
+        let mut keep = false;
         if let Some(e) = self.edges.as_mut() {
             e.row_start.push(e.pixels.len() as u32);
             if y > u16::MAX as u32 {
                 e.overflow = true;
             }
+            keep = !e.overflow;
+            if keep {
+                e.pixels.reserve(edges.pixels.len());
+            }
         }
+        let r = y as i64;
+        let rp = RowPowers {
+            row: y,
+            r,
+            r2: r * r,
+            r3: r * r * r,
+            r4: r * r * r * r,
+            first: y as u64 * w as u64,
+        };
         let px = &edges.pixels;
         let mut j = 0usize;
         let mut k0 = 0usize;
@@ -683,7 +739,12 @@ impl Labeller {
             let mut label: Option<u32> = None;
             let mut k = j;
             while k < self.prev.len() && (self.prev[k].start as usize) <= b + 1 {
-                let root = self.find(self.prev[k].label);
+                // Until this row's first merge every previous run's label is a root.
+                let root = if self.merged.is_empty() {
+                    self.prev[k].label
+                } else {
+                    self.find(self.prev[k].label)
+                };
                 match label {
                     None => label = Some(root),
                     Some(l) if l != root => {
@@ -707,22 +768,22 @@ impl Labeller {
                 Some(l) => l,
                 None => self.alloc(),
             };
-            self.comps[l as usize].add_run(y, run, w);
+            if let [p] = run {
+                self.comps[l as usize].add_one(&rp, p);
+            } else {
+                self.comps[l as usize].add_run(y, run, w);
+            }
+            // The cap is checked once per row, below (the list grows by one row at most).
             let rec = match self.edges.as_mut() {
-                Some(e) if !e.overflow => {
+                Some(e) if keep => {
                     let r0 = e.pixels.len() as u32;
                     for p in run {
                         if p.sub != FILLED {
-                            e.pixels.push(EdgePixel {
-                                row: y as u16,
-                                comp: l,
-                                ..*p
-                            });
+                            let mut q = *p;
+                            q.row = y as u16;
+                            q.comp = l;
+                            e.pixels.push(q);
                         }
-                    }
-                    if e.pixels.len() > e.cap {
-                        e.overflow = true;
-                        e.pixels.clear();
                     }
                     (r0, e.pixels.len() as u32)
                 }
@@ -735,6 +796,14 @@ impl Labeller {
                 label: l,
                 rec,
             });
+        }
+        if let Some(e) = self
+            .edges
+            .as_mut()
+            .filter(|e| !e.overflow && e.pixels.len() > e.cap)
+        {
+            e.overflow = true;
+            e.pixels.clear();
         }
         // Without a merge in this row every label is still a root (the common case: edges
         // running down the frame), and nothing needs relabelling.
