@@ -361,12 +361,8 @@ fn interval_indices(m: usize, p: f64) -> (usize, usize) {
     } else {
         (pm + 0.5).floor() as usize
     };
-    let rest = m - q;
-    let r = if rest.is_multiple_of(2) {
-        rest / 2
-    } else {
-        rest.div_ceil(2)
-    };
+    // JCGM 101 §7.7: r = (M − q)/2 for M − q even, (M − q + 1)/2 for odd, i.e. ⌈(M − q)/2⌉.
+    let r = (m - q).div_ceil(2);
     (q, r.max(1))
 }
 
