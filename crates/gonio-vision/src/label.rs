@@ -427,19 +427,25 @@ impl EdgeList {
     /// The pixels of row `y`, sorted by column (empty when the list is incomplete or `y` is
     /// outside the frame).
     pub fn row(&mut self, y: usize) -> &[EdgePixel] {
-        self.resolve();
-        if self.overflow || y + 1 >= self.row_start.len() {
-            return &[];
-        }
-        &self.pixels[self.row_start[y] as usize..self.row_start[y + 1] as usize]
+        self.rows().map_or(&[], |r| r.row(y))
     }
 
     /// The pixels of the component with this `first_index` within rows `first ..= last`, in
     /// raster order (empty when the list is incomplete).
     pub fn component(&mut self, first_index: u64, first: u32, last: u32) -> Vec<EdgePixel> {
-        let mut v = Vec::new();
-        self.component_into(first_index, first, last, &mut v);
-        v
+        let first_index = first_index as u32;
+        self.resolve();
+        if self.overflow || self.row_start.is_empty() {
+            return Vec::new();
+        }
+        let n = self.row_start.len() - 1;
+        let a = self.row_start[(first as usize).min(n)] as usize;
+        let b = self.row_start[(last as usize + 1).min(n)] as usize;
+        self.pixels[a..b]
+            .iter()
+            .filter(|p| p.comp == first_index)
+            .copied()
+            .collect()
     }
 
     /// The pixels of component `c` (by its `first_index`), in raster order, into `out`
@@ -449,15 +455,11 @@ impl EdgeList {
     pub fn component_pixels_into(&mut self, c: &Component, out: &mut Vec<EdgePixel>) {
         out.clear();
         let first_index = c.first_index as u32;
-        self.resolve();
-        if self.overflow || self.row_start.is_empty() {
+        let Some(rows) = self.rows() else {
             return;
-        }
-        let n = self.row_start.len() - 1;
-        let y0 = (c.min_row as usize).min(n);
-        let y1 = (c.max_row as usize + 1).min(n);
-        for y in y0..y1 {
-            let row = &self.pixels[self.row_start[y] as usize..self.row_start[y + 1] as usize];
+        };
+        for y in c.min_row as usize..=c.max_row as usize {
+            let row = rows.row(y);
             let lo = row.partition_point(|p| (p.col as u32) < c.min_col);
             for p in &row[lo..] {
                 if p.col as u32 > c.max_col {
@@ -478,31 +480,6 @@ impl EdgeList {
             pixels: &self.pixels,
             row_start: &self.row_start,
         })
-    }
-
-    /// As [`EdgeList::component`], into `out` (cleared first; its allocation is reused).
-    pub fn component_into(
-        &mut self,
-        first_index: u64,
-        first: u32,
-        last: u32,
-        out: &mut Vec<EdgePixel>,
-    ) {
-        out.clear();
-        let first_index = first_index as u32;
-        self.resolve();
-        if self.overflow || self.row_start.is_empty() {
-            return;
-        }
-        let n = self.row_start.len() - 1;
-        let a = self.row_start[(first as usize).min(n)] as usize;
-        let b = self.row_start[(last as usize + 1).min(n)] as usize;
-        out.extend(
-            self.pixels[a..b]
-                .iter()
-                .filter(|p| p.comp == first_index)
-                .copied(),
-        );
     }
 }
 
