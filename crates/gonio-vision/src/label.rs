@@ -387,13 +387,18 @@ impl EdgeList {
         if self.resolved {
             return;
         }
+        self.resolved = true;
+        // An incomplete list is never read.
+        if self.overflow {
+            return;
+        }
         self.fin.clear();
         self.fin.resize(self.labels, u32::MAX);
         let mut e = self.events.len();
         // Backwards in time: a pixel recorded at row y carries its root at the end of row y;
         // the merges and completions after that row decide its component. Row y's pixels are
-        // row_start[y] .. row_start[y + 1] (the last row pushed: to the end).
-        let total = self.pixels.len();
+        // row_start[y] .. b, b the next row's start (the last row pushed: to the end).
+        let mut b = self.pixels.len();
         for y in (0..self.row_start.len()).rev() {
             while e > 0 && self.events[e - 1].row() > y as u32 {
                 e -= 1;
@@ -406,16 +411,12 @@ impl EdgeList {
                     } => self.fin[root as usize] = first_index,
                 }
             }
-            let a = (self.row_start[y] as usize).min(total);
-            let b = self
-                .row_start
-                .get(y + 1)
-                .map_or(total, |&b| (b as usize).min(total));
+            let a = self.row_start[y] as usize;
             for px in &mut self.pixels[a..b] {
                 px.comp = self.fin[px.comp as usize];
             }
+            b = a;
         }
-        self.resolved = true;
     }
 
     /// The pixels (resolved), or `None` when the frame had more than the list holds.
