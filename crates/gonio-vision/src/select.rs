@@ -211,10 +211,12 @@ pub fn curve_with(c: &Component, height: usize, q_prior: Option<f64>) -> Option<
     })
 }
 
-/// Rows `[first, last]` covered by a set of intervals (overlaps counted once). Small sets are
-/// sorted in a stack buffer (this runs for every pair of tracks: no allocation).
+/// Interval sets up to this size are sorted in a stack buffer ([`union_len`], [`shared`]: they
+/// run for every pair of tracks, without allocation).
+const SMALL: usize = 16;
+
+/// Rows `[first, last]` covered by a set of intervals (overlaps counted once).
 fn union_len(iv: &[(u32, u32)]) -> u32 {
-    const SMALL: usize = 16;
     match iv.len() {
         0 => 0,
         1 => iv[0].1 - iv[0].0 + 1,
@@ -249,9 +251,8 @@ fn union_len_sorting(v: &mut [(u32, u32)]) -> u32 {
 }
 
 /// Rows covered by both interval sets, and the first and last of them (0, 0, 0 when none).
-/// Without allocation for up to 16 overlapping parts (one interval each: no sorting at all).
+/// The overlapping parts sorted in place: in a stack buffer up to [`SMALL`] of them.
 fn shared(a: &[(u32, u32)], b: &[(u32, u32)]) -> (u32, u32, u32) {
-    const SMALL: usize = 16;
     let mut buf = [(0u32, 0u32); SMALL];
     let mut spill: Vec<(u32, u32)> = Vec::new();
     let mut n = 0;
@@ -277,12 +278,12 @@ fn shared(a: &[(u32, u32)], b: &[(u32, u32)]) -> (u32, u32, u32) {
     if n == 0 {
         return (0, 0, 0);
     }
-    let len = if n <= SMALL {
-        union_len(&buf[..n])
+    let parts = if n <= SMALL {
+        &mut buf[..n]
     } else {
-        union_len_sorting(&mut spill)
+        &mut spill[..]
     };
-    (len, first, last)
+    (union_len_sorting(parts), first, last)
 }
 
 /// One edge of the window seen as a ring edge: linked fragments with their summed statistics.
