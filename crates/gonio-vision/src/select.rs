@@ -1306,10 +1306,9 @@ pub fn select(
     // A ring's inside is flat: drop candidates with a track as strong as their edges running
     // between them, parallel to them, over 30 % of their shared rows (two neighbouring lines,
     // not a ring). A scratch crossing the ring at an angle does not count.
-    let mut k = 0;
+    let mut curves = pair_curves.iter();
     pairs.retain(|c| {
-        let (lcv, rcv) = pair_curves[k];
-        k += 1;
+        let &(lcv, rcv) = curves.next().expect("one pair of curves per candidate");
         let lrows = [(c.fit.left.min_row, c.fit.left.max_row)];
         !tracks.iter().enumerate().any(|(k, t)| {
             if k == c.left || k == c.right || t.gradient < p.interior_fraction * c.gradient {
