@@ -496,7 +496,7 @@ struct Chain {
     scratch: Aligned<u8>,
     fed1: usize,
     fed2: usize,
-    /// Padded rows of the first operation (its neutral value around, `pstride` apart); slot 0
+    /// Padded rows of the first operation (its neutral value around, `rstride` apart); slot 0
     /// holds row `mid_from`.
     mid: Aligned<u8>,
     mid_from: usize,
@@ -539,21 +539,20 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         let lag = 2 * r + batch - 1;
         // Padded rows (the register kernel loads 32 columns either side of a vector).
         let rstride = padded_stride(width);
-        let neutral = |max: bool| if max { 0 } else { 255 };
+        let (neutral1, neutral2) = (MorphCore::<F>::NEUTRAL, MorphCore::<S>::NEUTRAL);
         #[cfg(target_arch = "x86_64")]
         let chain = chained.then(|| {
-            let ps = padded_stride(width);
             let nstate = width.div_ceil(64) * 2 * r * 64;
             Chain {
-                state1: Aligned::new(nstate, neutral(F)),
-                state2: Aligned::new(nstate, neutral(S)),
+                state1: Aligned::new(nstate, neutral1),
+                state2: Aligned::new(nstate, neutral2),
                 scratch: Aligned::new(vbmi::CHUNK * (r + 1) * 64, 0),
                 fed1: 0,
                 fed2: 0,
-                mid: Aligned::new((batch + r) * ps, neutral(S)),
+                mid: Aligned::new((batch + r) * rstride, neutral2),
                 mid_from: 0,
-                neutral1: Aligned::new(ps, neutral(F)),
-                neutral2: Aligned::new(ps, neutral(S)),
+                neutral1: Aligned::new(rstride, neutral1),
+                neutral2: Aligned::new(rstride, neutral2),
             }
         });
         #[cfg(not(target_arch = "x86_64"))]
@@ -563,7 +562,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             chain,
             first: MorphCore::new(width, &disk, batch.min(BATCH)),
             second: MorphCore::new(width, &disk, batch.min(BATCH)),
-            raw: Aligned::new((lag + 1) * rstride, neutral(F)),
+            raw: Aligned::new((lag + 1) * rstride, neutral1),
             rstride,
             mid: Aligned::new(batch * rstride, 0),
             done: Aligned::new(batch * rstride, 0),
@@ -588,7 +587,6 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
     fn chain_batch(&mut self, y: usize) {
         let (n, r, w, rs) = (self.rows.received(), self.radius, self.width, self.rstride);
         let nb = self.batch.min(n - y);
-        let ps = padded_stride(w);
         let lag1 = self.rows.lag() + 1;
         let Some(c) = self.chain.as_mut() else {
             unreachable!("chain_batch without the chain kernel")
@@ -601,7 +599,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
                 .map(|m| {
                     if m < n {
                         let s = m % lag1 * rs;
-                        &self.raw[s..s + ps]
+                        &self.raw[s..s + rs]
                     } else {
                         &c.neutral1[..]
                     }
@@ -615,7 +613,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
                 &mut c.scratch,
                 &ins,
                 &mut c.mid,
-                ps,
+                rs,
                 PAD,
                 skip,
                 w,
@@ -628,8 +626,8 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         let ins: Vec<&[u8]> = (from..to)
             .map(|m| {
                 if m < n {
-                    let s = (m - c.mid_from) * ps;
-                    &c.mid[s..s + ps]
+                    let s = (m - c.mid_from) * rs;
+                    &c.mid[s..s + rs]
                 } else {
                     &c.neutral2[..]
                 }
@@ -697,8 +695,8 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         self.done_from = 0;
         self.done_rows = 0;
         if let Some(c) = self.chain.as_mut() {
-            c.state1.fill(if F { 0 } else { 255 });
-            c.state2.fill(if S { 0 } else { 255 });
+            c.state1.fill(MorphCore::<F>::NEUTRAL);
+            c.state2.fill(MorphCore::<S>::NEUTRAL);
             c.fed1 = 0;
             c.fed2 = 0;
         }
