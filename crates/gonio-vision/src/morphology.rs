@@ -931,6 +931,49 @@ mod vbmi {
         };
     }
 
+    /// Loads a column vector's chain state (2r vectors from `$sb`) into new arrays `$t`
+    /// (T_1 … T_r) and `$q` (R_0 … R_{r−1}); [`run`] and [`run_direct`] share it (a macro,
+    /// so the kernels' code stays exactly as written out).
+    macro_rules! load_state {
+        ($r:ident, $state:ident, $sb:ident, $t:ident, $q:ident) => {
+            let zero = _mm512_setzero_si512();
+            let mut $t = [zero; $r];
+            let mut $q = [zero; $r];
+            let mut ld = |d: usize| {
+                if d < $r {
+                    $t[d] = load($state, $sb + d * 64);
+                    $q[d] = load($state, $sb + ($r + d) * 64);
+                }
+            };
+            down!(ld);
+        };
+    }
+
+    /// Stores the chain state `$t`, `$q` back where [`load_state`] read it.
+    macro_rules! store_state {
+        ($r:ident, $state:ident, $sb:ident, $t:ident, $q:ident) => {
+            let mut st = |d: usize| {
+                if d < $r {
+                    store($state, $sb + d * 64, $t[d], !0);
+                    store($state, $sb + ($r + d) * 64, $q[d], !0);
+                }
+            };
+            down!(st);
+        };
+    }
+
+    /// The byte mask that stores column vector `v` of `nvec`: all 64 but in the last one,
+    /// whose `width − 64·(nvec − 1)` columns are the frame's.
+    #[inline(always)]
+    fn store_mask(v: usize, nvec: usize, width: usize) -> u64 {
+        let tail = width - (nvec - 1) * 64;
+        if v + 1 < nvec || tail == 64 {
+            !0
+        } else {
+            (1u64 << tail) - 1
+        }
+    }
+
     /// Rows whose chord classes are made before they are combined (one pass over them with
     /// the index vectors in registers, the classes kept in an L1 scratch, then the chain with
     /// its state in registers).
@@ -963,15 +1006,10 @@ mod vbmi {
         }
         let (hw, cls) = (Plan::<R>::HW, Plan::<R>::CLASS);
         let nvec = width.div_ceil(64);
-        let tail = width - (nvec - 1) * 64;
         let zero = _mm512_setzero_si512();
         let nc = cls[0] + 1;
         for v in 0..nvec {
-            let mask = if v + 1 < nvec || tail == 64 {
-                !0u64
-            } else {
-                (1u64 << tail) - 1
-            };
+            let mask = store_mask(v, nvec, width);
             let sb = v * 2 * R * 64;
             for (c, rows) in ins.chunks(CHUNK).enumerate() {
                 // The chord classes of each row, narrowest first.
@@ -998,15 +1036,7 @@ mod vbmi {
                     down!(class);
                 }
                 // The chain: T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
-                let mut t = [zero; R];
-                let mut q = [zero; R];
-                let mut ld = |d: usize| {
-                    if d < R {
-                        t[d] = load(state, sb + d * 64);
-                        q[d] = load(state, sb + (R + d) * 64);
-                    }
-                };
-                down!(ld);
+                load_state!(R, state, sb, t, q);
                 for j in 0..rows.len() {
                     let sc = j * nc * 64;
                     let mut g = zero;
@@ -1038,13 +1068,7 @@ mod vbmi {
                         store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
                     }
                 }
-                let mut st = |d: usize| {
-                    if d < R {
-                        store(state, sb + d * 64, t[d], !0);
-                        store(state, sb + (R + d) * 64, q[d], !0);
-                    }
-                };
-                down!(st);
+                store_state!(R, state, sb, t, q);
             }
         }
     }
@@ -1067,25 +1091,12 @@ mod vbmi {
     ) {
         let hw = Plan::<R>::HW;
         let nvec = width.div_ceil(64);
-        let tail = width - (nvec - 1) * 64;
         for v in 0..nvec {
-            let mask = if v + 1 < nvec || tail == 64 {
-                !0u64
-            } else {
-                (1u64 << tail) - 1
-            };
+            let mask = store_mask(v, nvec, width);
             let sb = v * 2 * R * 64;
             let zero = _mm512_setzero_si512();
             // T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
-            let mut t = [zero; R];
-            let mut q = [zero; R];
-            let mut ld = |d: usize| {
-                if d < R {
-                    t[d] = load(state, sb + d * 64);
-                    q[d] = load(state, sb + (R + d) * 64);
-                }
-            };
-            down!(ld);
+            load_state!(R, state, sb, t, q);
             for (i, row) in ins.iter().enumerate() {
                 let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
                 let mut lk = 0;
@@ -1141,13 +1152,7 @@ mod vbmi {
                     store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
                 }
             }
-            let mut st = |d: usize| {
-                if d < R {
-                    store(state, sb + d * 64, t[d], !0);
-                    store(state, sb + (R + d) * 64, q[d], !0);
-                }
-            };
-            down!(st);
+            store_state!(R, state, sb, t, q);
         }
     }
 
