@@ -488,6 +488,18 @@ mod avx512 {
     use crate::label::EdgePixel;
     use std::arch::x86_64::*;
 
+    /// [`ATAN64`]`[0 … 63]` widened to the 32-bit lanes of the direction kernel's table
+    /// look-ups (entry 64 is handled by a compare), built at compile time.
+    const ATAN64_I32: [i32; 64] = {
+        let mut t = [0i32; 64];
+        let mut i = 0;
+        while i < 64 {
+            t[i] = ATAN64[i] as i32;
+            i += 1;
+        }
+        t
+    };
+
     /// Classifies row `cur` (between `up` and `down`, zero rows outside the frame; columns
     /// outside the row count as zero magnitudes, as in [`super::segment_pixel`]); writes the
     /// kept columns' bits into `bits`, the neighbours across the edge into `s.a`, `s.b` (unless
@@ -613,25 +625,14 @@ mod avx512 {
         let m = n.div_ceil(16) * 16;
         assert!(s.gx.len() >= m && s.gy.len() >= m && s.c.len() >= m);
         assert!(s.ka.len() >= m && s.kb.len() >= m && s.dir.len() >= m && s.sub.len() >= m);
-        let mut lo = [0i32; 16];
-        let mut hi = [0i32; 16];
-        for i in 0..16 {
-            lo[i] = ATAN64[i] as i32;
-            hi[i] = ATAN64[16 + i] as i32;
-        }
-        let mut lo2 = [0i32; 16];
-        let mut hi2 = [0i32; 16];
-        for i in 0..16 {
-            lo2[i] = ATAN64[32 + i] as i32;
-            hi2[i] = ATAN64[48 + i] as i32;
-        }
-        // SAFETY: 64-byte arrays.
+        // SAFETY: ATAN64_I32 holds 64 i32: four 64-byte loads at 0, 16, 32, 48.
         let (t0, t1, t2, t3) = unsafe {
+            let t = ATAN64_I32.as_ptr();
             (
-                _mm512_loadu_si512(lo.as_ptr().cast()),
-                _mm512_loadu_si512(hi.as_ptr().cast()),
-                _mm512_loadu_si512(lo2.as_ptr().cast()),
-                _mm512_loadu_si512(hi2.as_ptr().cast()),
+                _mm512_loadu_si512(t.cast()),
+                _mm512_loadu_si512(t.add(16).cast()),
+                _mm512_loadu_si512(t.add(32).cast()),
+                _mm512_loadu_si512(t.add(48).cast()),
             )
         };
         let zero = _mm512_setzero_si512();
