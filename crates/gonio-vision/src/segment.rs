@@ -12,7 +12,7 @@
 //! across the edge chosen by selects), and computes the direction and sub-pixel offset only for
 //! the few pixels kept; its output is a [`SparseEdgeRow`], the edge pixels in column order.
 //!
-//! With AVX-512 (F/BW/VL/DQ and VBMI2, detected at run time; `GONIO_SIMD=avx512`) the row is
+//! With AVX-512 (F/BW/VL/DQ and VBMI/VBMI2, [`crate::simd::vbmi`]; `GONIO_SIMD=avx512`) the row is
 //! segmented by hand-written intrinsics instead, because the compiler does not produce what
 //! the kept pixels need: the classification's comparisons go straight into mask registers (32
 //! columns a step, the border columns by the same zero-padded comparisons through masked
@@ -771,19 +771,17 @@ impl Segmenter {
     }
 
     /// [`Segmenter::emit_impl`] with AVX-512 (see the `avx512` module); `false` when the
-    /// level in use is below it.
+    /// VBMI kernels are off ([`crate::simd::vbmi`]).
     #[allow(unsafe_code)]
     fn emit_avx512(&mut self, out: &mut SparseEdgeRow) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if crate::simd::level() >= crate::simd::Level::Avx512
-            && std::is_x86_feature_detected!("avx512vbmi2")
-        {
+        if crate::simd::vbmi() {
             let y = self.rows.output_row();
             let (cur, up, down) = rows_around(&self.rows, &self.ring, &self.zero);
             let s = &mut self.kept;
-            // SAFETY: the level is AVX-512 only when the CPU has AVX-512 F/BW/VL/DQ
-            // (`simd::detected`), VBMI2 checked above; the rows and scratch have the lengths the
-            // kernels assert.
+            // SAFETY: `simd::vbmi` is true only at the AVX-512 level (F/BW/VL/DQ, checked in
+            // `simd::detected`) on a CPU with VBMI and VBMI2 (`simd::vbmi_detected`); the rows
+            // and scratch have the lengths the kernels assert.
             let n = unsafe {
                 if self.consts.horizontal {
                     avx512::classify::<true>(cur, up, down, &self.consts, s, &mut out.bits)

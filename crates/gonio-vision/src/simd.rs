@@ -119,20 +119,22 @@ pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
 /// 0 = not yet checked, 1 = VBMI kernels off, 2 = on.
 static VBMI: AtomicU8 = AtomicU8::new(0);
 
-/// True when the CPU has AVX-512 VBMI (`vpermb`, `vpermt2b`) besides the AVX-512 level
-/// (checked once with `is_x86_feature_detected!`).
+/// True when the CPU has AVX-512 VBMI (`vpermb`, `vpermt2b`) and VBMI2 (`vpcompressw`) besides
+/// the AVX-512 level (checked once with `is_x86_feature_detected!`).
 pub fn vbmi_detected() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         if detected() == Level::Avx512 {
-            return std::is_x86_feature_detected!("avx512vbmi");
+            return std::is_x86_feature_detected!("avx512vbmi")
+                && std::is_x86_feature_detected!("avx512vbmi2");
         }
     }
     false
 }
 
-/// True when the kernels written with AVX-512 VBMI intrinsics are used: the level in use is
-/// AVX-512, the CPU has VBMI and [`set_vbmi`] did not turn them off.
+/// True when the kernels written with AVX-512 VBMI/VBMI2 intrinsics (the morphology's register
+/// kernel, the segmentation's mask path) are used: the level in use is AVX-512, the CPU has
+/// VBMI and VBMI2 and [`set_vbmi`] did not turn them off.
 #[inline]
 pub fn vbmi() -> bool {
     let on = match VBMI.load(Ordering::Relaxed) {
