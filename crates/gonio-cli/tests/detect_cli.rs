@@ -331,6 +331,24 @@ fn threads_keep_frame_order_and_the_same_bytes() {
             );
         }
     }
+    // `--timing` (one frame at a time on the main thread) writes the same bytes and reports the
+    // detector's CPU time per frame: median ≤ 99th percentile ≤ max, all positive.
+    let o = gonio(&["detect", "--raw", "1440x540", "--timing"], Some(&raw));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stdout == run("1", false), "--timing changed the output");
+    let err = String::from_utf8_lossy(&o.stderr);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("detector alone"))
+        .unwrap_or_else(|| panic!("no timing line in {err:?}"));
+    let ms: Vec<f64> = line
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    // median, 99th percentile, max (ms), frame count
+    assert_eq!(ms.len(), 4, "{line}");
+    assert!(ms[0] > 0.0 && ms[0] <= ms[1] && ms[1] <= ms[2], "{line}");
+    assert_eq!(ms[3], 12.0, "{line}");
 }
 
 #[test]

@@ -235,24 +235,41 @@ impl<S: FrameSource> SourceDetector<S> {
     /// [`SourceError::Source`] from the source, [`SourceError::Frame`] for a frame that is
     /// neither the window nor the sensor in size.
     pub fn detect_next(&mut self) -> Result<Option<Detection>, SourceError<S::Error>> {
-        let Some(hdr) = self
-            .source
+        match self.read_next()? {
+            Some(hdr) => self.detect_read(&hdr).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// The first half of [`SourceDetector::detect_next`]: reads the next frame into the
+    /// detector's buffer and returns its header (`Ok(None)` after the last), so that a caller
+    /// can time the detection alone.
+    ///
+    /// # Errors
+    /// [`SourceError::Source`] from the source.
+    pub fn read_next(&mut self) -> Result<Option<FrameHeader>, SourceError<S::Error>> {
+        self.source
             .next_frame(&mut self.raw)
-            .map_err(SourceError::Source)?
-        else {
-            return Ok(None);
-        };
+            .map_err(SourceError::Source)
+    }
+
+    /// The second half of [`SourceDetector::detect_next`]: crops and detects the frame last
+    /// read by [`SourceDetector::read_next`] (`hdr` is what it returned).
+    ///
+    /// # Errors
+    /// [`SourceError::Frame`] for a frame that is neither the window nor the sensor in size.
+    pub fn detect_read(&mut self, hdr: &FrameHeader) -> Result<Detection, SourceError<S::Error>> {
         let result = detect_frame(
             &self.optics,
             &mut self.detector,
-            &hdr,
+            hdr,
             &self.raw,
             &mut self.scratch,
         )?;
-        Ok(Some(Detection {
+        Ok(Detection {
             stamp: hdr.stamp,
             result,
-        }))
+        })
     }
 
     /// The detector (parameters, stage dumps of the last frame).
