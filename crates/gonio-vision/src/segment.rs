@@ -20,8 +20,11 @@
 //! and the direction and sub-pixel offset of the listed pixels are computed 16 at a time in
 //! vector lanes with the same integer and exact-f32 arithmetic as the scalar path — the
 //! per-pixel branches (quadrant, octant, zero denominators) become selects, so the path has no
-//! data-dependent branch left. `tests/simd.rs` compares it with the scalar path on random and
-//! extreme gradients at every width up to 70 and wider rows.
+//! data-dependent branch left; the edge pixels are assembled 16 at a time by byte permutes
+//! (`vpermt2b`, indices built at compile time from [`EdgePixel`]'s field offsets) and stored
+//! straight into the row (the compiler's loop built them field by field). `tests/simd.rs`
+//! compares it with the scalar path on random and extreme gradients at every width up to 70
+//! and wider rows.
 //!
 //! ```
 //! use gonio_vision::segment::{angle256, STRONG};
@@ -704,24 +707,95 @@ mod avx512 {
         }
     }
 
-    /// One row's edge pixels from the kept columns.
-    pub(super) fn pixels(s: &KeptScratch, n: usize, y: usize, high: u16, out: &mut Vec<EdgePixel>) {
+    /// Byte index of the zero byte in the second source of [`PIXEL_PERM`].
+    const ZERO_BYTE: u8 = 64 + 50;
+
+    /// `vpermt2b` indices assembling 16 [`EdgePixel`]s (four a register) from two registers:
+    /// the first holds the 16 columns (bytes 0–31) and magnitudes (32–63), the second the
+    /// directions (0–15), sub-pixel offsets (16–31), classes (32–47), the row (48–49) and zeros.
+    /// Built from the struct's field offsets at compile time (any field order the compiler
+    /// chooses; the size must be 16 bytes).
+    const PIXEL_PERM: [[u8; 64]; 4] = {
+        use std::mem::{offset_of, size_of};
+        assert!(size_of::<EdgePixel>() == 16);
+        let mut t = [[ZERO_BYTE; 64]; 4];
+        let mut p = 0;
+        while p < 16 {
+            let (r, b) = (p / 4, 16 * (p % 4));
+            let q = p as u8;
+            t[r][b + offset_of!(EdgePixel, row)] = 64 + 48;
+            t[r][b + offset_of!(EdgePixel, row) + 1] = 64 + 49;
+            t[r][b + offset_of!(EdgePixel, col)] = 2 * q;
+            t[r][b + offset_of!(EdgePixel, col) + 1] = 2 * q + 1;
+            t[r][b + offset_of!(EdgePixel, mag)] = 32 + 2 * q;
+            t[r][b + offset_of!(EdgePixel, mag) + 1] = 32 + 2 * q + 1;
+            t[r][b + offset_of!(EdgePixel, dir)] = 64 + q;
+            t[r][b + offset_of!(EdgePixel, sub)] = 64 + 16 + q;
+            t[r][b + offset_of!(EdgePixel, class)] = 64 + 32 + q;
+            p += 1;
+        }
+        t
+    };
+
+    /// One row's edge pixels from the `n` kept pixels in `s` (columns, magnitudes, directions,
+    /// sub-pixel offsets; the class from the magnitude), 16 a step by byte permutes
+    /// ([`PIXEL_PERM`]) stored straight into `out`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F/BW/VL/DQ and VBMI; the compact arrays hold n rounded
+    /// up to 16.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx512vbmi,avx2")]
+    pub(super) unsafe fn pixels(
+        s: &KeptScratch,
+        n: usize,
+        y: usize,
+        high: u16,
+        out: &mut Vec<EdgePixel>,
+    ) {
+        let m = n.div_ceil(16) * 16;
+        assert!(s.cols.len() >= m && s.c.len() >= m && s.dir.len() >= m && s.sub.len() >= m);
         out.clear();
-        out.extend(
-            s.cols[..n]
-                .iter()
-                .zip(&s.c[..n])
-                .zip(s.dir[..n].iter().zip(&s.sub[..n]))
-                .map(|((&x, &c), (&dir, &sub))| EdgePixel {
-                    row: y as u16,
-                    col: x,
-                    class: if c >= high { STRONG } else { WEAK },
-                    dir,
-                    sub,
-                    mag: c,
-                    comp: 0,
-                }),
-        );
+        out.resize(n, EdgePixel::default());
+        // SAFETY: PIXEL_PERM holds four rows of 64 bytes.
+        let perm: [__m512i; 4] =
+            std::array::from_fn(|r| unsafe { _mm512_loadu_si512(PIXEL_PERM[r].as_ptr().cast()) });
+        let hv = _mm256_set1_epi16(high as i16);
+        let (weak, strong) = (_mm_set1_epi8(WEAK as i8), _mm_set1_epi8(STRONG as i8));
+        let rowv = _mm512_maskz_set1_epi16(1 << 24, y as i16);
+        let dst = out.as_mut_ptr().cast::<u8>();
+        let mut i = 0;
+        while i < n {
+            // SAFETY: i + 16 ≤ m ≤ every array's length.
+            let (cols, c, dir, sub) = unsafe {
+                (
+                    _mm256_loadu_si256(s.cols.as_ptr().add(i).cast()),
+                    _mm256_loadu_si256(s.c.as_ptr().add(i).cast()),
+                    _mm_loadu_si128(s.dir.as_ptr().add(i).cast()),
+                    _mm_loadu_si128(s.sub.as_ptr().add(i).cast()),
+                )
+            };
+            let class = _mm_mask_blend_epi8(_mm256_cmpge_epu16_mask(c, hv), weak, strong);
+            let s1 = _mm512_inserti64x4::<1>(_mm512_castsi256_si512(cols), c);
+            let s2 = _mm512_inserti32x4::<2>(
+                _mm512_inserti32x4::<1>(_mm512_inserti32x4::<0>(rowv, dir), sub),
+                class,
+            );
+            for (r, p) in perm.iter().enumerate() {
+                // Pixels i + 4r … of this register that exist: two 64-bit lanes each.
+                let have = n.saturating_sub(i + 4 * r).min(4);
+                let lanes = ((1u32 << (2 * have)) - 1) as __mmask8;
+                // SAFETY: the masked store writes only the lanes of pixels < n, inside `out`
+                // (n pixels of 16 bytes, plain integer fields); masked-off lanes never fault.
+                unsafe {
+                    _mm512_mask_storeu_epi64(
+                        dst.wrapping_add(16 * (i + 4 * r)).cast(),
+                        lanes,
+                        _mm512_permutex2var_epi8(s1, *p, s2),
+                    );
+                }
+            }
+            i += 16;
+        }
     }
 }
 
@@ -814,9 +888,11 @@ impl Segmenter {
                     }
                 }
             }
-            // SAFETY: as above.
-            unsafe { avx512::directions(s, n) };
-            avx512::pixels(s, n, y, self.params.high, &mut out.pixels);
+            // SAFETY: as above (VBMI for the pixels' byte permutes).
+            unsafe {
+                avx512::directions(s, n);
+                avx512::pixels(s, n, y, self.params.high, &mut out.pixels);
+            }
             return true;
         }
         let _ = out;
