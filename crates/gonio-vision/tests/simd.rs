@@ -1,9 +1,11 @@
 //! Every code path (scalar, AVX2, AVX-512, as far as the CPU has them) gives the same bits at
 //! every stage. One test in its own binary: the level is process-wide.
 
+use gonio_vision::fill::{EdgeFill, fill_pixel};
 use gonio_vision::gradient::GradRow;
+use gonio_vision::label::EdgePixel;
 use gonio_vision::rows::RowStage;
-use gonio_vision::segment::{SegmentParams, Segmenter, SparseEdgeRow};
+use gonio_vision::segment::{FILLED, NONE, STRONG, SegmentParams, Segmenter, SparseEdgeRow, WEAK};
 use gonio_vision::simd::{Level, set_level, set_vbmi};
 use gonio_vision::{Detector, Optics};
 use rand::{RngExt, SeedableRng};
@@ -100,10 +102,112 @@ fn segmentation_rows_at_every_level() {
     assert!(kept > 10_000, "only {kept} edge pixels compared");
 }
 
+/// The edge filling with and without its AVX-512 row scan (eight words of edge bits at once)
+/// against [`fill_pixel`], the definition: rows of every width 1 … 70 and a few wide ones
+/// (every tail of the 8-word steps, pairs across word boundaries, the border columns), edge
+/// densities from sparse to nearly full, random directions (so some pairs are 45° or more
+/// apart and the next pair decides).
+fn filling_rows_with_and_without_avx512() {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let mut filled = 0;
+    for width in (1..=70).chain([127, 128, 129, 511, 512, 513, 1440]) {
+        for density in [2, 5, 12] {
+            let h = 7;
+            let mut class = vec![vec![NONE; width]; h];
+            let mut dir = vec![vec![0u8; width]; h];
+            let rows: Vec<SparseEdgeRow> = (0..h)
+                .map(|y| {
+                    let mut r = SparseEdgeRow::new(width);
+                    for x in 0..width {
+                        if rng.random_range(0..16) < density {
+                            let (c, d) = ([WEAK, STRONG][rng.random_range(0..2)], rng.random());
+                            class[y][x] = c;
+                            dir[y][x] = d;
+                            r.push(EdgePixel {
+                                row: y as u16,
+                                col: x as u16,
+                                class: c,
+                                dir: d,
+                                sub: rng.random_range(-16..=16),
+                                mag: rng.random(),
+                                comp: 0,
+                            });
+                        }
+                    }
+                    r
+                })
+                .collect();
+            // The definition: each row's pixels and the filled ones, by column.
+            let at = |y: usize, x: usize, dy: usize, dx: usize, v: &Vec<Vec<u8>>| {
+                let (yy, xx) = ((y + dy).wrapping_sub(1), (x + dx).wrapping_sub(1));
+                if yy < h && xx < width { v[yy][xx] } else { 0 }
+            };
+            let want: Vec<Vec<EdgePixel>> = (0..h)
+                .map(|y| {
+                    let mut p = Vec::new();
+                    let mut own = rows[y].pixels.iter().peekable();
+                    for x in 0..width {
+                        if let Some(q) = own.next_if(|q| q.col as usize == x) {
+                            p.push(*q);
+                            continue;
+                        }
+                        let c = std::array::from_fn(|dy| {
+                            std::array::from_fn(|dx| at(y, x, dy, dx, &class))
+                        });
+                        let d = std::array::from_fn(|dy| {
+                            std::array::from_fn(|dx| at(y, x, dy, dx, &dir))
+                        });
+                        if let Some((c, d, s)) = fill_pixel(&c, &d) {
+                            assert_eq!(s, FILLED);
+                            filled += 1;
+                            p.push(EdgePixel {
+                                row: y as u16,
+                                col: x as u16,
+                                class: c,
+                                dir: d,
+                                sub: s,
+                                mag: 0,
+                                comp: 0,
+                            });
+                        }
+                    }
+                    p
+                })
+                .collect();
+            for vbmi in [false, true] {
+                set_vbmi(vbmi);
+                let mut fi = EdgeFill::new(width);
+                let mut out = SparseEdgeRow::new(width);
+                let mut got = Vec::new();
+                for r in &rows {
+                    if fi.push_row(r, &mut out) {
+                        got.push(out.clone());
+                    }
+                }
+                while fi.flush_row(&mut out) {
+                    got.push(out.clone());
+                }
+                assert_eq!(got.len(), h);
+                for (y, g) in got.iter().enumerate() {
+                    assert_eq!(g.pixels, want[y], "vbmi {vbmi}, width {width}, row {y}");
+                    let mut bits = SparseEdgeRow::new(width);
+                    for p in &want[y] {
+                        bits.push(*p);
+                    }
+                    assert_eq!(g.bits, bits.bits, "vbmi {vbmi}, width {width}, row {y}");
+                }
+            }
+            set_vbmi(true);
+        }
+    }
+    assert!(filled > 5_000, "only {filled} filled pixels compared");
+}
+
 #[test]
 fn every_level_gives_the_same_bits() {
     // One test function: the level is process-wide, tests run in parallel threads.
     segmentation_rows_at_every_level();
+    filling_rows_with_and_without_avx512();
     for (w, h, tol) in [(203usize, 101usize, None), (331, 77, Some(40.0))] {
         let o = Optics {
             window_width_px: w as u32,
