@@ -10,6 +10,7 @@ mod on_cpu;
 use criterion::Criterion;
 use criterion::measurement::{Measurement, WallTime};
 use gonio_sim::frames::{GratingRenderer, GratingScene, ScenePreset};
+use gonio_vision::blur_sobel::BlurSobel;
 use gonio_vision::features::{RawStats, baseline_features};
 use gonio_vision::fill::EdgeFill;
 use gonio_vision::gaussian::Gaussian5;
@@ -100,6 +101,17 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
                 so.push_row(r, &mut gr);
             }
             while so.flush_row(&mut gr) {}
+        })
+    });
+    // The detector's stage: the blur and the Sobel fused.
+    let mut bs = BlurSobel::new(w);
+    g.bench_function("gaussian 5x5 + sobel", |b| {
+        b.iter(|| {
+            bs.reset();
+            for r in &opened {
+                bs.push_row(r, &mut gr);
+            }
+            while bs.flush_row(&mut gr) {}
         })
     });
     let grads: Vec<GradRow> = (0..p.height)

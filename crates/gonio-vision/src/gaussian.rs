@@ -23,14 +23,14 @@ pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];
 /// Streaming 5×5 binomial blur.
 #[derive(Debug, Clone)]
 pub struct Gaussian5 {
-    width: usize,
+    pub(crate) width: usize,
     /// The last five input rows, `stride` apart.
-    ring: Aligned<u8>,
-    stride: usize,
+    pub(crate) ring: Aligned<u8>,
+    pub(crate) stride: usize,
     /// Vertical sums of the output row: column x at `line + x`, two replicated columns on each
     /// side.
     vsum: Aligned<u16>,
-    rows: RowLag,
+    pub(crate) rows: RowLag,
 }
 
 impl Gaussian5 {
@@ -46,14 +46,17 @@ impl Gaussian5 {
         }
     }
 
+    /// Offsets in the ring of the rows `output_row − 2 … output_row + 2` (clamped to the rows
+    /// received: replicated borders).
+    #[inline]
+    pub(crate) fn window(&self) -> [usize; 5] {
+        [-2, -1, 0, 1, 2].map(|dy| self.rows.clamped(dy) * self.stride)
+    }
+
     #[inline(always)]
-    fn emit_impl(&mut self, out: &mut [u8]) {
+    pub(crate) fn emit_impl(&mut self, out: &mut [u8]) {
         let w = self.width;
-        let r = |dy: isize| {
-            let s = self.rows.clamped(dy) * self.stride;
-            &self.ring[s..s + w]
-        };
-        let (a, b, c, d, e) = (r(-2), r(-1), r(0), r(1), r(2));
+        let [a, b, c, d, e] = self.window().map(|s| &self.ring[s..s + w]);
         let l = line::<u16>();
         let v = &mut self.vsum[l..l + w];
         for (((((o, &a), &b), &c), &d), &e) in v.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(e) {

@@ -51,13 +51,13 @@ impl RowBuf for GradRow {
 #[derive(Debug, Clone)]
 pub struct Sobel {
     width: usize,
-    input: Aligned<u8>,
+    pub(crate) input: Aligned<u8>,
     /// Per input row: horizontal smooth (1 2 1) and difference (−1 0 1), 3 slots each,
     /// `stride` apart.
-    smooth: Aligned<i16>,
-    diff: Aligned<i16>,
-    stride: usize,
-    rows: RowLag,
+    pub(crate) smooth: Aligned<i16>,
+    pub(crate) diff: Aligned<i16>,
+    pub(crate) stride: usize,
+    pub(crate) rows: RowLag,
 }
 
 impl Sobel {
@@ -75,7 +75,7 @@ impl Sobel {
     }
 
     #[inline(always)]
-    fn accept_impl(&mut self) {
+    pub(crate) fn accept_impl(&mut self) {
         let w = self.width;
         let row = &self.input;
         let s = self.rows.input_slot() * self.stride;
@@ -99,7 +99,7 @@ impl Sobel {
     }
 
     #[inline(always)]
-    fn emit_impl(&mut self, out: &mut GradRow) {
+    pub(crate) fn emit_impl(&mut self, out: &mut GradRow) {
         let w = self.width;
         let slot = |dy: isize| self.rows.clamped(dy) * self.stride;
         let (a, b, c) = (slot(-1), slot(0), slot(1));

@@ -7,7 +7,7 @@
 //!
 //! 1. [`morphology`]: black top-hat (closing with a 2d + 1 disk, minus the input) and opening
 //!    with a ≈ d/2 disk; [`gaussian`]: 5×5 blur;
-//! 2. [`gradient`]: Sobel; [`segment`]: NMS, dual threshold, baseline filter;
+//! 2. [`gradient`]: Sobel ([`blur_sobel`]: the blur and the Sobel as one stage); [`segment`]: NMS, dual threshold, baseline filter;
 //! 3. [`fill`]: edge filling; [`label`]: single-pass 8-connected labelling with per-component
 //!    sums;
 //! 4. [`select`]: the ring's two edges chosen by the ring's model (polarity, separation from
@@ -32,6 +32,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod blur_sobel;
 pub mod error;
 pub mod features;
 pub mod fill;

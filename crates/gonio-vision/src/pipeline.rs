@@ -1,6 +1,6 @@
 //! The detector: every stage chained row by row, from camera rows to the frame's result.
 //!
-//! The stages form one cascade ([`Then`]: top-hat → opening → blur → Sobel → segmentation →
+//! The stages form one cascade ([`Then`]: top-hat → opening → blur and Sobel → segmentation →
 //! filling → labelling), each stage writing its output row straight into the next one's ring.
 //! `push_row` drives a row through it as far as each stage's lag allows; `finish_frame` flushes
 //! the last rows and computes the baseline features. Stage dumps are a [`StageObserver`]
@@ -25,11 +25,11 @@
 //! ```
 
 use crate::VisionError;
+use crate::blur_sobel::BlurSobel;
 use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, saturated_runs};
 use crate::fill::EdgeFill;
 use crate::focus::abs_diff_sums;
-use crate::gaussian::Gaussian5;
-use crate::gradient::{GradRow, Sobel};
+use crate::gradient::GradRow;
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::{Optics, Params};
@@ -122,10 +122,8 @@ impl StageObserver for StageImages {
 }
 
 /// The detector's stages, chained.
-type Cascade = Then<
-    BlackTopHat,
-    Then<Opening, Then<Gaussian5, Then<Sobel, Then<Segmenter, Then<EdgeFill, Labeller>>>>>,
->;
+type Cascade =
+    Then<BlackTopHat, Then<Opening, Then<BlurSobel, Then<Segmenter, Then<EdgeFill, Labeller>>>>>;
 
 /// The streaming baseline detector.
 #[derive(Debug, Clone)]
@@ -174,13 +172,10 @@ impl Detector {
             then(
                 Opening::new(w, Disk::new(p.open_radius_px)),
                 then(
-                    Gaussian5::new(w),
+                    BlurSobel::new(w),
                     then(
-                        Sobel::new(w),
-                        then(
-                            Segmenter::new(w, seg),
-                            then(EdgeFill::new(w), labeller(&p, false)),
-                        ),
+                        Segmenter::new(w, seg),
+                        then(EdgeFill::new(w), labeller(&p, false)),
                     ),
                 ),
             ),
@@ -210,7 +205,7 @@ impl Detector {
 
     /// The last stage of the cascade.
     fn labeller(&mut self) -> &mut Labeller {
-        &mut self.line.next.next.next.next.next.next
+        &mut self.line.next.next.next.next.next
     }
 
     /// Keeps every stage's output of the following frames (for test vectors); allocates.
@@ -350,7 +345,7 @@ impl Detector {
             focus: self.focus_sum as f64 / interior / 4.0,
             mean_gradient: self.grad_sum as f64 / interior / 2.0,
         };
-        let label = &mut self.line.next.next.next.next.next.next;
+        let label = &mut self.line.next.next.next.next.next;
         if let Some(d) = self.dump.as_deref_mut() {
             d.components = label.all().to_vec();
         }

@@ -232,9 +232,18 @@ pub trait StageObserver {
     fn edges(&mut self, row: &SparseEdgeRow) {}
     /// A row of edges after filling.
     fn filled(&mut self, row: &SparseEdgeRow) {}
+    /// Whether the observer looks at rows at all (default true); when false, a stage may skip
+    /// making a row only the observer would see (the fused blur + Sobel's blurred `u8` row).
+    fn observes(&self) -> bool {
+        true
+    }
 }
 
-impl StageObserver for () {}
+impl StageObserver for () {
+    fn observes(&self) -> bool {
+        false
+    }
+}
 
 /// A streaming stage: input rows in, output rows out after a fixed lag, with the row counting
 /// of [`RowLag`]. A stage implements where an input row goes ([`RowStage::input`], its ring

@@ -1,10 +1,12 @@
 //! Every code path (scalar, AVX2, AVX-512, as far as the CPU has them) gives the same bits at
 //! every stage. One test in its own binary: the level is process-wide.
 
+use gonio_vision::blur_sobel::BlurSobel;
 use gonio_vision::fill::{EdgeFill, fill_pixel};
 use gonio_vision::gradient::GradRow;
 use gonio_vision::label::EdgePixel;
-use gonio_vision::rows::RowStage;
+use gonio_vision::reference::{self, Image};
+use gonio_vision::rows::{RowStage, StageObserver};
 use gonio_vision::segment::{FILLED, NONE, STRONG, SegmentParams, Segmenter, SparseEdgeRow, WEAK};
 use gonio_vision::simd::{Level, set_level, set_vbmi};
 use gonio_vision::{Detector, Optics};
@@ -203,11 +205,81 @@ fn filling_rows_with_and_without_avx512() {
     assert!(filled > 5_000, "only {filled} filled pixels compared");
 }
 
+/// The rows the fused blur + Sobel stage shows its observer.
+#[derive(Default)]
+struct Rows {
+    blurred: Vec<u8>,
+    gx: Vec<i16>,
+    gy: Vec<i16>,
+    mag: Vec<u16>,
+}
+
+impl StageObserver for Rows {
+    fn blurred(&mut self, row: &[u8]) {
+        self.blurred.extend_from_slice(row);
+    }
+    fn gradient(&mut self, row: &GradRow) {
+        self.gx.extend_from_slice(&row.gx);
+        self.gy.extend_from_slice(&row.gy);
+        self.mag.extend_from_slice(&row.mag);
+    }
+}
+
+/// The blur and the Sobel as one stage (the AVX-512 kernel: vertical sums, lane shifts for the
+/// horizontal taps, the Sobel from the blurred row in registers) at every level against the
+/// whole-frame reference: every width 2 … 70 and a few wide ones (every tail after the
+/// 32-column steps, the replicated border columns inside and across a vector), heights 1 … 6
+/// (the flush with fewer rows than the lags) and taller, random bytes and the extremes (0 and
+/// 255 alternating, all 255: the largest sums, ±1020 gradients). Each stage object is reused
+/// for a second frame (the reset).
+fn blur_sobel_at_every_level() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for width in (2..=70).chain([95, 96, 97, 127, 128, 129, 1440]) {
+        for height in [1, 2, 3, 4, 5, 6, 11] {
+            let frames: Vec<Vec<u8>> = (0..3)
+                .map(|kind| {
+                    (0..width * height)
+                        .map(|i| match kind {
+                            0 => rng.random(),
+                            1 => [0, 255][(i % width + i / width + (i / 7) % 2) % 2],
+                            _ if i % 5 == 0 && rng.random() => 0,
+                            _ => 255,
+                        })
+                        .collect()
+                })
+                .collect();
+            for level in [Level::Scalar, Level::Avx2, Level::Avx512] {
+                set_level(level);
+                let mut stage = BlurSobel::new(width);
+                let mut g = GradRow::new(width);
+                for f in &frames {
+                    let mut obs = Rows::default();
+                    stage.reset();
+                    for row in f.chunks_exact(width) {
+                        stage.input().copy_from_slice(row);
+                        stage.pushed(&mut g, &mut obs);
+                    }
+                    while stage.flushed(&mut g, &mut obs) {}
+                    let b = reference::gaussian5(&Image::from_vec(width, height, f.clone()));
+                    let (gx, gy, mag) = reference::sobel(&b);
+                    let at = format!("{level:?}, {width}×{height}");
+                    assert_eq!(obs.blurred, b.data, "blurred rows, {at}");
+                    assert_eq!(obs.gx, gx.data, "gx, {at}");
+                    assert_eq!(obs.gy, gy.data, "gy, {at}");
+                    assert_eq!(obs.mag, mag.data, "|G|, {at}");
+                }
+            }
+        }
+    }
+    set_level(Level::Avx512);
+}
+
 #[test]
 fn every_level_gives_the_same_bits() {
     // One test function: the level is process-wide, tests run in parallel threads.
     segmentation_rows_at_every_level();
     filling_rows_with_and_without_avx512();
+    blur_sobel_at_every_level();
     for (w, h, tol) in [(203usize, 101usize, None), (331, 77, Some(40.0))] {
         let o = Optics {
             window_width_px: w as u32,
