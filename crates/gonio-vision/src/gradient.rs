@@ -15,7 +15,7 @@
 //! assert_eq!(g.gy[..], [0; 4]);
 //! ```
 
-use crate::rows::{Aligned, RowBuf, RowLag, RowStage, StageObserver, line};
+use crate::rows::{Aligned, RowBuf, RowLag, RowStage, StageObserver};
 
 /// One row of gradients.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -63,7 +63,9 @@ pub struct Sobel {
 impl Sobel {
     /// A gradient for rows of `width` pixels (≥ 2).
     pub fn new(width: usize) -> Self {
-        let stride = width.div_ceil(line::<i16>()) * line::<i16>();
+        // Rows padded to 64 columns, whole cache lines (the fused stage's AVX-512 kernel steps
+        // 64 columns at a time).
+        let stride = width.div_ceil(64) * 64;
         Sobel {
             width,
             input: Aligned::new(width, 0),
@@ -75,10 +77,15 @@ impl Sobel {
     }
 
     #[inline(always)]
-    pub(crate) fn accept_impl(&mut self) {
+    fn accept_impl(&mut self) {
+        self.accept_at(self.rows.input_slot() * self.stride);
+    }
+
+    /// The smooth and difference of the input row into the ring at offset `s`.
+    #[inline(always)]
+    pub(crate) fn accept_at(&mut self, s: usize) {
         let w = self.width;
         let row = &self.input;
-        let s = self.rows.input_slot() * self.stride;
         let sm = &mut self.smooth[s..s + w];
         let df = &mut self.diff[s..s + w];
         sm[0] = 3 * row[0] as i16 + row[1] as i16;
