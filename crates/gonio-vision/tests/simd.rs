@@ -5,8 +5,9 @@ use gonio_vision::blur_sobel::BlurSobel;
 use gonio_vision::fill::{EdgeFill, fill_pixel};
 use gonio_vision::gradient::GradRow;
 use gonio_vision::label::EdgePixel;
+use gonio_vision::pipeline::StageImages;
 use gonio_vision::reference::{self, Image};
-use gonio_vision::rows::{RowStage, StageObserver};
+use gonio_vision::rows::RowStage;
 use gonio_vision::segment::{FILLED, NONE, STRONG, SegmentParams, Segmenter, SparseEdgeRow, WEAK};
 use gonio_vision::simd::{Level, set_level, set_vbmi};
 use gonio_vision::{Detector, Optics};
@@ -205,26 +206,6 @@ fn filling_rows_with_and_without_avx512() {
     assert!(filled > 5_000, "only {filled} filled pixels compared");
 }
 
-/// The rows the fused blur + Sobel stage shows its observer.
-#[derive(Default)]
-struct Rows {
-    blurred: Vec<u8>,
-    gx: Vec<i16>,
-    gy: Vec<i16>,
-    mag: Vec<u16>,
-}
-
-impl StageObserver for Rows {
-    fn blurred(&mut self, row: &[u8]) {
-        self.blurred.extend_from_slice(row);
-    }
-    fn gradient(&mut self, row: &GradRow) {
-        self.gx.extend_from_slice(&row.gx);
-        self.gy.extend_from_slice(&row.gy);
-        self.mag.extend_from_slice(&row.mag);
-    }
-}
-
 /// The blur and the Sobel as one stage (the AVX-512 kernel: vertical sums, lane shifts for the
 /// horizontal taps, the Sobel from the blurred row in registers) at every level against the
 /// whole-frame reference: every width 2 … 70 and a few wide ones (every tail after the
@@ -253,7 +234,7 @@ fn blur_sobel_at_every_level() {
                 let mut stage = BlurSobel::new(width);
                 let mut g = GradRow::new(width);
                 for f in &frames {
-                    let mut obs = Rows::default();
+                    let mut obs = StageImages::default();
                     stage.reset();
                     for row in f.chunks_exact(width) {
                         stage.input().copy_from_slice(row);
