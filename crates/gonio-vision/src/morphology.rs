@@ -510,9 +510,10 @@ struct Chain {
 const PAD: usize = 32;
 
 /// Bytes of a padded row of `width` pixels: [`vbmi::PAD`] columns before column 0 and whole
-/// 64-column vectors plus 64 after it.
+/// 64-column vectors plus 128 after it (the class loop loads the 128 columns around a vector
+/// and the same shifted by one).
 fn padded_stride(width: usize) -> usize {
-    width.div_ceil(64) * 64 + 64
+    width.div_ceil(64) * 64 + 128
 }
 
 /// Streaming morphological closing (dilate, then erode) by a disk.
@@ -833,6 +834,28 @@ mod vbmi {
             }
             cls
         };
+        /// The first class position (|dy|, from the widest class up) whose class is not one
+        /// pixel wider than the next narrower one: the classes at |dy| < BASE are each made
+        /// from the next narrower by two loads of the row (r = 11: half widths 3, 5, 7 from
+        /// the pyramid, 8 … 11 by loads).
+        const BASE: usize = {
+            let hw = Self::HW;
+            let mut d = 0;
+            while d < R && hw[d] == hw[d + 1] {
+                d += 1;
+            }
+            while d < R {
+                let mut e = d + 1;
+                while e < R && hw[e] == hw[e + 1] {
+                    e += 1;
+                }
+                if hw[d] != hw[e] + 1 {
+                    break;
+                }
+                d = e;
+            }
+            d
+        };
     }
 
     /// Pyramid level (windows of 2^k) whose two windows cover a chord of half width h.
@@ -929,6 +952,13 @@ mod vbmi {
             $f(1);
             $f(0);
         };
+    }
+
+    /// Calls `f(d)` for d = 12, 11, … 0, the closure inlined (an `#[inline(always)]` closure
+    /// argument: in [`run`] the class and chain closures grew past the inliner's limit).
+    #[inline(always)]
+    fn down_each(mut f: impl FnMut(usize)) {
+        down!(f);
     }
 
     /// Loads a column vector's chain state (2r vectors from `$sb`) into new arrays `$t`
@@ -1029,7 +1059,10 @@ mod vbmi {
         let (hw, cls) = (Plan::<R>::HW, Plan::<R>::CLASS);
         let nvec = width.div_ceil(64);
         let zero = _mm512_setzero_si512();
-        let nc = cls[0] + 1;
+        // Classes at |dy| ≥ BASE are made here and kept in the scratch; the wider ones, each
+        // one pixel wider than the next narrower, are made in the chain from that one.
+        let base = Plan::<R>::BASE;
+        let nc = cls[base] + 1;
         for v in 0..nvec {
             let mask = store_mask(v, nvec, width);
             let sb = v * 2 * R * 64;
@@ -1039,41 +1072,58 @@ mod vbmi {
                     let sc = j * nc * 64;
                     let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
                     let mut lk = 0;
-                    let mut class = |d: usize| {
-                        if d > R || (d < R && hw[d] == hw[d + 1]) {
-                            return;
-                        }
-                        let h = hw[d];
-                        let k = level(h);
-                        while lk < k {
-                            let a = ext::<MAX>(la, shift2(la, lb, 1 << lk));
-                            let b = ext::<MAX>(lb, rot(lb, 1 << lk));
-                            (la, lb) = (a, b);
-                            lk += 1;
-                        }
-                        let x = shift2(la, lb, PAD - h);
-                        let y = shift2(la, lb, PAD + h + 1 - (1 << k));
-                        store(scratch, sc + cls[d] * 64, ext::<MAX>(x, y), !0);
-                    };
-                    down!(class);
+                    down_each(
+                        #[inline(always)]
+                        |d: usize| {
+                            if d > R || d < base || (d < R && hw[d] == hw[d + 1]) {
+                                return;
+                            }
+                            let h = hw[d];
+                            let k = level(h);
+                            while lk < k {
+                                if lk == 0 {
+                                    // Pairs from the row shifted by one column: loads, no permutes.
+                                    la = ext::<MAX>(la, load(row, v * 64 + 1));
+                                    lb = ext::<MAX>(lb, load(row, v * 64 + 65));
+                                } else {
+                                    let a = ext::<MAX>(la, shift2(la, lb, 1 << lk));
+                                    let b = ext::<MAX>(lb, rot(lb, 1 << lk));
+                                    (la, lb) = (a, b);
+                                }
+                                lk += 1;
+                            }
+                            let x = shift2(la, lb, PAD - h);
+                            let y = shift2(la, lb, PAD + h + 1 - (1 << k));
+                            store(scratch, sc + cls[d] * 64, ext::<MAX>(x, y), !0);
+                        },
+                    );
                 }
                 // The chain: T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
                 load_state!(R, state, sb, t, q);
-                for j in 0..rows.len() {
+                for (j, row) in rows.iter().enumerate() {
                     let sc = j * nc * 64;
+                    let x0 = v * 64 + PAD;
                     let mut g = zero;
                     let mut tprev = zero;
                     let mut o = zero;
-                    let mut step = |d: usize| {
-                        if d > R {
-                            return;
-                        }
-                        if d == R || hw[d] != hw[d + 1] {
-                            g = load(scratch, sc + cls[d] * 64);
-                        }
-                        chain_step!(R, MAX, d, g, t, q, tprev, o);
-                    };
-                    down!(step);
+                    down_each(
+                        #[inline(always)]
+                        |d: usize| {
+                            if d > R {
+                                return;
+                            }
+                            if d == R || hw[d] != hw[d + 1] {
+                                let h = hw[d];
+                                g = if d >= base {
+                                    load(scratch, sc + cls[d] * 64)
+                                } else {
+                                    // One wider than `g`: its two new columns from the row.
+                                    ext::<MAX>(g, ext::<MAX>(load(row, x0 - h), load(row, x0 + h)))
+                                };
+                            }
+                            chain_step!(R, MAX, d, g, t, q, tprev, o);
+                        },
+                    );
                     let i = c * CHUNK + j;
                     if i >= skip {
                         store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
