@@ -20,8 +20,9 @@
 //! [`crate::simd::vbmi`]) the closing and the opening of radius 1 … 12 run a second
 //! hand-written kernel, with intrinsics, because no loop the compiler vectorises makes byte
 //! shifts across vectors: per 64-column vector the chord classes are made in registers (the
-//! pyramid and both windows of each class by `vpermt2b` on the 128 columns around the vector),
-//! and the vertical union is a chain with 2r vectors of state per column vector, T_j(m) =
+//! pyramid and both windows of each class by `vpermt2b` on the 128 columns around the vector;
+//! a class one pixel wider than the next narrower one as that one ∨ the two new columns,
+//! loaded from the row), and the vertical union is a chain with 2r vectors of state per column vector, T_j(m) =
 //! G_j(m) ∨ T_{j+1}(m − 1) and R_j(m) = G_j(m) ∨ R_{j−1}(m − 1) (G_j the class of |dy| = j,
 //! T_r = G_r, R_0 = T_0; the row m − r is R_r(m)): 2r max operations per vector and row, as
 //! the direct union, but the state stays in zmm registers while 16 rows stream through one
@@ -765,10 +766,17 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
 /// (R_0 = T_0) give the operation's row m − r as R_r(m): 2r max operations per vector and row,
 /// and 2r vectors of state, which stay in registers while a batch of rows streams through one
 /// column vector. Nothing but the input, the output and the state touches memory. In the
-/// class loop ([`run`]) the shifts by a multiple of 4 bytes (the pyramid's 4 and 8, and the
-/// class windows at 24, 28 and 32 for r = 11: 7 of 22) are `valignd` with an immediate
+/// class loop ([`run`]) the shifts by a multiple of 4 bytes are `valignd` with an immediate
 /// instead of `vpermt2b` (same bits, ≈ 2 % faster on the top-hat); [`run_direct`] keeps the
 /// permutes (there the helper's `match` cost the inlining of the chain step).
+///
+/// For r = 11 the seven classes have half widths 3, 5, 7, 8, 9, 10, 11. [`run`] makes only
+/// 3, 5 and 7 from the pyramid (levels 1 … 3; level 1, the pairs, as the max of the row and
+/// the row loaded one column further, no permute) and keeps them in the scratch; 8 … 11 are
+/// each the next narrower one ∨ the row's columns x ± h (two loads, two max operations), made
+/// in the chain where they are used ([`Plan::BASE`]). Per 64-column vector and row that is
+/// 10 shuffles + 17 max operations for the classes instead of 22 + 15, and 3 class stores
+/// instead of 7 (the chain's 22 max operations are unchanged).
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod vbmi {
