@@ -969,6 +969,24 @@ mod vbmi {
         down!(f);
     }
 
+    /// Calls `f(d)` for d = 0, 1, … 12, the closure inlined.
+    #[inline(always)]
+    fn up_each(mut f: impl FnMut(usize)) {
+        f(0);
+        f(1);
+        f(2);
+        f(3);
+        f(4);
+        f(5);
+        f(6);
+        f(7);
+        f(8);
+        f(9);
+        f(10);
+        f(11);
+        f(12);
+    }
+
     /// Loads a column vector's chain state (2r vectors from `$sb`) into new arrays `$t`
     /// (T_1 … T_r) and `$q` (R_0 … R_{r−1}); [`run`] and [`run_direct`] share it (a macro,
     /// so the kernels' code stays exactly as written out).
@@ -1111,9 +1129,9 @@ mod vbmi {
                 for (j, row) in rows.iter().enumerate() {
                     let sc = j * nc * 64;
                     let x0 = v * 64 + PAD;
+                    // The classes of |dy| = 0 … r.
+                    let mut gs = [zero; MAX_RADIUS + 1];
                     let mut g = zero;
-                    let mut tprev = zero;
-                    let mut o = zero;
                     down_each(
                         #[inline(always)]
                         |d: usize| {
@@ -1129,9 +1147,30 @@ mod vbmi {
                                     ext::<MAX>(g, ext::<MAX>(load(row, x0 - h), load(row, x0 + h)))
                                 };
                             }
-                            chain_step!(R, MAX, d, g, t, q, tprev, o);
+                            gs[d] = g;
                         },
                     );
+                    // The chain, each state vector updated in place: R_d descending, then
+                    // T_d ascending (no register copies for the shift by one row).
+                    let o = ext::<MAX>(gs[R], q[R - 1]);
+                    down_each(
+                        #[inline(always)]
+                        |d: usize| {
+                            if d >= 1 && d < R {
+                                q[d] = ext::<MAX>(gs[d], q[d - 1]);
+                            }
+                        },
+                    );
+                    q[0] = ext::<MAX>(gs[0], t[0]);
+                    up_each(
+                        #[inline(always)]
+                        |d: usize| {
+                            if d >= 1 && d < R {
+                                t[d - 1] = ext::<MAX>(gs[d], t[d]);
+                            }
+                        },
+                    );
+                    t[R - 1] = gs[R];
                     let i = c * CHUNK + j;
                     if i >= skip {
                         store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
