@@ -776,7 +776,10 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
 /// each the next narrower one ∨ the row's columns x ± h (two loads, two max operations), made
 /// in the chain where they are used ([`Plan::BASE`]). Per 64-column vector and row that is
 /// 10 shuffles + 17 max operations for the classes instead of 22 + 15, and 3 class stores
-/// instead of 7 (the chain's 22 max operations are unchanged).
+/// instead of 7 (the chain's 22 max operations are unchanged). [`run`]'s chain updates every
+/// state vector in place (R_d for descending d, then T_d for ascending d, the row's classes
+/// held in registers), which spares the 11 register copies per row that the shared
+/// `chain_step!` (still used by [`run_direct`], whose state is small) made the compiler emit.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod vbmi {
