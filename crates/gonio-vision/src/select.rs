@@ -174,7 +174,6 @@ pub fn curve_with(c: &Component, height: usize, q_prior: Option<f64>) -> Option<
     }
     let (u, v, cc) = moments(c, height);
     let n = u[0];
-    let span = (c.max_row - c.min_row) as f64;
     // A line through the columns less q·u²: Σ(c − q u²) = v0 − q·u2, Σu(c − q u²) = v1 − q·u3,
     // Σ(c − q u²)² = cc − 2q·v2 + q²·u4.
     let line = |q: f64| {
@@ -188,7 +187,7 @@ pub fn curve_with(c: &Component, height: usize, q_prior: Option<f64>) -> Option<
         let a = (w0 - b * u[1]) / n;
         Some((a, b, q, ww, a * w0 + b * w1, 2.0))
     };
-    let fit = if span >= height as f64 / 2.0 && c.pos_n >= 4 {
+    let fit = if parabola(c, height) {
         match solve3(
             [[u[0], u[1], u[2]], [u[1], u[2], u[3]], [u[2], u[3], u[4]]],
             [v[0], v[1], v[2]],
@@ -211,79 +210,59 @@ pub fn curve_with(c: &Component, height: usize, q_prior: Option<f64>) -> Option<
     })
 }
 
-/// Interval sets up to this size are sorted in a stack buffer ([`union_len`], [`shared`]: they
-/// run for every pair of tracks, without allocation).
-const SMALL: usize = 16;
+/// True when [`curve_with`] fits `c` with a parabola (it spans at least half the window's rows,
+/// with four positioned pixels or more): its curvature prior is then not used.
+fn parabola(c: &Component, height: usize) -> bool {
+    (c.max_row - c.min_row) as f64 >= height as f64 / 2.0 && c.pos_n >= 4
+}
 
-/// Rows `[first, last]` covered by a set of intervals (overlaps counted once).
+/// The disjoint row intervals covered by intervals `[first, last]` given in order of their first
+/// rows (a track's fragments, top to bottom): overlapping and adjacent ones merged, in row order.
+/// One sweep, no sort.
+fn merged(iv: &[(u32, u32)]) -> impl Iterator<Item = (u32, u32)> + '_ {
+    let mut it = iv.iter().copied().peekable();
+    std::iter::from_fn(move || {
+        let (a, mut b) = it.next()?;
+        while let Some(&(a2, b2)) = it.peek() {
+            debug_assert!(a2 >= a, "intervals in order of their first rows");
+            if a2 > b + 1 {
+                break;
+            }
+            b = b.max(b2);
+            it.next();
+        }
+        Some((a, b))
+    })
+}
+
+/// Rows covered by intervals given in order of their first rows (overlaps counted once).
 fn union_len(iv: &[(u32, u32)]) -> u32 {
-    match iv.len() {
-        0 => 0,
-        1 => iv[0].1 - iv[0].0 + 1,
-        n if n <= SMALL => {
-            let mut buf = [(0u32, 0u32); SMALL];
-            buf[..n].copy_from_slice(iv);
-            union_len_sorting(&mut buf[..n])
-        }
-        _ => union_len_sorting(&mut iv.to_vec()),
-    }
+    merged(iv).map(|(a, b)| b - a + 1).sum()
 }
 
-/// [`union_len`] of intervals it may reorder.
-fn union_len_sorting(v: &mut [(u32, u32)]) -> u32 {
-    v.sort_unstable();
-    let mut total = 0;
-    let mut cur: Option<(u32, u32)> = None;
-    for &(a, b) in v.iter() {
-        match cur {
-            Some((ca, cb)) if a <= cb + 1 => cur = Some((ca, cb.max(b))),
-            Some((ca, cb)) => {
-                total += cb - ca + 1;
-                cur = Some((a, b));
-            }
-            None => cur = Some((a, b)),
-        }
-    }
-    if let Some((ca, cb)) = cur {
-        total += cb - ca + 1;
-    }
-    total
-}
-
-/// Rows covered by both interval sets, and the first and last of them (0, 0, 0 when none).
-/// The overlapping parts sorted in place: in a stack buffer up to [`SMALL`] of them.
+/// Rows covered by both of two sets of disjoint intervals in row order ([`merged`]), and the
+/// first and last of them (0, 0, 0 when none): one merge-like sweep. The same integers as the
+/// union of the pairwise overlaps of the unmerged intervals (a row lies in both unions exactly
+/// when it lies in an overlap of one interval of each).
 fn shared(a: &[(u32, u32)], b: &[(u32, u32)]) -> (u32, u32, u32) {
-    let mut buf = [(0u32, 0u32); SMALL];
-    let mut spill: Vec<(u32, u32)> = Vec::new();
-    let mut n = 0;
-    let (mut first, mut last) = (u32::MAX, 0u32);
-    for &(a0, a1) in a {
-        for &(b0, b1) in b {
-            let (lo, hi) = (a0.max(b0), a1.min(b1));
-            if lo <= hi {
-                first = first.min(lo);
-                last = last.max(hi);
-                if n < SMALL {
-                    buf[n] = (lo, hi);
-                } else {
-                    if n == SMALL {
-                        spill.extend_from_slice(&buf);
-                    }
-                    spill.push((lo, hi));
-                }
-                n += 1;
+    let (mut i, mut j) = (0, 0);
+    let (mut n, mut first, mut last) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        let (lo, hi) = (a[i].0.max(b[j].0), a[i].1.min(b[j].1));
+        if lo <= hi {
+            if n == 0 {
+                first = lo;
             }
+            n += hi - lo + 1;
+            last = hi;
+        }
+        if a[i].1 < b[j].1 {
+            i += 1;
+        } else {
+            j += 1;
         }
     }
-    if n == 0 {
-        return (0, 0, 0);
-    }
-    let parts = if n <= SMALL {
-        &mut buf[..n]
-    } else {
-        &mut spill[..]
-    };
-    (union_len_sorting(parts), first, last)
+    (n, first, last)
 }
 
 /// One edge of the window seen as a ring edge: linked fragments with their summed statistics.
@@ -305,24 +284,26 @@ pub struct Track {
     pub strong_share: f64,
 }
 
-impl Track {
-    fn new(comp: Component, polarity: i8, height: usize, q: Option<f64>) -> Option<Track> {
-        Some(Track::with_curve(
-            comp,
-            polarity,
-            curve_with(&comp, height, q)?,
-        ))
-    }
+/// A fragment of an edge: a clean candidate component, or a smooth piece of one, of one
+/// polarity, with its curve (`curve_with` with the frame's curvature). Tracks start from
+/// fragments and absorb them; only the tracks are [`Track`]s (no row list per fragment).
+#[derive(Debug, Clone, Copy)]
+struct Frag {
+    comp: Component,
+    polarity: i8,
+    curve: Curve,
+}
 
-    /// A one-fragment track whose curve (`curve_with` of `comp` with the frame's curvature) is
-    /// already known.
-    fn with_curve(comp: Component, polarity: i8, curve: Curve) -> Track {
+impl Track {
+    /// A track of one fragment.
+    fn start(f: &Frag) -> Track {
+        let comp = f.comp;
         let mut t = Track {
             comp,
             rows: vec![(comp.min_row, comp.max_row)],
             coverage: comp.row_span(),
-            polarity,
-            curve,
+            polarity: f.polarity,
+            curve: f.curve,
             gradient: 0.0,
             strong_share: 0.0,
         };
@@ -335,13 +316,15 @@ impl Track {
         self.strong_share = self.comp.strong as f64 / self.comp.pixels.max(1) as f64;
     }
 
-    fn absorb(&mut self, f: &Track, height: usize, q: Option<f64>) {
+    /// Adds a fragment that starts no higher than the track's fragments (they come top to
+    /// bottom: `rows` stays in order of first rows, see [`merged`]).
+    fn absorb(&mut self, f: &Frag, height: usize, q: Option<f64>) {
         let mut c = self.comp;
         c.merge(&f.comp);
         if let Some(cv) = curve_with(&c, height, q) {
             self.comp = c;
             self.curve = cv;
-            self.rows.extend_from_slice(&f.rows);
+            self.rows.push((f.comp.min_row, f.comp.max_row));
             self.coverage = union_len(&self.rows);
             self.update_stats();
         }
@@ -350,6 +333,11 @@ impl Track {
     /// Last row covered.
     fn last_row(&self) -> u32 {
         self.rows.iter().map(|r| r.1).max().unwrap_or(0)
+    }
+
+    /// Mean row of the positioned pixels.
+    fn mean_row(&self) -> f64 {
+        self.comp.sum_row as f64 / self.comp.pos_n.max(1) as f64
     }
 }
 
@@ -406,9 +394,11 @@ fn ransac(
             continue;
         }
         let (r0, c0) = (rows[ia], cols[ia]);
+        // A line must beat the best so far: counting stops once it no longer can.
+        let need = best.map_or(0, |b| b.0 + 1);
         let inl = crate::simd::dispatch(
             #[inline(always)]
-            || inliers(rows, cols, r0, c0, slope, gate),
+            || inliers(rows, cols, r0, c0, slope, gate, need),
         );
         if best.is_none_or(|b| inl > b.0) {
             best = Some((inl, r0, c0, slope));
@@ -418,13 +408,33 @@ fn ransac(
 }
 
 /// Pixels within `gate` of the line through (r0, c0) with `slope` (vectorised: exact f64
-/// arithmetic, no contraction, so every code path counts the same).
+/// arithmetic, no contraction, so every code path counts the same), counted 64 at a time; the
+/// count stops early, below `need`, once even every pixel left could not bring it to `need`
+/// (the caller only wants lines with at least `need`).
 #[inline(always)]
-fn inliers(rows: &[f64], cols: &[f64], r0: f64, c0: f64, slope: f64, gate: f64) -> usize {
-    rows.iter()
-        .zip(cols)
-        .map(|(&r, &c)| ((c - c0 - slope * (r - r0)).abs() <= gate) as usize)
-        .sum()
+fn inliers(
+    rows: &[f64],
+    cols: &[f64],
+    r0: f64,
+    c0: f64,
+    slope: f64,
+    gate: f64,
+    need: usize,
+) -> usize {
+    const CHUNK: usize = 64;
+    let (mut n, mut left) = (0, rows.len());
+    for (rs, cs) in rows.chunks(CHUNK).zip(cols.chunks(CHUNK)) {
+        n += rs
+            .iter()
+            .zip(cs)
+            .map(|(&r, &c)| ((c - c0 - slope * (r - r0)).abs() <= gate) as usize)
+            .sum::<usize>();
+        left -= rs.len();
+        if n + left < need {
+            break;
+        }
+    }
+    n
 }
 
 /// The smooth pieces of a set of same-polarity pixels, strongest first: a deterministic RANSAC
@@ -432,7 +442,12 @@ fn inliers(rows: &[f64], cols: &[f64], r0: f64, c0: f64, slope: f64, gate: f64) 
 /// inliers within 1.5 px; slope within the baseline filter's tolerance), its pixels within
 /// 1.5 px, then a curve re-fitted to those within 1 px of it, twice. Pieces spanning fewer than
 /// `min_fragment_rows` rows end the search.
-fn split(s: &mut Scratch, p: &Params, q: Option<f64>, out: &mut Vec<Component>) {
+///
+/// Each piece comes with its curve (`curve_with` with `q`) when the re-fits reached it (the last
+/// re-fit kept the same pixels), else `None`. A re-fit that keeps the same pixels as the one
+/// before ends the re-fits: the same pixels give the same sums and the same curve, so the
+/// remaining one would change nothing (no component summed twice).
+fn split(s: &mut Scratch, p: &Params, q: Option<f64>, out: &mut Vec<(Component, Option<Curve>)>) {
     let (h, w) = (p.height, p.width);
     let qq = q.unwrap_or(0.0);
     // Columns less the frame's curvature: a concentric edge is straight in these.
@@ -461,22 +476,30 @@ fn split(s: &mut Scratch, p: &Params, q: Option<f64>, out: &mut Vec<Component>) 
         std::mem::swap(&mut s.part, &mut s.rest);
         s.piece.clear();
         s.piece.extend_from_slice(&s.taken);
+        // `c` is always the sums of `s.piece`; `known` its curve once fitted.
+        let mut c = component_of(&s.piece, w);
+        let mut known = None;
         for _ in 0..2 {
-            let Some(cv) = curve_with(&component_of(&s.piece, w), h, q) else {
+            let Some(cv) = curve_with(&c, h, q) else {
                 break;
             };
-            s.piece.clear();
-            s.piece.extend(
+            s.next.clear();
+            s.next.extend(
                 s.taken
                     .iter()
                     .filter(|e| (col_px(e) - cv.at(e.row as f64, h)).abs() <= 1.0),
             );
+            if s.next == s.piece {
+                known = Some(cv);
+                break;
+            }
+            std::mem::swap(&mut s.piece, &mut s.next);
+            c = component_of(&s.piece, w);
         }
-        let c = component_of(&s.piece, w);
         if c.pixels == 0 || c.row_span() < p.min_fragment_rows {
             break;
         }
-        out.push(c);
+        out.push((c, known));
     }
 }
 
@@ -491,6 +514,9 @@ struct Scratch {
     rest: Vec<EdgePixel>,
     taken: Vec<EdgePixel>,
     piece: Vec<EdgePixel>,
+    next: Vec<EdgePixel>,
+    /// The long candidates' curves fitted for the frame's curvature, by sorted candidate.
+    fitted: Vec<Option<Curve>>,
     /// RANSAC's rows and reduced columns.
     rows: Vec<f64>,
     cols: Vec<f64>,
@@ -502,33 +528,54 @@ struct Scratch {
 /// frame's curvature (px per u²) is the median of the clean fragments spanning half the window
 /// or more (`None` without one): every edge in the window is concentric with the ring, and a
 /// shorter piece bends with it.
+///
+/// Each curve is fitted once: a component fitted with a parabola for the frame's curvature
+/// ([`parabola`]: the curvature prior is not used) keeps that curve for its cleanliness test,
+/// and a clean fragment or a converged piece keeps the curve it was tested with.
 fn fragments(
     cands: &[Component],
     edges: &mut EdgeList,
     p: &Params,
     s: &mut Scratch,
-) -> (Vec<Track>, Option<f64>) {
+) -> (Vec<Frag>, Option<f64>) {
     let h = p.height;
     let mut sorted: Vec<&Component> = cands
         .iter()
         .filter(|c| c.row_span() >= p.min_fragment_rows)
         .collect();
     sorted.sort_by_key(|c| c.first_index);
-    let mut qs: Vec<f64> = sorted
-        .iter()
-        .filter(|c| 2 * c.row_span() as usize > h && polarity(c).is_some())
-        .filter_map(|c| curve(c, h))
-        .filter(|cv| cv.rms_px <= p.max_fragment_rms_px)
-        .map(|cv| cv.q)
-        .collect();
+    s.fitted.clear();
+    let mut qs: Vec<f64> = Vec::new();
+    for c in &sorted {
+        let mut fitted = None;
+        if 2 * c.row_span() as usize > h && polarity(c).is_some() {
+            let cv = curve(c, h);
+            if let Some(cv) = cv.filter(|cv| cv.rms_px <= p.max_fragment_rms_px) {
+                qs.push(cv.q);
+            }
+            if parabola(c, h) {
+                fitted = cv;
+            }
+        }
+        s.fitted.push(fitted);
+    }
     let q = (!qs.is_empty()).then(|| median(&mut qs));
     let mut out = Vec::with_capacity(sorted.len());
     let mut pieces = Vec::new();
-    for c in sorted {
-        let clean = curve_with(c, h, q).filter(|cv| cv.rms_px <= p.max_fragment_rms_px);
-        // A clean fragment's track has the curve just fitted (the same `curve_with`).
+    for (k, c) in sorted.into_iter().enumerate() {
+        // `curve_with(c, h, q)`: for a parabola the curve already fitted without the prior.
+        let cv = match s.fitted[k] {
+            Some(cv) => Some(cv),
+            None => curve_with(c, h, q),
+        };
+        let clean = cv.filter(|cv| cv.rms_px <= p.max_fragment_rms_px);
+        // A clean fragment keeps the curve just fitted (the same `curve_with`).
         if let (Some(pol), Some(cv)) = (polarity(c), clean) {
-            out.push(Track::with_curve(*c, pol, cv));
+            out.push(Frag {
+                comp: *c,
+                polarity: pol,
+                curve: cv,
+            });
             continue;
         }
         edges.component_pixels_into(c, &mut s.comp);
@@ -538,50 +585,98 @@ fn fragments(
                 .extend(s.comp.iter().filter(|e| e.rising() == rising).copied());
             pieces.clear();
             split(s, p, q, &mut pieces);
-            for &piece in &pieces {
-                out.extend(Track::new(piece, if rising { 1 } else { -1 }, h, q));
+            for &(comp, known) in &pieces {
+                let polarity = if rising { 1 } else { -1 };
+                out.extend(known.or_else(|| curve_with(&comp, h, q)).map(|curve| Frag {
+                    comp,
+                    polarity,
+                    curve,
+                }));
             }
         }
     }
     (out, q)
 }
 
-/// The pixels of one polarity within `gate` px of a curve, row by row (rows marked in `skip`
-/// left out), appended to `px`; `pos[y]` gets their mean column on row y (NaN: none).
+/// `v.partition_point(pred)` for a predicate true on a prefix of `v` (columns sorted), looked
+/// for from `hint` (the boundary on a neighbouring curve): a few steps when it lies near, a
+/// binary search of the rest when not. The same index for any hint.
+fn partition_near<T>(v: &[T], hint: usize, pred: impl Fn(&T) -> bool) -> usize {
+    const WALK: usize = 6;
+    if hint == 0 {
+        return v.partition_point(pred);
+    }
+    let mut k = hint.min(v.len());
+    if k > 0 && !pred(&v[k - 1]) {
+        // The boundary is at or before k − 1.
+        for _ in 0..WALK {
+            k -= 1;
+            if k == 0 || pred(&v[k - 1]) {
+                return k;
+            }
+        }
+        v[..k].partition_point(pred)
+    } else {
+        // Every element before k satisfies the predicate.
+        for _ in 0..WALK {
+            if k == v.len() || !pred(&v[k]) {
+                return k;
+            }
+            k += 1;
+        }
+        k + v[k..].partition_point(pred)
+    }
+}
+
+/// The pixels of one polarity within `gate` px of column `c` in one row (sorted by column),
+/// appended to `px`; returns where the search started (the first pixel left of c − gate − 1
+/// excluded), for the next search in this row.
+fn gather_row(
+    row: &[EdgePixel],
+    hint: usize,
+    c: f64,
+    rising: bool,
+    gate: f64,
+    px: &mut Vec<EdgePixel>,
+) -> usize {
+    let lo = partition_near(row, hint, |q| (q.col as f64) < c - gate - 1.0);
+    for q in &row[lo..] {
+        let x = q.col32() as f64 / 32.0;
+        if x > c + gate {
+            break;
+        }
+        if q.rising() == rising && (x - c).abs() <= gate {
+            px.push(*q);
+        }
+    }
+    lo
+}
+
+/// The rising pixels within `gate` px of the left curve and the falling ones within `gate` px
+/// of the right curve, row by row (rows marked in `skip` left out), appended to `lpx` and
+/// `rpx`; `hints[y]` gets where row y's search for the left edge started. One pass over the
+/// rows: the right edge's search in a row starts from the left edge's.
 #[allow(clippy::too_many_arguments)]
 fn gather(
-    cv: &Curve,
-    rising: bool,
+    left: &Curve,
+    right: &Curve,
     gate: f64,
     edges: &EdgeRows,
     skip: &[bool],
     h: usize,
-    px: &mut Vec<EdgePixel>,
-    pos: &mut [f64],
+    lpx: &mut Vec<EdgePixel>,
+    rpx: &mut Vec<EdgePixel>,
+    hints: &mut [u32],
 ) {
     for y in 0..h {
-        pos[y] = f64::NAN;
+        hints[y] = 0;
         if skip[y] {
             continue;
         }
         let row = edges.row(y);
-        let c = cv.at(y as f64, h);
-        let lo = row.partition_point(|q| (q.col as f64) < c - gate - 1.0);
-        let (mut n, mut sum) = (0, 0.0);
-        for q in &row[lo..] {
-            let x = q.col32() as f64 / 32.0;
-            if x > c + gate {
-                break;
-            }
-            if q.rising() == rising && (x - c).abs() <= gate {
-                px.push(*q);
-                n += 1;
-                sum += x;
-            }
-        }
-        if n > 0 {
-            pos[y] = sum / n as f64;
-        }
+        let lo = gather_row(row, 0, left.at(y as f64, h), true, gate, lpx);
+        gather_row(row, lo, right.at(y as f64, h), false, gate, rpx);
+        hints[y] = lo as u32;
     }
 }
 
@@ -770,11 +865,13 @@ fn row_means(px: &[EdgePixel], h: usize, mean: &mut Vec<f64>, n: &mut Vec<u32>) 
 #[derive(Debug, Default)]
 struct RefitScratch {
     skip: Vec<bool>,
-    pos: Vec<f64>,
+    hints: Vec<u32>,
     lpx: Vec<EdgePixel>,
     rpx: Vec<EdgePixel>,
     lk: Vec<EdgePixel>,
     rk: Vec<EdgePixel>,
+    lnext: Vec<EdgePixel>,
+    rnext: Vec<EdgePixel>,
     rows: Vec<f64>,
     cols: Vec<f64>,
     ml: Vec<f64>,
@@ -857,13 +954,20 @@ fn refit_pair_with(
     skip.extend_from_slice(skip_in);
     skip.resize(h, false);
     // 1. Gather.
-    s.pos.clear();
-    s.pos.resize(h, f64::NAN);
+    s.hints.clear();
+    s.hints.resize(h, 0);
     s.lpx.clear();
     s.rpx.clear();
-    gather(&l.curve, true, 1.5, &edges, skip, h, &mut s.lpx, &mut s.pos);
     gather(
-        &r.curve, false, 1.5, &edges, skip, h, &mut s.rpx, &mut s.pos,
+        &l.curve,
+        &r.curve,
+        1.5,
+        &edges,
+        skip,
+        h,
+        &mut s.lpx,
+        &mut s.rpx,
+        &mut s.hints,
     );
     let col = |e: &EdgePixel| e.col32() as f64 / 32.0;
     // 2. Clean majorities, then the joint parallel curves.
@@ -893,14 +997,26 @@ fn refit_pair_with(
             q_fixed,
         )
     };
+    // `fit`: the free joint fit of `lk`, `rk` as they stand, when known. A step that keeps
+    // every pixel keeps it (the same pixels give the same sums and the same fit).
+    let mut fit: Option<PairFit> = None;
+    let (ln, rn) = (&mut s.lnext, &mut s.rnext);
     for _ in 0..2 {
-        let f = fit_of(lk, rk, None)?;
+        let f = match fit.take() {
+            Some(f) => f,
+            None => fit_of(lk, rk, None)?,
+        };
         let near =
             |e: &EdgePixel, right: bool| (col(e) - f.at(right, e.row as f64, h)).abs() <= 0.75;
-        lk.clear();
-        lk.extend(lpx.iter().filter(|e| near(e, false)));
-        rk.clear();
-        rk.extend(rpx.iter().filter(|e| near(e, true)));
+        ln.clear();
+        ln.extend(lpx.iter().filter(|e| near(e, false)));
+        rn.clear();
+        rn.extend(rpx.iter().filter(|e| near(e, true)));
+        if ln == lk && rn == rk {
+            fit = Some(f);
+        }
+        std::mem::swap(lk, ln);
+        std::mem::swap(rk, rn);
     }
     // 3. Rows where the ring is not its own width.
     let (ml, mr) = (&mut s.ml, &mut s.mr);
@@ -925,10 +1041,17 @@ fn refit_pair_with(
             skip[y] = true;
         }
     }
+    let kept = (lk.len(), rk.len());
     lk.retain(|e| !skip[e.row as usize]);
     rk.retain(|e| !skip[e.row as usize]);
+    if kept != (lk.len(), rk.len()) {
+        fit = None;
+    }
     // 4. Rows where another edge is close enough to pull a ring edge.
-    let f = fit_of(lk, rk, None)?;
+    let f = match fit {
+        Some(f) => f,
+        None => fit_of(lk, rk, None)?,
+    };
     let g = |c: &Component| c.sum_mag as f64 / c.pos_n.max(1) as f64;
     let (gl, gr) = (g(&f.left), g(&f.right));
     let (near_l, near_r) = (&mut s.near_l, &mut s.near_r);
@@ -941,7 +1064,9 @@ fn refit_pair_with(
         let (xl, xr) = (f.at(false, y as f64, h), f.at(true, y as f64, h));
         let half = 0.5 * (xr - xl);
         let row = edges.row(y);
-        let lo = row.partition_point(|e| (e.col as f64) < xl - reach - 1.0);
+        let lo = partition_near(row, s.hints[y] as usize, |e| {
+            (e.col as f64) < xl - reach - 1.0
+        });
         for e in &row[lo..] {
             let x = col(e);
             if x > xr + reach {
@@ -957,6 +1082,7 @@ fn refit_pair_with(
             }
         }
     }
+    let kept = (lk.len(), rk.len());
     lk.retain(|e| !near_l[e.row as usize]);
     rk.retain(|e| !near_r[e.row as usize]);
     // 5. The fit, with the ring's own curvature: a circle of the optics' radius whose tangent
@@ -964,7 +1090,11 @@ fn refit_pair_with(
     // fit, else from the frame's concentric edges). A free curvature would have to be pinned
     // by the data, and with rows missing at one end the extrapolated mean would follow its
     // error; with every row present c does not depend on it.
-    let free = fit_of(lk, rk, None)?;
+    let free = if kept == (lk.len(), rk.len()) {
+        f
+    } else {
+        fit_of(lk, rk, None)?
+    };
     let slope = 2.0 * free.b;
     let q_mag = (1.0 + slope * slope).powf(1.5) / (8.0 * p.ring_radius_px);
     let sign = if (free.q.abs() - q_mag).abs() <= 0.5 * q_mag {
@@ -1017,14 +1147,16 @@ fn width_change(ml: &[f64], mr: &[f64], h: usize) -> f64 {
     };
     // Extremes of b·u + q·u² on [−1, 1]: the ends and the vertex.
     let f = |u: f64| b * u + q * u * u;
-    let mut vals = vec![f(-1.0), f(1.0)];
+    let mut vals = [f(-1.0), f(1.0), 0.0];
+    let mut n = 2;
     if q != 0.0 {
         let uv = -b / (2.0 * q);
         if uv.abs() <= 1.0 {
-            vals.push(f(uv));
+            vals[2] = f(uv);
+            n = 3;
         }
     }
-    let (lo, hi) = vals
+    let (lo, hi) = vals[..n]
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, z), &x| (a.min(x), z.max(x)));
     hi - lo
@@ -1043,7 +1175,7 @@ fn tracks_with(
     s: &mut Scratch,
 ) -> (Vec<Track>, Option<f64>) {
     let h = p.height;
-    let (mut frags, q) = fragments(cands, edges, p, s);
+    let (frags, q) = fragments(cands, edges, p, s);
     // Without the frame's curvature, pieces are straight: allow for the ring's own bending
     // (1/radius) over the distance a piece is extrapolated.
     let bend = if q.is_some() {
@@ -1051,16 +1183,23 @@ fn tracks_with(
     } else {
         0.5 / p.ring_radius_px
     };
-    // Top to bottom, ties by the unique first pixel: the same order whatever the input order.
-    frags.sort_by_key(|t| (t.comp.min_row, t.comp.first_index));
+    // Top to bottom, ties by the unique first pixel: the same order whatever the input order
+    // (a stable sort of indices: the fragments themselves are not moved).
+    let mut order: Vec<u32> = (0..frags.len() as u32).collect();
+    order.sort_by_key(|&k| {
+        let c = &frags[k as usize].comp;
+        (c.min_row, c.first_index)
+    });
     let mut out: Vec<Track> = Vec::with_capacity(frags.len());
-    // Each track's polarity and last row, side by side: the scan below rejects most tracks on
-    // these two alone, without touching the tracks themselves.
-    let mut meta: Vec<(i8, u32)> = Vec::with_capacity(frags.len());
-    for f in frags {
+    // Each track's polarity, last row and mean row, side by side: the scan below rejects most
+    // tracks on the first two alone, without touching the tracks themselves.
+    let mut meta: Vec<(i8, u32, f64)> = Vec::with_capacity(frags.len());
+    for &k in &order {
+        let f = &frags[k as usize];
         let f_first = f.comp.min_row as f64;
+        let f_mean = f.comp.sum_row as f64 / f.comp.pos_n.max(1) as f64;
         let mut best: Option<(usize, f64)> = None;
-        for (i, &(pol, last)) in meta.iter().enumerate() {
+        for (i, &(pol, last, t_mean)) in meta.iter().enumerate() {
             if pol != f.polarity || last > f.comp.min_row + 12 {
                 continue;
             }
@@ -1069,8 +1208,7 @@ fn tracks_with(
             // fragment continued up to the track's last row.
             let t_last = last as f64;
             let gap = (f_first - t_last).max(0.0);
-            let reach = (f_first - t.comp.sum_row as f64 / t.comp.pos_n.max(1) as f64)
-                .max(f.comp.sum_row as f64 / f.comp.pos_n.max(1) as f64 - t_last);
+            let reach = (f_first - t_mean).max(f_mean - t_last);
             let tol = 1.5 + 0.01 * gap + bend * reach * reach;
             let d1 = (t.curve.at(f_first, h) - f.curve.at(f_first, h)).abs();
             let d2 = (t.curve.at(t_last, h) - f.curve.at(t_last, h)).abs();
@@ -1081,12 +1219,14 @@ fn tracks_with(
         }
         match best {
             Some((i, _)) => {
-                out[i].absorb(&f, h, q);
-                meta[i].1 = out[i].last_row();
+                let t = &mut out[i];
+                t.absorb(f, h, q);
+                meta[i] = (t.polarity, t.last_row(), t.mean_row());
             }
             None => {
-                meta.push((f.polarity, f.last_row()));
-                out.push(f);
+                let t = Track::start(f);
+                meta.push((t.polarity, t.last_row(), t.mean_row()));
+                out.push(t);
             }
         }
     }
@@ -1165,6 +1305,16 @@ pub fn select(
     let h = p.height;
     let mut scratch = Scratch::default();
     let (tracks, q_frame) = tracks_with(cands, edges, p, &mut scratch);
+    // Each track's rows as disjoint intervals in row order (`spans[span_of[k].0..span_of[k].1]`),
+    // once: every pair and the interior check intersect them without sorting.
+    let mut spans: Vec<(u32, u32)> = Vec::new();
+    let mut span_of: Vec<(usize, usize)> = Vec::with_capacity(tracks.len());
+    for t in &tracks {
+        let a = spans.len();
+        spans.extend(merged(&t.rows));
+        span_of.push((a, spans.len()));
+    }
+    let rows_of = |k: usize| &spans[span_of[k].0..span_of[k].1];
     let mut refit_scratch = RefitScratch::default();
     let mut skip: Vec<bool> = Vec::new();
     let long: Vec<usize> = (0..tracks.len())
@@ -1196,7 +1346,7 @@ pub fn select(
                 continue;
             }
             // Coarse: the tracks as linked (their curves may still carry a crossing's pull).
-            let (n, first, last) = shared(&l.rows, &r.rows);
+            let (n, first, last) = shared(rows_of(i), rows_of(j));
             if 2 * (n as usize) < p.min_edge_pixels {
                 continue;
             }
@@ -1314,7 +1464,7 @@ pub fn select(
             if k == c.left || k == c.right || t.gradient < p.interior_fraction * c.gradient {
                 return false;
             }
-            let (n, first, last) = shared(&t.rows, &lrows);
+            let (n, first, last) = shared(rows_of(k), &lrows);
             if (n as f64) < 0.3 * c.shared_rows as f64 {
                 return false;
             }
