@@ -380,13 +380,34 @@ fn ransac(
     cols.clear();
     cols.extend(px.iter().map(col));
     let (rows, cols) = (&rows[..], &cols[..]);
+    let min_rows = p.min_fragment_rows as f64;
+    // The tries and their counts under one dispatch (not one per try).
+    crate::simd::dispatch(
+        #[inline(always)]
+        || best_line(rows, cols, min_rows, tan, gate),
+    )
+}
+
+/// RANSAC's tries ([`ransac`]) over the pixels' rows and reduced columns: (row, reduced column,
+/// slope) of the first line with most pixels within `gate`; `None` without a pair of pixels
+/// `min_rows` rows apart within the slope tolerance `tan`.
+#[inline(always)]
+fn best_line(
+    rows: &[f64],
+    cols: &[f64],
+    min_rows: f64,
+    tan: f64,
+    gate: f64,
+) -> Option<(f64, f64, f64)> {
+    let n = rows.len();
+    let half = n / 2;
     let mut best: Option<(usize, f64, f64, f64)> = None;
     const TRIES: usize = 48;
     for k in 0..TRIES {
         let ia = k * half / TRIES;
         let ib = half + ((k * 37) % TRIES) * (n - half) / TRIES;
         let dr = rows[ib] - rows[ia];
-        if dr < p.min_fragment_rows as f64 {
+        if dr < min_rows {
             continue;
         }
         let slope = (cols[ib] - cols[ia]) / dr;
@@ -396,10 +417,7 @@ fn ransac(
         let (r0, c0) = (rows[ia], cols[ia]);
         // A line must beat the best so far: counting stops once it no longer can.
         let need = best.map_or(0, |b| b.0 + 1);
-        let inl = crate::simd::dispatch(
-            #[inline(always)]
-            || inliers(rows, cols, r0, c0, slope, gate, need),
-        );
+        let inl = inliers(rows, cols, r0, c0, slope, gate, need);
         if best.is_none_or(|b| inl > b.0) {
             best = Some((inl, r0, c0, slope));
         }
@@ -599,13 +617,12 @@ fn fragments(
 }
 
 /// `v.partition_point(pred)` for a predicate true on a prefix of `v` (columns sorted), looked
-/// for from `hint` (the boundary on a neighbouring curve): a few steps when it lies near, a
-/// binary search of the rest when not. The same index for any hint.
+/// for from `hint` (0, or the boundary on a neighbouring curve): a linear walk when it lies
+/// near (a row holds ≈ 30 pixels on the `dense` frame: a walk streams through them, where a
+/// binary search waits on one dependent load after another), a binary search of the rest when
+/// not. The same index for any hint.
 fn partition_near<T>(v: &[T], hint: usize, pred: impl Fn(&T) -> bool) -> usize {
-    const WALK: usize = 6;
-    if hint == 0 {
-        return v.partition_point(pred);
-    }
+    const WALK: usize = 32;
     let mut k = hint.min(v.len());
     if k > 0 && !pred(&v[k - 1]) {
         // The boundary is at or before k − 1.
@@ -975,36 +992,16 @@ fn refit_pair_with(
     let (lk, rk) = (&mut s.lk, &mut s.rk);
     clean_majority(lpx, l, q_frame, p, &mut s.rows, &mut s.cols, lk);
     clean_majority(rpx, r, q_frame, p, &mut s.rows, &mut s.cols, rk);
-    let fit_comps = |lc: Component, rc: Component, q_fixed: Option<f64>| -> Option<PairFit> {
-        let (a_left, a_right, b, q, c_sigma_px) = joint_fit(&lc, &rc, h, q_fixed)?;
-        Some(PairFit {
-            left: lc,
-            right: rc,
-            left_rows: Vec::new(),
-            right_rows: Vec::new(),
-            a_left,
-            a_right,
-            b,
-            q,
-            c_sigma_px,
-            width_change_px: 0.0,
-        })
-    };
-    let fit_of = |lk: &[EdgePixel], rk: &[EdgePixel], q_fixed: Option<f64>| {
-        fit_comps(
-            component_of(lk, p.width),
-            component_of(rk, p.width),
-            q_fixed,
-        )
-    };
-    // `fit`: the free joint fit of `lk`, `rk` as they stand, when known. A step that keeps
-    // every pixel keeps it (the same pixels give the same sums and the same fit).
+    // The sums of `lk` and `rk` as they stand and their free joint fit, when known: a step
+    // that keeps every pixel of an edge keeps that edge's sums (the same pixels give the same
+    // sums), and one that keeps both keeps the fit (the same sums give the same fit).
+    let (mut lsum, mut rsum): (Option<Component>, Option<Component>) = (None, None);
     let mut fit: Option<PairFit> = None;
     let (ln, rn) = (&mut s.lnext, &mut s.rnext);
     for _ in 0..2 {
         let f = match fit.take() {
             Some(f) => f,
-            None => fit_of(lk, rk, None)?,
+            None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, p.width)?,
         };
         let near =
             |e: &EdgePixel, right: bool| (col(e) - f.at(right, e.row as f64, h)).abs() <= 0.75;
@@ -1012,7 +1009,14 @@ fn refit_pair_with(
         ln.extend(lpx.iter().filter(|e| near(e, false)));
         rn.clear();
         rn.extend(rpx.iter().filter(|e| near(e, true)));
-        if ln == lk && rn == rk {
+        let (l_same, r_same) = (ln == lk, rn == rk);
+        if !l_same {
+            lsum = None;
+        }
+        if !r_same {
+            rsum = None;
+        }
+        if l_same && r_same {
             fit = Some(f);
         }
         std::mem::swap(lk, ln);
@@ -1044,13 +1048,11 @@ fn refit_pair_with(
     let kept = (lk.len(), rk.len());
     lk.retain(|e| !skip[e.row as usize]);
     rk.retain(|e| !skip[e.row as usize]);
-    if kept != (lk.len(), rk.len()) {
-        fit = None;
-    }
+    dropped(kept, lk, rk, &mut lsum, &mut rsum, &mut fit);
     // 4. Rows where another edge is close enough to pull a ring edge.
     let f = match fit {
         Some(f) => f,
-        None => fit_of(lk, rk, None)?,
+        None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, p.width)?,
     };
     let g = |c: &Component| c.sum_mag as f64 / c.pos_n.max(1) as f64;
     let (gl, gr) = (g(&f.left), g(&f.right));
@@ -1090,10 +1092,11 @@ fn refit_pair_with(
     // fit, else from the frame's concentric edges). A free curvature would have to be pinned
     // by the data, and with rows missing at one end the extrapolated mean would follow its
     // error; with every row present c does not depend on it.
-    let free = if kept == (lk.len(), rk.len()) {
-        f
-    } else {
-        fit_of(lk, rk, None)?
+    let mut fit = Some(f);
+    dropped(kept, lk, rk, &mut lsum, &mut rsum, &mut fit);
+    let free = match fit {
+        Some(f) => f,
+        None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, p.width)?,
     };
     let slope = 2.0 * free.b;
     let q_mag = (1.0 + slope * slope).powf(1.5) / (8.0 * p.ring_radius_px);
@@ -1104,7 +1107,7 @@ fn refit_pair_with(
     };
     let mut f = match sign {
         // The same pixels as the free fit's: its sums.
-        Some(sg) => fit_comps(free.left, free.right, Some(sg * q_mag))?,
+        Some(sg) => fit_sums(free.left, free.right, h, Some(sg * q_mag))?,
         None => free,
     };
     if f.left.row_span() < p.min_fragment_rows || f.right.row_span() < p.min_fragment_rows {
@@ -1123,6 +1126,59 @@ fn refit_pair_with(
     row_means(rk, h, mr, &mut s.count);
     f.width_change_px = width_change(ml, mr, h);
     Some(f)
+}
+
+/// The joint fit of two edges' sums ([`joint_fit`]) as a [`PairFit`] (rows and width change
+/// not yet filled in).
+fn fit_sums(l: Component, r: Component, h: usize, q_fixed: Option<f64>) -> Option<PairFit> {
+    let (a_left, a_right, b, q, c_sigma_px) = joint_fit(&l, &r, h, q_fixed)?;
+    Some(PairFit {
+        left: l,
+        right: r,
+        left_rows: Vec::new(),
+        right_rows: Vec::new(),
+        a_left,
+        a_right,
+        b,
+        q,
+        c_sigma_px,
+        width_change_px: 0.0,
+    })
+}
+
+/// The free joint fit of two edges' kept pixels, from their sums: known sums (`lsum`, `rsum`)
+/// reused, the others summed and kept.
+fn fit_kept(
+    lk: &[EdgePixel],
+    rk: &[EdgePixel],
+    lsum: &mut Option<Component>,
+    rsum: &mut Option<Component>,
+    h: usize,
+    w: usize,
+) -> Option<PairFit> {
+    let l = *lsum.get_or_insert_with(|| component_of(lk, w));
+    let r = *rsum.get_or_insert_with(|| component_of(rk, w));
+    fit_sums(l, r, h, None)
+}
+
+/// After pixels were dropped from `lk`, `rk` (which held `kept` pixels): the sums of an edge
+/// that lost pixels, and then the fit, are no longer known.
+fn dropped(
+    kept: (usize, usize),
+    lk: &[EdgePixel],
+    rk: &[EdgePixel],
+    lsum: &mut Option<Component>,
+    rsum: &mut Option<Component>,
+    fit: &mut Option<PairFit>,
+) {
+    if lk.len() != kept.0 {
+        *lsum = None;
+        *fit = None;
+    }
+    if rk.len() != kept.1 {
+        *rsum = None;
+        *fit = None;
+    }
 }
 
 /// Range over the window of a parabola fitted to the row-wise widths `right − left`, px.
