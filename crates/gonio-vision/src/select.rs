@@ -40,15 +40,22 @@
 //! Thresholds are the optics' (the minimum ring contrast sets the segmentation's floor) and the
 //! frame's own (relative to its best candidate); no fixed count of largest components.
 //!
-//! Cost (the `dense` frame: ≈ 170 candidate components, a few dozen pairs refitted): the
-//! selection is written by hand because it is the product, and kept allocation-free per
-//! component and per pair: the pixel, RANSAC and refit buffers live for one frame
-//! (`Scratch`, `RefitScratch`) and are reused from component to component and pair to pair;
-//! interval unions sort on the stack; a clean fragment's curve is fitted once; a split
-//! component's pixels are looked up within its own columns; a pair whose tracks' row ranges
-//! cannot share enough rows is dropped before their fragments are intersected. None of this
-//! changes a value: the same sums (integers) and the same floating-point expressions in the
-//! same order (BENCHMARKS.md, "Labelling and selection (issue 10)").
+//! Cost (the `dense` frame: ≈ 155 candidate components of which ≈ 20 are split, ≈ 34 tracks,
+//! 15 × 15 pairs of long tracks, ≈ 1 pair re-fitted): the selection is written by hand because
+//! it is the product, and kept allocation-free per component and per pair: the pixel, RANSAC
+//! and refit buffers live for one frame (`Scratch`, `RefitScratch`) and are reused from
+//! component to component and pair to pair. A fragment is a plain record until it starts a
+//! track (no row list per fragment; fragments sorted by index, not moved); a track's rows are
+//! kept as disjoint intervals in row order, so every pair of tracks intersects them in one
+//! sweep without sorting; a curve or a joint fit is computed once per set of pixels (a clean
+//! fragment's, a long component's fitted for the frame's curvature, a piece's or an edge's
+//! whose re-fit kept the same pixels); a split component's pixels are looked up within its own
+//! columns; a pair whose tracks' row ranges cannot share enough rows is dropped before their
+//! rows are intersected; the refit gathers both edges in one pass over the rows, each row
+//! searched linearly from a hint; RANSAC stops counting a line once it can no longer win.
+//! None of this changes a value: the same sums (integers) and the same floating-point
+//! expressions in the same order (BENCHMARKS.md, "Labelling and selection (issue 10)" and
+//! "Selection and features, third pass (issue 10)").
 //!
 //! ```
 //! use gonio_vision::{Detector, InvalidReason, Optics};
@@ -1607,5 +1614,75 @@ fn no_candidate_reason(tracks: &[Track], long: &[usize], p: &Params) -> InvalidR
         1 => InvalidReason::OneEdge,
         2 => InvalidReason::InconsistentEdges,
         _ => InvalidReason::NoRing,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift) for the interval and search cases.
+    fn next(s: &mut u64) -> u64 {
+        *s ^= *s << 13;
+        *s ^= *s >> 7;
+        *s ^= *s << 17;
+        *s
+    }
+
+    /// Intervals in order of their first rows, as a track's fragments come (overlapping,
+    /// adjacent, nested, equal starts).
+    fn intervals(s: &mut u64) -> Vec<(u32, u32)> {
+        let n = (next(s) % 8) as usize;
+        let mut a = (next(s) % 20) as u32;
+        let mut v = Vec::new();
+        for _ in 0..n {
+            a += (next(s) % 12) as u32;
+            v.push((a, a + (next(s) % 15) as u32));
+        }
+        v
+    }
+
+    fn rows(iv: &[(u32, u32)]) -> std::collections::BTreeSet<u32> {
+        iv.iter().flat_map(|&(a, b)| a..=b).collect()
+    }
+
+    #[test]
+    fn shared_rows_match_the_row_sets() {
+        // Against the rows as sets: the union's size, and the intersection's size, first and
+        // last row. A wrong merge of adjacent or nested intervals changes one of them.
+        let mut s = 0x9e37_79b9_7f4a_7c15;
+        for _ in 0..5000 {
+            let (a, b) = (intervals(&mut s), intervals(&mut s));
+            let (ra, rb) = (rows(&a), rows(&b));
+            assert_eq!(union_len(&a) as usize, ra.len(), "{a:?}");
+            let (ma, mb): (Vec<_>, Vec<_>) = (merged(&a).collect(), merged(&b).collect());
+            assert!(ma.windows(2).all(|w| w[0].1 + 1 < w[1].0), "{ma:?}");
+            let both: Vec<u32> = ra.intersection(&rb).copied().collect();
+            let want = match (both.first(), both.last()) {
+                (Some(&f), Some(&l)) => (both.len() as u32, f, l),
+                _ => (0, 0, 0),
+            };
+            assert_eq!(shared(&ma, &mb), want, "{a:?} {b:?}");
+        }
+    }
+
+    #[test]
+    fn partition_near_is_partition_point_for_every_hint() {
+        let mut s = 0x2545_f491_4f6c_dd1d;
+        for len in [0usize, 1, 2, 5, 31, 32, 33, 70, 200] {
+            let mut v: Vec<u32> = (0..len).map(|_| (next(&mut s) % 300) as u32).collect();
+            v.sort_unstable();
+            for t in [0u32, 1, 17, 150, 299, 300, 400] {
+                let pred = |x: &u32| *x < t;
+                let want = v.partition_point(pred);
+                for hint in 0..=len + 2 {
+                    assert_eq!(
+                        partition_near(&v, hint, pred),
+                        want,
+                        "len {len} t {t} hint {hint}"
+                    );
+                }
+            }
+        }
     }
 }
