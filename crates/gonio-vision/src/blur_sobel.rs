@@ -23,8 +23,9 @@
 //! written only for an observer that looks at it ([`StageObserver::observes`]). The scalar and
 //! AVX2 levels run the two stages' loops ([`Gaussian5`], [`Sobel`]), the reference the kernel
 //! equals bit for bit (`tests/simd.rs`). The Sobel's ring is in the kernel's split layout at
-//! the AVX-512 level and in column order below it, so the level must not change within a
-//! frame ([`crate::simd::set_level`] is for tests and benchmarks, between frames).
+//! the AVX-512 level and in column order below it, so the stage latches the level at a frame's
+//! start ([`RowStage::reset`]): a [`crate::simd::set_level`] (tests and benchmarks) from another
+//! thread takes effect at the next frame.
 //!
 //! ```
 //! use gonio_vision::blur_sobel::BlurSobel;
@@ -58,6 +59,14 @@ pub struct BlurSobel {
     /// the last blurred row (for the observer); its counters, the gradient rows emitted.
     sobel: Sobel,
     rows: RowLag,
+    /// The fused AVX-512 kernel runs this frame: the SIMD level latched at the frame's start
+    /// ([`RowStage::reset`]), since the Sobel's ring layout depends on it.
+    avx512: bool,
+}
+
+/// Whether the current SIMD level runs the fused AVX-512 kernel.
+fn avx512_level() -> bool {
+    crate::simd::level() == crate::simd::Level::Avx512
 }
 
 impl BlurSobel {
@@ -67,6 +76,7 @@ impl BlurSobel {
             blur: Gaussian5::new(width),
             sobel: Sobel::new(width),
             rows: RowLag::new(3),
+            avx512: avx512_level(),
         }
     }
 
@@ -114,7 +124,7 @@ impl BlurSobel {
         blurred: bool,
     ) -> Option<bool> {
         #[cfg(target_arch = "x86_64")]
-        if crate::simd::level() == crate::simd::Level::Avx512 {
+        if self.avx512 {
             let sb = &mut self.sobel;
             let (a, b) = (
                 sb.rows.clamped(-1) * sb.stride,
@@ -154,6 +164,7 @@ impl RowStage for BlurSobel {
         self.rows.reset();
         self.blur.rows.reset();
         self.sobel.rows.reset();
+        self.avx512 = avx512_level();
     }
     fn input(&mut self) -> &mut [u8] {
         self.blur.input()
