@@ -141,87 +141,6 @@ impl Component {
         self.first_index = self.first_index.min(row as u64 * width as u64 + col as u64);
     }
 
-    /// Adds a run of pixels of one row, consecutive columns (the same sums as
-    /// [`Component::add_pixel`] on each, with the row's powers multiplied once per run).
-    #[inline]
-    pub fn add_run(&mut self, row: u32, run: &[EdgePixel], width: usize) {
-        let (Some(first), Some(last)) = (run.first(), run.last()) else {
-            return;
-        };
-        let (mut strong, mut dev, mut gx_pos) = (0u64, 0i64, 0u64);
-        let (mut pn, mut sc, mut scc, mut sm) = (0i64, 0i64, 0i64, 0u64);
-        for p in run {
-            strong += (p.class == STRONG) as u64;
-            dev += axial_deviation(p.dir) as i64;
-            gx_pos += (p.dir.wrapping_add(64) < 128) as u64;
-            if p.sub != FILLED {
-                let c = p.col as i64 * 32 + p.sub as i64;
-                pn += 1;
-                sc += c;
-                scc += c * c;
-                sm += p.mag as u64;
-            }
-        }
-        let n = run.len() as u64;
-        self.pixels += n;
-        self.strong += strong;
-        self.weak += n - strong;
-        self.sum_dev += dev;
-        self.gx_pos += gx_pos;
-        if pn > 0 {
-            let r = row as i64;
-            let (r2, pn_u) = (r * r, pn as u64);
-            self.pos_n += pn_u;
-            self.sum_row += r * pn;
-            self.sum_row2 += r2 * pn;
-            self.sum_row3 += r2 * r * pn;
-            self.sum_row4 += r2 * r2 * pn;
-            self.sum_col32 += sc;
-            self.sum_row_col32 += r * sc;
-            self.sum_row2_col32 += r2 * sc;
-            self.sum_col32_sq += scc as i128;
-            self.sum_mag += sm;
-        }
-        let (a, b) = (first.col as u32, last.col as u32);
-        self.min_col = self.min_col.min(a);
-        self.max_col = self.max_col.max(b);
-        self.min_row = self.min_row.min(row);
-        self.max_row = self.max_row.max(row);
-        self.first_index = self.first_index.min(row as u64 * width as u64 + a as u64);
-    }
-
-    /// Adds one positioned-or-filled pixel of row `rp.row` (its powers `rp`), as
-    /// [`Component::add_pixel`] but without branches: a filled pixel's position terms are
-    /// multiplied by zero instead of skipped (the same integers). The component's first row
-    /// and first pixel must already be at or before this pixel.
-    #[inline(always)]
-    fn add_one(&mut self, rp: &RowPowers, p: &EdgePixel) {
-        let col = p.col as u32;
-        let strong = (p.class == STRONG) as u64;
-        let pos = (p.sub != FILLED) as i64;
-        let c = (p.col as i64 * 32 + p.sub as i64) * pos;
-        self.pixels += 1;
-        self.strong += strong;
-        self.weak += 1 - strong;
-        self.sum_dev += axial_deviation(p.dir) as i64;
-        self.gx_pos += (p.dir.wrapping_add(64) < 128) as u64;
-        self.pos_n += pos as u64;
-        self.sum_row += rp.r & -pos;
-        self.sum_row2 += rp.r2 & -pos;
-        self.sum_row3 += rp.r3 & -pos;
-        self.sum_row4 += rp.r4 & -pos;
-        self.sum_col32 += c;
-        self.sum_row_col32 += rp.r * c;
-        self.sum_row2_col32 += rp.r2 * c;
-        self.sum_col32_sq += (c * c) as i128;
-        self.sum_mag += p.mag as u64 & (-pos) as u64;
-        self.min_col = self.min_col.min(col);
-        self.max_col = self.max_col.max(col);
-        // Rows only grow: this row is the last, and the first row and first pixel are those
-        // set when the component was opened ([`Labeller::push_sparse`]) or an earlier one's.
-        self.max_row = rp.row;
-    }
-
     /// Adds another component's sums (a merge).
     pub fn merge(&mut self, o: &Component) {
         self.pixels += o.pixels;
@@ -318,7 +237,10 @@ impl Event {
 /// components are resolved from a log of merges and completions only when first asked for.
 #[derive(Debug, Clone, Default)]
 pub struct EdgeList {
+    /// The pixels are `pixels[..len]`; the storage only grows (the labeller writes a row's
+    /// pixels by index, each store kept or overwritten by the next: no branch per pixel).
     pixels: Vec<EdgePixel>,
+    len: usize,
     row_start: Vec<u32>,
     events: Vec<Event>,
     resolved: bool,
@@ -362,6 +284,7 @@ impl EdgeList {
             row_start.push(k as u32);
         }
         EdgeList {
+            len: pixels.len(),
             pixels,
             row_start,
             events: Vec::new(),
@@ -374,7 +297,7 @@ impl EdgeList {
     }
 
     fn reset(&mut self) {
-        self.pixels.clear();
+        self.len = 0;
         self.row_start.clear();
         self.events.clear();
         self.resolved = false;
@@ -398,7 +321,7 @@ impl EdgeList {
         // Backwards in time: a pixel recorded at row y carries its root at the end of row y;
         // the merges and completions after that row decide its component. Row y's pixels are
         // row_start[y] .. b, b the next row's start (the last row pushed: to the end).
-        let mut b = self.pixels.len();
+        let mut b = self.len;
         for y in (0..self.row_start.len()).rev() {
             while e > 0 && self.events[e - 1].row() > y as u32 {
                 e -= 1;
@@ -422,7 +345,7 @@ impl EdgeList {
     /// The pixels (resolved), or `None` when the frame had more than the list holds.
     pub fn pixels(&mut self) -> Option<&[EdgePixel]> {
         self.resolve();
-        (!self.overflow).then_some(&self.pixels[..])
+        (!self.overflow).then_some(&self.pixels[..self.len])
     }
 
     /// The pixels of row `y`, sorted by column (empty when the list is incomplete or `y` is
@@ -478,7 +401,7 @@ impl EdgeList {
     pub fn rows(&mut self) -> Option<EdgeRows<'_>> {
         self.resolve();
         (!self.overflow).then_some(EdgeRows {
-            pixels: &self.pixels,
+            pixels: &self.pixels[..self.len],
             row_start: &self.row_start,
         })
     }
@@ -521,7 +444,6 @@ pub fn component_of(pixels: &[EdgePixel], width: usize) -> Component {
 
 /// A row's index and its powers, computed once per row for the one-pixel runs.
 struct RowPowers {
-    row: u32,
     r: i64,
     r2: i64,
     r3: i64,
@@ -530,26 +452,302 @@ struct RowPowers {
     first: u64,
 }
 
+/// The sums the labeller adds pixel by pixel: the hot part of a [`Component`], two cache
+/// lines aligned. The first row and first pixel are kept apart ([`Origin`], set when the
+/// component opens and at merges), the last row and the weak pixels are derived when the
+/// component completes ([`Acc::component`]): no store per pixel for them.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Acc {
+    pixels: u64,
+    strong: u64,
+    pos_n: u64,
+    gx_pos: u64,
+    sum_dev: i64,
+    sum_row: i64,
+    sum_row2: i64,
+    sum_row3: i64,
+    sum_row4: i64,
+    sum_col32: i64,
+    sum_row_col32: i64,
+    sum_row2_col32: i64,
+    sum_col32_sq: i128,
+    sum_mag: u64,
+    min_col: u32,
+    max_col: u32,
+}
+
+impl Acc {
+    const EMPTY: Acc = Acc {
+        pixels: 0,
+        strong: 0,
+        pos_n: 0,
+        gx_pos: 0,
+        sum_dev: 0,
+        sum_row: 0,
+        sum_row2: 0,
+        sum_row3: 0,
+        sum_row4: 0,
+        sum_col32: 0,
+        sum_row_col32: 0,
+        sum_row2_col32: 0,
+        sum_col32_sq: 0,
+        sum_mag: 0,
+        min_col: u32::MAX,
+        max_col: 0,
+    };
+
+    /// Adds one positioned-or-filled pixel of row `rp.row` (its powers `rp`), as
+    /// [`Component::add_pixel`] but without branches: a filled pixel's position terms are
+    /// multiplied by zero instead of skipped (the same integers).
+    #[inline(always)]
+    fn add_one(&mut self, rp: &RowPowers, p: &EdgePixel) {
+        let col = p.col as u32;
+        let pos = (p.sub != FILLED) as i64;
+        let c = (p.col as i64 * 32 + p.sub as i64) * pos;
+        self.pixels += 1;
+        self.strong += (p.class == STRONG) as u64;
+        self.sum_dev += axial_deviation(p.dir) as i64;
+        self.gx_pos += (p.dir.wrapping_add(64) < 128) as u64;
+        self.pos_n += pos as u64;
+        self.sum_row += rp.r & -pos;
+        self.sum_row2 += rp.r2 & -pos;
+        self.sum_row3 += rp.r3 & -pos;
+        self.sum_row4 += rp.r4 & -pos;
+        self.sum_col32 += c;
+        self.sum_row_col32 += rp.r * c;
+        self.sum_row2_col32 += rp.r2 * c;
+        self.sum_col32_sq += (c * c) as i128;
+        self.sum_mag += p.mag as u64 & (-pos) as u64;
+        self.min_col = self.min_col.min(col);
+        self.max_col = self.max_col.max(col);
+    }
+
+    /// Adds a run of pixels of row `rp.row`, consecutive columns (the same sums as
+    /// [`Component::add_pixel`] on each, with the row's powers multiplied once per run).
+    #[inline]
+    fn add_run(&mut self, rp: &RowPowers, run: &[EdgePixel]) {
+        let (Some(first), Some(last)) = (run.first(), run.last()) else {
+            return;
+        };
+        let (mut strong, mut dev, mut gx_pos) = (0u64, 0i64, 0u64);
+        let (mut pn, mut sc, mut scc, mut sm) = (0i64, 0i64, 0i64, 0u64);
+        for p in run {
+            strong += (p.class == STRONG) as u64;
+            dev += axial_deviation(p.dir) as i64;
+            gx_pos += (p.dir.wrapping_add(64) < 128) as u64;
+            if p.sub != FILLED {
+                let c = p.col as i64 * 32 + p.sub as i64;
+                pn += 1;
+                sc += c;
+                scc += c * c;
+                sm += p.mag as u64;
+            }
+        }
+        self.pixels += run.len() as u64;
+        self.strong += strong;
+        self.sum_dev += dev;
+        self.gx_pos += gx_pos;
+        self.pos_n += pn as u64;
+        self.sum_row += rp.r * pn;
+        self.sum_row2 += rp.r2 * pn;
+        self.sum_row3 += rp.r3 * pn;
+        self.sum_row4 += rp.r4 * pn;
+        self.sum_col32 += sc;
+        self.sum_row_col32 += rp.r * sc;
+        self.sum_row2_col32 += rp.r2 * sc;
+        self.sum_col32_sq += scc as i128;
+        self.sum_mag += sm;
+        self.min_col = self.min_col.min(first.col as u32);
+        self.max_col = self.max_col.max(last.col as u32);
+    }
+
+    /// Adds another component's sums (a merge).
+    fn merge(&mut self, o: &Acc) {
+        self.pixels += o.pixels;
+        self.strong += o.strong;
+        self.pos_n += o.pos_n;
+        self.gx_pos += o.gx_pos;
+        self.sum_dev += o.sum_dev;
+        self.sum_row += o.sum_row;
+        self.sum_row2 += o.sum_row2;
+        self.sum_row3 += o.sum_row3;
+        self.sum_row4 += o.sum_row4;
+        self.sum_col32 += o.sum_col32;
+        self.sum_row_col32 += o.sum_row_col32;
+        self.sum_row2_col32 += o.sum_row2_col32;
+        self.sum_col32_sq += o.sum_col32_sq;
+        self.sum_mag += o.sum_mag;
+        self.min_col = self.min_col.min(o.min_col);
+        self.max_col = self.max_col.max(o.max_col);
+    }
+
+    /// The component, complete: it started at `o` and its last row is `max_row`.
+    fn component(&self, o: Origin, max_row: u32) -> Component {
+        Component {
+            pixels: self.pixels,
+            strong: self.strong,
+            weak: self.pixels - self.strong,
+            pos_n: self.pos_n,
+            sum_row: self.sum_row,
+            sum_row2: self.sum_row2,
+            sum_row3: self.sum_row3,
+            sum_row4: self.sum_row4,
+            sum_col32: self.sum_col32,
+            sum_row_col32: self.sum_row_col32,
+            sum_row2_col32: self.sum_row2_col32,
+            sum_col32_sq: self.sum_col32_sq,
+            sum_mag: self.sum_mag,
+            sum_dev: self.sum_dev,
+            gx_pos: self.gx_pos,
+            min_col: self.min_col,
+            max_col: self.max_col,
+            min_row: o.row,
+            max_row,
+            first_index: o.index,
+        }
+    }
+}
+
+/// Where a component starts: its first row and the raster index (row · width + column) of
+/// its first pixel (the earliest of the merged components').
+#[derive(Debug, Clone, Copy)]
+struct Origin {
+    row: u32,
+    index: u64,
+}
+
+/// A run of one row: its first and last columns and its label.
 #[derive(Debug, Clone, Copy)]
 struct Run {
     start: u32,
     end: u32,
     label: u32,
-    /// Range of this run's pixels in the edge list.
-    rec: (u32, u32),
+}
+
+/// "No edge pixel" in the per-column label arrays; components take labels 1 ..= pool.
+const NO_LABEL: u32 = 0;
+
+/// Sets the labels of columns `start ..= end` in a per-column label array (a one-pixel run
+/// by one store: a slice fill is a library call).
+#[inline(always)]
+fn set_cols(labels: &mut [u32], start: u32, end: u32, l: u32) {
+    let (a, b) = (start as usize + 1, end as usize + 1);
+    if a == b {
+        labels[a] = l;
+    } else {
+        labels[a..=b].fill(l);
+    }
+}
+
+/// The union–find forest of the open components: each label's parent, sums and origin.
+#[derive(Debug, Clone)]
+struct Forest {
+    parent: Vec<u32>,
+    acc: Vec<Acc>,
+    origin: Vec<Origin>,
+    free: Vec<u32>,
+    /// This row's merges, `(from, to)` in order (logged and freed at the row's end).
+    merged: Vec<(u32, u32)>,
+}
+
+impl Forest {
+    /// The root of label `l`, halving the path on the way (each visited label skips to its
+    /// grandparent).
+    fn find(&mut self, mut l: u32) -> u32 {
+        let parent = &mut self.parent;
+        while parent[l as usize] != l {
+            let g = parent[parent[l as usize] as usize];
+            parent[l as usize] = g;
+            l = g;
+        }
+        l
+    }
+
+    /// The root of a label read from the previous row: until the row's first merge it is one
+    /// already.
+    #[inline(always)]
+    fn root(&mut self, l: u32) -> u32 {
+        if self.merged.is_empty() {
+            l
+        } else {
+            self.find(l)
+        }
+    }
+
+    /// A new component starting at `o`.
+    #[inline(never)]
+    fn alloc(&mut self, o: Origin) -> u32 {
+        // Two rows of runs hold at most width + 1 labels: the pool never runs dry.
+        let l = self.free.pop().unwrap_or(1);
+        self.parent[l as usize] = l;
+        self.acc[l as usize] = Acc::EMPTY;
+        self.origin[l as usize] = o;
+        l
+    }
+
+    /// Merges root `from` into root `to`.
+    fn union(&mut self, to: u32, from: u32) {
+        let o = self.acc[from as usize];
+        self.acc[to as usize].merge(&o);
+        let (a, b) = (self.origin[to as usize], self.origin[from as usize]);
+        if b.index < a.index {
+            self.origin[to as usize] = b;
+        }
+        self.parent[from as usize] = to;
+        self.merged.push((from, to));
+    }
+
+    /// Joins the components of labels `a` and `b` (the up-left and up-right neighbours of a
+    /// pixel with none straight above); the root kept.
+    #[cold]
+    #[inline(never)]
+    fn join(&mut self, a: u32, b: u32) -> u32 {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            self.union(ra, rb);
+        }
+        ra
+    }
+
+    /// The component of the run `a ..= b` (several pixels; `up` the previous row's labels):
+    /// every upper neighbour's component merged into the first one's; [`NO_LABEL`] when it
+    /// has none.
+    #[inline(never)]
+    fn label_run(&mut self, up: &[u32], a: usize, b: usize) -> u32 {
+        let (mut label, mut last) = (NO_LABEL, NO_LABEL);
+        for &v in &up[a..=b + 2] {
+            if v == NO_LABEL || v == last {
+                continue;
+            }
+            last = v;
+            let r = self.root(v);
+            if label == NO_LABEL {
+                label = r;
+            } else if r != label {
+                self.union(label, r);
+            }
+        }
+        label
+    }
 }
 
 /// Streaming labeller; see the module documentation.
 #[derive(Debug, Clone)]
 pub struct Labeller {
     width: usize,
+    /// The previous row's runs.
     prev: Vec<Run>,
+    /// The current row's runs.
     cur: Vec<Run>,
-    parent: Vec<u32>,
-    comps: Vec<Component>,
+    /// The previous row's label of column x at index x + 1 ([`NO_LABEL`] where it has no edge
+    /// pixel; one empty column on each side): a pixel's three upper neighbours are three loads.
+    up: Vec<u32>,
+    /// The current row's labels, laid out as `up` (they become `up` for the next row).
+    here: Vec<u32>,
+    forest: Forest,
+    /// The last row each label was seen in.
     last_row: Vec<u32>,
-    free: Vec<u32>,
-    merged: Vec<u32>,
     candidates: Vec<Component>,
     min_rows: u32,
     count: usize,
@@ -567,16 +765,22 @@ impl Labeller {
     /// kept: the components with a strong pixel (hysteresis) spanning at least
     /// [`Labeller::min_rows`] rows (1 unless set).
     pub fn new(width: usize, height_hint: usize, record_all: bool) -> Self {
-        let pool = width + 4;
+        // Labels 1 ..= width + 4 (0 is NO_LABEL): at most two rows of runs are alive.
+        let labels = width + 5;
         let mut l = Labeller {
             width,
             prev: Vec::with_capacity(width / 2 + 1),
             cur: Vec::with_capacity(width / 2 + 1),
-            parent: (0..pool as u32).collect(),
-            comps: vec![Component::empty(); pool],
-            last_row: vec![0; pool],
-            free: Vec::with_capacity(pool),
-            merged: Vec::with_capacity(pool),
+            up: vec![NO_LABEL; width + 2],
+            here: vec![NO_LABEL; width + 2],
+            forest: Forest {
+                parent: (0..labels as u32).collect(),
+                acc: vec![Acc::EMPTY; labels],
+                origin: vec![Origin { row: 0, index: 0 }; labels],
+                free: Vec::with_capacity(labels),
+                merged: Vec::with_capacity(labels),
+            },
+            last_row: vec![0; labels],
             candidates: Vec::with_capacity(256),
             min_rows: 1,
             count: 0,
@@ -593,7 +797,7 @@ impl Labeller {
     /// Also keeps every positioned edge pixel with its component ([`EdgeList`]), at most `cap`
     /// of them a frame (rows up to 65,535).
     pub fn keep_pixels(mut self, cap: usize) -> Self {
-        self.edges = Some(EdgeList::with_capacity(cap, self.parent.len()));
+        self.edges = Some(EdgeList::with_capacity(cap, self.forest.parent.len()));
         self
     }
 
@@ -620,9 +824,12 @@ impl Labeller {
     pub fn reset(&mut self) {
         self.prev.clear();
         self.cur.clear();
-        self.free.clear();
-        self.free.extend((0..self.parent.len() as u32).rev());
-        self.merged.clear();
+        self.up.fill(NO_LABEL);
+        self.here.fill(NO_LABEL);
+        let f = &mut self.forest;
+        f.free.clear();
+        f.free.extend((1..f.parent.len() as u32).rev());
+        f.merged.clear();
         self.candidates.clear();
         if let Some(e) = self.edges.as_mut() {
             e.reset();
@@ -632,29 +839,10 @@ impl Labeller {
         self.row = 0;
     }
 
-    fn find(&mut self, mut l: u32) -> u32 {
-        let mut root = l;
-        while self.parent[root as usize] != root {
-            root = self.parent[root as usize];
-        }
-        while self.parent[l as usize] != root {
-            let next = self.parent[l as usize];
-            self.parent[l as usize] = root;
-            l = next;
-        }
-        root
-    }
-
-    fn alloc(&mut self) -> u32 {
-        // The pool holds at most two rows of runs (≤ width + 2 labels): never empty.
-        let l = self.free.pop().unwrap_or(0);
-        self.parent[l as usize] = l;
-        self.comps[l as usize] = Component::empty();
-        l
-    }
-
+    /// Component `root`, whose last row was the one before row `self.row`, is complete.
     fn complete(&mut self, root: u32) {
-        let c = self.comps[root as usize];
+        let f = &self.forest;
+        let c = f.acc[root as usize].component(f.origin[root as usize], self.row - 1);
         if let Some(e) = self.edges.as_mut() {
             e.events.push(Event::Complete {
                 root,
@@ -669,7 +857,7 @@ impl Labeller {
         if c.is_candidate(self.min_rows) {
             self.candidates.push(c);
         }
-        self.free.push(root);
+        self.forest.free.push(root);
     }
 
     /// Pushes the next row of (filled) edges, dense.
@@ -683,154 +871,154 @@ impl Labeller {
     /// Pushes the next row of (filled) edges, sparse: its runs are the stretches of consecutive
     /// columns in `edges.pixels`.
     pub fn push_sparse(&mut self, edges: &SparseEdgeRow) {
-        let w = self.width;
         let y = self.row;
-        self.cur.clear();
-        self.merged.clear();
-        let mut keep = false;
-        if let Some(e) = self.edges.as_mut() {
-            e.row_start.push(e.pixels.len() as u32);
-            if y > u16::MAX as u32 {
-                e.overflow = true;
-            }
-            keep = !e.overflow;
-            if keep {
-                e.pixels.reserve(edges.pixels.len());
-            }
-        }
         let r = y as i64;
         let rp = RowPowers {
-            row: y,
             r,
             r2: r * r,
             r3: r * r * r,
             r4: r * r * r * r,
-            first: y as u64 * w as u64,
+            first: y as u64 * self.width as u64,
         };
-        let px = &edges.pixels;
-        let mut j = 0usize;
+        // The edge list's storage for this row (every pixel written, the positioned ones kept).
+        let mut none: [EdgePixel; 0] = [];
+        let (out, row_start) = match self.edges.as_mut() {
+            Some(e) => {
+                e.row_start.push(e.len as u32);
+                if y > u16::MAX as u32 {
+                    e.overflow = true;
+                }
+                // Room for the whole row (the storage only grows).
+                let need = e.len + edges.pixels.len();
+                if !e.overflow && e.pixels.len() < need {
+                    e.pixels.resize(need, EdgePixel::default());
+                }
+                let out = if e.overflow {
+                    &mut none[..]
+                } else {
+                    &mut e.pixels[..]
+                };
+                (out, e.len)
+            }
+            None => (&mut none[..], 0),
+        };
+        let keep = !out.is_empty();
+        let f = &mut self.forest;
+        let (up, here, last_row) = (&self.up[..], &mut self.here[..], &mut self.last_row[..]);
+        let cur = &mut self.cur;
+        cur.clear();
+        f.merged.clear();
+        let px = &edges.pixels[..];
+        let mut n = row_start;
         let mut k0 = 0usize;
-        while k0 < px.len() {
+        while let Some(p) = px.get(k0) {
+            let a = p.col as usize;
             let mut k1 = k0 + 1;
-            while k1 < px.len() && px[k1].col == px[k1 - 1].col + 1 {
+            while k1 < px.len() && px[k1].col as usize == a + (k1 - k0) {
                 k1 += 1;
             }
             let run = &px[k0..k1];
             k0 = k1;
-            let (a, b) = (run[0].col as usize, run[run.len() - 1].col as usize);
-            // Previous runs touching [a − 1, b + 1].
-            while j < self.prev.len() && (self.prev[j].end as usize) + 1 < a {
-                j += 1;
-            }
-            let mut label: Option<u32> = None;
-            let mut k = j;
-            while k < self.prev.len() && (self.prev[k].start as usize) <= b + 1 {
-                // Until this row's first merge every previous run's label is a root.
-                let root = if self.merged.is_empty() {
-                    self.prev[k].label
+            let b = a + run.len() - 1;
+            let mut l = if run.len() == 1 {
+                // Straight above: the up-left and up-right pixels, when present, are in its
+                // run. Otherwise they are in different runs, joined when both are present
+                // with different labels (rare). Without branches on which one it is.
+                let (ul, um, ur) = (up[a], up[a + 1], up[a + 2]);
+                let l = um | (ul | ur) & ((um == NO_LABEL) as u32).wrapping_neg();
+                if (um == NO_LABEL) & (ul != NO_LABEL) & (ur != NO_LABEL) & (ul != ur) {
+                    f.join(ul, ur)
+                } else if l != NO_LABEL {
+                    f.root(l)
                 } else {
-                    self.find(self.prev[k].label)
-                };
-                match label {
-                    None => label = Some(root),
-                    Some(l) if l != root => {
-                        let o = self.comps[root as usize];
-                        self.comps[l as usize].merge(&o);
-                        self.parent[root as usize] = l;
-                        self.merged.push(root);
-                        if let Some(e) = self.edges.as_mut() {
-                            e.events.push(Event::Merge {
-                                from: root,
-                                to: l,
-                                row: y,
-                            });
-                        }
-                    }
-                    _ => {}
-                }
-                k += 1;
-            }
-            let l = match label {
-                Some(l) => l,
-                None => {
-                    let l = self.alloc();
-                    let c = &mut self.comps[l as usize];
-                    c.min_row = y;
-                    c.first_index = rp.first + a as u64;
                     l
                 }
-            };
-            if let [p] = run {
-                self.comps[l as usize].add_one(&rp, p);
             } else {
-                self.comps[l as usize].add_run(y, run, w);
+                f.label_run(up, a, b)
+            };
+            if l == NO_LABEL {
+                l = f.alloc(Origin {
+                    row: y,
+                    index: rp.first + a as u64,
+                });
+            }
+            set_cols(here, a as u32, b as u32, l);
+            let acc = &mut f.acc[l as usize];
+            if let [p] = run {
+                acc.add_one(&rp, p);
+            } else {
+                acc.add_run(&rp, run);
             }
             // The cap is checked once per row, below (the list grows by one row at most).
-            let rec = match self.edges.as_mut() {
-                Some(e) if keep => {
-                    let r0 = e.pixels.len() as u32;
-                    for p in run {
-                        if p.sub != FILLED {
-                            let mut q = *p;
-                            q.row = y as u16;
-                            q.comp = l;
-                            e.pixels.push(q);
-                        }
-                    }
-                    (r0, e.pixels.len() as u32)
+            if keep {
+                for p in run {
+                    out[n] = EdgePixel {
+                        row: y as u16,
+                        comp: l,
+                        ..*p
+                    };
+                    n += (p.sub != FILLED) as usize;
                 }
-                _ => (0, 0),
-            };
-            self.last_row[l as usize] = y;
-            self.cur.push(Run {
+            }
+            last_row[l as usize] = y;
+            cur.push(Run {
                 start: a as u32,
                 end: b as u32,
                 label: l,
-                rec,
             });
         }
-        if let Some(e) = self
-            .edges
-            .as_mut()
-            .filter(|e| !e.overflow && e.pixels.len() > e.cap)
-        {
-            e.overflow = true;
-            e.pixels.clear();
+        let merges = !f.merged.is_empty();
+        if let Some(e) = self.edges.as_mut() {
+            if !e.overflow {
+                e.len = n;
+                if e.len > e.cap {
+                    e.overflow = true;
+                    e.len = 0;
+                }
+            }
+            e.events.extend(
+                f.merged
+                    .iter()
+                    .map(|&(from, to)| Event::Merge { from, to, row: y }),
+            );
         }
         // Without a merge in this row every label is still a root (the common case: edges
         // running down the frame), and nothing needs relabelling.
-        let merges = !self.merged.is_empty();
         if merges {
-            for i in 0..self.cur.len() {
-                let r = self.find(self.cur[i].label);
-                self.cur[i].label = r;
+            for run in cur.iter_mut() {
+                let r = f.find(run.label);
+                if r != run.label {
+                    run.label = r;
+                    set_cols(here, run.start, run.end, r);
+                }
                 // A merge later in the row may have moved the row mark to another root.
-                self.last_row[r as usize] = y;
-                if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
-                    let (r0, r1) = self.cur[i].rec;
-                    for px in &mut e.pixels[r0 as usize..r1 as usize] {
-                        px.comp = r;
-                    }
+                last_row[r as usize] = y;
+            }
+            if let Some(e) = self.edges.as_mut().filter(|e| !e.overflow) {
+                for q in &mut e.pixels[row_start..e.len] {
+                    q.comp = f.find(q.comp);
                 }
             }
         }
-        // Components of the previous row that did not continue are complete.
+        // Components of the previous row that did not continue are complete; the previous
+        // row's labels are cleared (the array becomes the next row's `here`).
         for i in 0..self.prev.len() {
+            let Run { start, end, label } = self.prev[i];
+            set_cols(&mut self.up, start, end, NO_LABEL);
             let r = if merges {
-                self.find(self.prev[i].label)
+                self.forest.find(label)
             } else {
-                self.prev[i].label
+                label
             };
             if self.last_row[r as usize] != y {
                 self.last_row[r as usize] = y; // complete once
                 self.complete(r);
             }
         }
-        for i in 0..self.merged.len() {
-            let m = self.merged[i];
-            self.free.push(m);
-        }
+        let f = &mut self.forest;
+        f.free.extend(f.merged.iter().map(|&(from, _)| from));
         std::mem::swap(&mut self.prev, &mut self.cur);
+        std::mem::swap(&mut self.up, &mut self.here);
         self.row += 1;
     }
 
@@ -838,10 +1026,12 @@ impl Labeller {
     pub fn finish(&mut self) {
         let y = self.row;
         if let Some(e) = self.edges.as_mut() {
-            e.row_start.push(e.pixels.len() as u32);
+            e.row_start.push(e.len as u32);
         }
         for i in 0..self.prev.len() {
-            let r = self.find(self.prev[i].label);
+            let Run { start, end, label } = self.prev[i];
+            set_cols(&mut self.up, start, end, NO_LABEL);
+            let r = self.forest.find(label);
             if self.last_row[r as usize] != y {
                 self.last_row[r as usize] = y;
                 self.complete(r);
