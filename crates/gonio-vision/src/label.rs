@@ -48,6 +48,30 @@
 use crate::rows::{RowSink, StageObserver};
 use crate::segment::{EdgeRow, FILLED, STRONG, SparseEdgeRow, axial_deviation};
 
+/// Adds the sums a [`Component`] and the labeller's hot record share, field by field (`b`'s
+/// into `a`; the columns' range widened).
+macro_rules! add_sums {
+    ($a:expr, $b:expr) => {{
+        let (a, b) = ($a, $b);
+        a.pixels += b.pixels;
+        a.strong += b.strong;
+        a.pos_n += b.pos_n;
+        a.gx_pos += b.gx_pos;
+        a.sum_dev += b.sum_dev;
+        a.sum_row += b.sum_row;
+        a.sum_row2 += b.sum_row2;
+        a.sum_row3 += b.sum_row3;
+        a.sum_row4 += b.sum_row4;
+        a.sum_col32 += b.sum_col32;
+        a.sum_row_col32 += b.sum_row_col32;
+        a.sum_row2_col32 += b.sum_row2_col32;
+        a.sum_col32_sq += b.sum_col32_sq;
+        a.sum_mag += b.sum_mag;
+        a.min_col = a.min_col.min(b.min_col);
+        a.max_col = a.max_col.max(b.max_col);
+    }};
+}
+
 /// The sums of one connected component. Position sums use only pixels with their own sub-pixel
 /// position (not filled ones); columns are in 1/32 px.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -150,23 +174,8 @@ impl Component {
 
     /// Adds another component's sums (a merge).
     pub fn merge(&mut self, o: &Component) {
-        self.pixels += o.pixels;
-        self.strong += o.strong;
+        add_sums!(&mut *self, o);
         self.weak += o.weak;
-        self.pos_n += o.pos_n;
-        self.sum_row += o.sum_row;
-        self.sum_row2 += o.sum_row2;
-        self.sum_row3 += o.sum_row3;
-        self.sum_row4 += o.sum_row4;
-        self.sum_col32 += o.sum_col32;
-        self.sum_row_col32 += o.sum_row_col32;
-        self.sum_row2_col32 += o.sum_row2_col32;
-        self.sum_col32_sq += o.sum_col32_sq;
-        self.sum_mag += o.sum_mag;
-        self.sum_dev += o.sum_dev;
-        self.gx_pos += o.gx_pos;
-        self.min_col = self.min_col.min(o.min_col);
-        self.max_col = self.max_col.max(o.max_col);
         self.min_row = self.min_row.min(o.min_row);
         self.max_row = self.max_row.max(o.max_row);
         self.first_index = self.first_index.min(o.first_index);
@@ -571,22 +580,7 @@ impl Acc {
 
     /// Adds another component's sums (a merge).
     fn merge(&mut self, o: &Acc) {
-        self.pixels += o.pixels;
-        self.strong += o.strong;
-        self.pos_n += o.pos_n;
-        self.gx_pos += o.gx_pos;
-        self.sum_dev += o.sum_dev;
-        self.sum_row += o.sum_row;
-        self.sum_row2 += o.sum_row2;
-        self.sum_row3 += o.sum_row3;
-        self.sum_row4 += o.sum_row4;
-        self.sum_col32 += o.sum_col32;
-        self.sum_row_col32 += o.sum_row_col32;
-        self.sum_row2_col32 += o.sum_row2_col32;
-        self.sum_col32_sq += o.sum_col32_sq;
-        self.sum_mag += o.sum_mag;
-        self.min_col = self.min_col.min(o.min_col);
-        self.max_col = self.max_col.max(o.max_col);
+        add_sums!(&mut *self, o);
     }
 
     /// The component, complete: it started at `o` and its last row is `max_row`.
@@ -1085,88 +1079,5 @@ impl RowSink for Labeller {
     }
     fn lag(&self) -> usize {
         0
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::reference::{self, Image};
-    use crate::segment::{NONE, WEAK};
-    use proptest::prelude::*;
-    use rand::{RngExt, SeedableRng};
-
-    /// Random filled-edge rows: strong, weak and filled pixels at the given density.
-    fn random_rows(w: usize, h: usize, density: f64, seed: u64) -> Vec<EdgeRow> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        (0..h)
-            .map(|_| {
-                let mut r = EdgeRow::new(w);
-                for x in 0..w {
-                    if rng.random_bool(density) {
-                        r.class[x] = if rng.random_bool(0.5) { STRONG } else { WEAK };
-                        r.dir[x] = rng.random();
-                        r.sub[x] = rng.random_range(-16..=16);
-                        r.mag[x] = rng.random_range(1..2000);
-                        if rng.random_bool(0.1) {
-                            r.sub[x] = FILLED;
-                            r.mag[x] = 0;
-                        }
-                    }
-                }
-                r
-            })
-            .collect()
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(200))]
-        /// The kept edge list holds every positioned pixel in raster order with the first
-        /// index of its flood-fill component, frame after frame through one labeller (the
-        /// storage reused), and is marked incomplete when the frame has more than its cap.
-        #[test]
-        fn edge_list_equals_flood_fill(w in 1usize..40, h in 1usize..30, density in 0.05f64..0.7, seed in any::<u64>()) {
-            let rows = random_rows(w, h, density, seed);
-            let img = |f: &dyn Fn(&EdgeRow, usize) -> u8| {
-                Image::from_vec(w, h, rows.iter().flat_map(|r| (0..w).map(|x| f(r, x))).collect())
-            };
-            let class = img(&|r, x| r.class[x]);
-            let dir = img(&|r, x| r.dir[x]);
-            let sub = Image::from_vec(w, h, rows.iter().flat_map(|r| r.sub.clone()).collect());
-            let mag = Image::from_vec(w, h, rows.iter().flat_map(|r| r.mag.clone()).collect());
-            let (comps, labels) = reference::label(&(class, dir, sub), &mag);
-            let mut want = Vec::new();
-            for (y, r) in rows.iter().enumerate() {
-                for x in 0..w {
-                    if r.class[x] != NONE && r.sub[x] != FILLED {
-                        let comp = comps[labels.get(x, y) as usize - 1].first_index as u32;
-                        want.push(EdgePixel { row: y as u16, col: x as u16, class: r.class[x], dir: r.dir[x], sub: r.sub[x], mag: r.mag[x], comp });
-                    }
-                }
-            }
-            let mut l = Labeller::new(w, h, false).keep_pixels(w * h);
-            for _frame in 0..2 {
-                l.reset();
-                for r in &rows {
-                    l.push_row(r);
-                }
-                l.finish();
-                let e = l.edge_list().expect("kept");
-                prop_assert_eq!(e.pixels().expect("complete"), &want[..]);
-                let by_rows = e.rows().expect("complete");
-                for y in 0..h {
-                    let row: Vec<_> = want.iter().filter(|p| p.row as usize == y).copied().collect();
-                    prop_assert_eq!(by_rows.row(y), &row[..]);
-                }
-            }
-            if !want.is_empty() {
-                let mut small = Labeller::new(w, h, false).keep_pixels(want.len() - 1);
-                for r in &rows {
-                    small.push_row(r);
-                }
-                small.finish();
-                prop_assert!(small.edge_list().expect("kept").pixels().is_none());
-            }
-        }
     }
 }
