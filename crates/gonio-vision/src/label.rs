@@ -1081,3 +1081,72 @@ impl RowSink for Labeller {
         0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::{self, Image};
+    use crate::segment::NONE;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// The kept edge list holds every positioned pixel in raster order with the first
+        /// index of its flood-fill component, frame after frame through one labeller (its
+        /// storage reused), row by row too, and is marked incomplete past its cap. Cells:
+        /// (edge?, class 1 weak / 2 strong, direction, sub-pixel offset, filled?).
+        #[test]
+        fn edge_list_equals_flood_fill(w in 1usize..40, cells in proptest::collection::vec((0u8..3, 1u8..3, any::<u8>(), -16i8..=16, 0u8..10), 1..1200)) {
+            let h = cells.len() / w;
+            let at = |x: usize, y: usize| cells[y * w + x];
+            let mut rows = vec![EdgeRow::new(w); h];
+            for (y, r) in rows.iter_mut().enumerate() {
+                for x in 0..w {
+                    let (edge, class, dir, sub, filled) = at(x, y);
+                    if edge == 0 {
+                        r.class[x] = class;
+                        r.dir[x] = dir;
+                        r.sub[x] = if filled == 0 { FILLED } else { sub };
+                        r.mag[x] = if filled == 0 { 0 } else { 100 + x as u16 };
+                    }
+                }
+            }
+            let img = |f: &dyn Fn(&EdgeRow, usize) -> u8| {
+                Image::from_vec(w, h, rows.iter().flat_map(|r| (0..w).map(|x| f(r, x))).collect())
+            };
+            let edges = (img(&|r, x| r.class[x]), img(&|r, x| r.dir[x]), Image::from_vec(w, h, rows.iter().flat_map(|r| r.sub.clone()).collect()));
+            let mag = Image::from_vec(w, h, rows.iter().flat_map(|r| r.mag.clone()).collect());
+            let (comps, labels) = reference::label(&edges, &mag);
+            let mut want = Vec::new();
+            for (y, r) in rows.iter().enumerate() {
+                for x in (0..w).filter(|&x| r.class[x] != NONE && r.sub[x] != FILLED) {
+                    let comp = comps[labels.get(x, y) as usize - 1].first_index as u32;
+                    want.push(EdgePixel { row: y as u16, col: x as u16, class: r.class[x], dir: r.dir[x], sub: r.sub[x], mag: r.mag[x], comp });
+                }
+            }
+            let mut l = Labeller::new(w, h, false).keep_pixels(w * h);
+            for _frame in 0..2 {
+                l.reset();
+                for r in &rows {
+                    l.push_row(r);
+                }
+                l.finish();
+                let e = l.edge_list().expect("kept");
+                prop_assert_eq!(e.pixels().expect("complete"), &want[..]);
+                let by_rows = e.rows().expect("complete");
+                for y in 0..h {
+                    let row: Vec<_> = want.iter().filter(|p| p.row as usize == y).copied().collect();
+                    prop_assert_eq!(by_rows.row(y), &row[..]);
+                }
+            }
+            if !want.is_empty() {
+                let mut small = Labeller::new(w, h, false).keep_pixels(want.len() - 1);
+                for r in &rows {
+                    small.push_row(r);
+                }
+                small.finish();
+                prop_assert!(small.edge_list().expect("kept").pixels().is_none());
+            }
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! Every streaming stage against the whole-frame reference, bit for bit, and the labelling
 //! against a flood fill on random binary images.
 
-use gonio_vision::label::{Component, EdgePixel, Labeller};
+use gonio_vision::label::{Component, Labeller};
 use gonio_vision::reference::{self, Image, edges_from_rows};
 use gonio_vision::rows::RowStage;
 use gonio_vision::segment::{EdgeRow, STRONG, WEAK};
@@ -199,49 +199,6 @@ proptest! {
         let got = stream_label(&rows, w);
         let (want, _) = reference::label(&edges_from_rows(&rows, w), &mags(&rows, w));
         prop_assert_eq!(got, want);
-    }
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
-    /// The labeller's kept edge list holds every positioned pixel in raster order with the
-    /// first index of its flood-fill component, frame after frame through one labeller (its
-    /// storage reused), row by row too, and is marked incomplete past its cap.
-    #[test]
-    fn edge_list_equals_flood_fill(w in 1usize..40, h in 1usize..30, density in 0.05f64..0.7, seed in any::<u64>()) {
-        use gonio_vision::segment::{FILLED, NONE};
-        let rows = random_edges(w, h, density, seed);
-        let (comps, labels) = reference::label(&edges_from_rows(&rows, w), &mags(&rows, w));
-        let mut want = Vec::new();
-        for (y, r) in rows.iter().enumerate() {
-            for x in (0..w).filter(|&x| r.class[x] != NONE && r.sub[x] != FILLED) {
-                let comp = comps[labels.get(x, y) as usize - 1].first_index as u32;
-                want.push(EdgePixel { row: y as u16, col: x as u16, class: r.class[x], dir: r.dir[x], sub: r.sub[x], mag: r.mag[x], comp });
-            }
-        }
-        let mut l = Labeller::new(w, h, false).keep_pixels(w * h);
-        for _frame in 0..2 {
-            l.reset();
-            for r in &rows {
-                l.push_row(r);
-            }
-            l.finish();
-            let e = l.edge_list().expect("kept");
-            prop_assert_eq!(e.pixels().expect("complete"), &want[..]);
-            let by_rows = e.rows().expect("complete");
-            for y in 0..h {
-                let row: Vec<_> = want.iter().filter(|p| p.row as usize == y).copied().collect();
-                prop_assert_eq!(by_rows.row(y), &row[..]);
-            }
-        }
-        if !want.is_empty() {
-            let mut small = Labeller::new(w, h, false).keep_pixels(want.len() - 1);
-            for r in &rows {
-                small.push_row(r);
-            }
-            small.finish();
-            prop_assert!(small.edge_list().expect("kept").pixels().is_none());
-        }
     }
 }
 
