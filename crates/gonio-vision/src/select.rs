@@ -133,11 +133,18 @@ pub(crate) fn moments(c: &Component, height: usize) -> ([f64; 5], [f64; 3], f64)
 
 /// `x as f64`, through the hardware's i64 conversion when x fits in an i64 (the usual case;
 /// the i128 conversion is a library call). Both round to nearest: the same value.
+/// The i128 path is a separate cold function: inlined, LLVM computed both conversions and
+/// selected one, so the library call ran every time.
 #[inline]
 fn to_f64(x: i128) -> f64 {
+    #[cold]
+    #[inline(never)]
+    fn wide(x: i128) -> f64 {
+        x as f64
+    }
     match i64::try_from(x) {
         Ok(v) => v as f64,
-        Err(_) => x as f64,
+        Err(_) => wide(x),
     }
 }
 
