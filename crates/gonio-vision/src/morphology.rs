@@ -1064,7 +1064,9 @@ mod vbmi {
     const DIRECT_MAX: usize = 4;
 
     /// Disks whose widest chord has at most this half width make their chords in
-    /// [`run_direct`] from unaligned loads of the row (2h + 1 loads, no permutes).
+    /// [`run_direct`] from two unaligned loads of the row 16 bytes apart and one in-lane
+    /// `vpalignr` per column shift (no cross-lane permutes; five loads, all crossing a cache
+    /// line, measured slower).
     const LOADED_MAX: usize = 2;
 
     /// Feeds the rows `ins` (padded rows: column c at `PAD + c`, the operation's neutral value
@@ -1211,8 +1213,26 @@ mod vbmi {
             for (i, row) in ins.iter().enumerate() {
                 let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
                 let mut lk = 0;
-                // Chords of half width ≤ LOADED_MAX: from unaligned loads of the row.
+                // Chords of half width ≤ LOADED_MAX: columns x − 2 … x + 2 from two loads
+                // 16 bytes apart (`lo` from x − LOADED_MAX) and one in-lane `vpalignr` each:
+                // lane i of `hi` is lane i + 1 of `lo`, so the per-lane byte shift by s is the
+                // whole vector's shift by s (five line-crossing loads become two).
                 let x0 = v * 64 + PAD;
+                let (lo, hi) = if hw[0] <= LOADED_MAX {
+                    (load(row, x0 - LOADED_MAX), load(row, x0 - LOADED_MAX + 16))
+                } else {
+                    (zero, zero)
+                };
+                let col = |dx: isize| -> __m512i {
+                    match dx {
+                        -2 => lo,
+                        -1 => _mm512_alignr_epi8::<1>(hi, lo),
+                        0 => _mm512_alignr_epi8::<2>(hi, lo),
+                        1 => _mm512_alignr_epi8::<3>(hi, lo),
+                        2 => _mm512_alignr_epi8::<4>(hi, lo),
+                        _ => unreachable!("column shift beyond LOADED_MAX"),
+                    }
+                };
                 let (mut acc, mut acc_h) = (zero, usize::MAX);
                 let mut g = zero;
                 let mut tprev = zero;
@@ -1224,11 +1244,11 @@ mod vbmi {
                     let h = hw[d];
                     if (d == R || h != hw[d + 1]) && hw[0] <= LOADED_MAX {
                         if acc_h == usize::MAX {
-                            (acc, acc_h) = (load(row, x0), 0);
+                            (acc, acc_h) = (col(0), 0);
                         }
                         while acc_h < h {
                             acc_h += 1;
-                            let a = ext::<MAX>(load(row, x0 - acc_h), load(row, x0 + acc_h));
+                            let a = ext::<MAX>(col(-(acc_h as isize)), col(acc_h as isize));
                             acc = ext::<MAX>(acc, a);
                         }
                         g = acc;
