@@ -567,13 +567,13 @@ mod avx512 {
             let ax = _mm512_abs_epi16(gx);
             let ay = _mm512_abs_epi16(gy);
             // tan_all is zero in the horizontal regime (tan_q10 ≤ 424 < 1024).
+            // LLVM legalises `_mm512_mulhi_epu16` by a run-time splat as two zero-extended
+            // halves (≈ 9 vector operations); one `vpmulhuw` written out is the same result.
+            let m = mulhi_epu16(ax, tan_mul);
             let lim = if HORIZ {
-                _mm512_mulhi_epu16(ax, tan_mul)
+                m
             } else {
-                _mm512_add_epi16(
-                    _mm512_mulhi_epu16(ax, tan_mul),
-                    _mm512_and_si512(ax, tan_all),
-                )
+                _mm512_add_epi16(m, _mm512_and_si512(ax, tan_all))
             };
             let cand = _mm512_cmpge_epu16_mask(c, low) & _mm512_cmple_epu16_mask(ay, lim) & mc;
             let (a, b) = if HORIZ {
@@ -615,6 +615,25 @@ mod avx512 {
             x0 += 32;
         }
         n
+    }
+
+    /// `_mm512_mulhi_epu16` as the single instruction it names (see its use in [`classify`]);
+    /// callable only from code compiled for AVX-512 BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    #[inline]
+    fn mulhi_epu16(a: __m512i, b: __m512i) -> __m512i {
+        let r: __m512i;
+        // SAFETY: a register-only vector multiply (no memory, no flags), AVX-512 BW enabled.
+        unsafe {
+            std::arch::asm!(
+                "vpmulhuw {r}, {a}, {b}",
+                r = lateout(zmm_reg) r,
+                a = in(zmm_reg) a,
+                b = in(zmm_reg) b,
+                options(pure, nomem, nostack, preserves_flags)
+            );
+        }
+        r
     }
 
     /// Direction (binary angle, [`super::angle256`]) and sub-pixel offset
