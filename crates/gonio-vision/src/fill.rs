@@ -136,9 +136,8 @@ impl EdgeFill {
             ];
             (!c & (pairs[0] | pairs[1] | pairs[2] | pairs[3]), pairs)
         };
-        // Fills the candidates of word i.
-        let mut fill_word = |i: usize| {
-            let (mut need, pairs) = word(i);
+        // Fills the candidates `need` of word i (`word(i)`).
+        let mut fill_word = |i: usize, (mut need, pairs): (u64, [u64; 4])| {
             while need != 0 {
                 let b = need.trailing_zeros() as usize;
                 need &= need - 1;
@@ -177,10 +176,11 @@ impl EdgeFill {
         };
         // The words with candidates (a few percent): eight at a time with AVX-512 (the same
         // word operations in vector lanes), else one at a time.
-        if !avx512::words_with_candidates(cb, ub, db, &mut fill_word) {
+        if !avx512::words_with_candidates(cb, ub, db, &mut |i| fill_word(i, word(i))) {
             for i in 0..n {
-                if word(i).0 != 0 {
-                    fill_word(i);
+                let wd = word(i);
+                if wd.0 != 0 {
+                    fill_word(i, wd);
                 }
             }
         }
