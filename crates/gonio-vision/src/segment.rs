@@ -773,7 +773,8 @@ mod avx512 {
     ) {
         let m = n.div_ceil(16) * 16;
         assert!(s.cols.len() >= m && s.c.len() >= m && s.dir.len() >= m && s.sub.len() >= m);
-        out.clear();
+        // Every one of the n pixels is stored below: only pixels beyond the list's old length
+        // get a default first (a `clear` here would write all n twice).
         out.resize(n, EdgePixel::default());
         // SAFETY: PIXEL_PERM holds four rows of 64 bytes.
         let perm: [__m512i; 4] =
