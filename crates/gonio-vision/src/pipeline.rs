@@ -28,7 +28,7 @@ use crate::VisionError;
 use crate::blur_sobel::BlurSobel;
 use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, saturated_runs};
 use crate::fill::EdgeFill;
-use crate::focus::abs_diff_sums;
+use crate::focus::RowFocus;
 use crate::gradient::GradRow;
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
@@ -138,6 +138,8 @@ pub struct Detector {
     sat_runs: Vec<SaturatedRun>,
     focus_sum: u64,
     grad_sum: u64,
+    /// The per-row focus sums' state.
+    focus: RowFocus,
     dump: Option<Box<StageImages>>,
 }
 
@@ -188,6 +190,7 @@ impl Detector {
             sat_runs: Vec::with_capacity(64),
             focus_sum: 0,
             grad_sum: 0,
+            focus: RowFocus::default(),
             dump: None,
             p,
         }
@@ -304,21 +307,13 @@ impl Detector {
     /// Saturation count and focus sums for the row just arrived; `prev` = rows y − 2, y − 1.
     #[inline(always)]
     fn raw_stats(&mut self, row: &[u8], prev: Option<(&[u8], &[u8])>) {
-        let w = self.p.width;
-        let sat = row.iter().map(|&v| (v == 255) as u32).sum::<u32>();
-        if sat > 0 {
-            self.saturated += sat as u64;
+        let s = self.focus.push(self.rows, row, prev);
+        if s.saturated > 0 {
+            self.saturated += u64::from(s.saturated);
             saturated_runs(row, self.rows, &mut self.sat_runs);
         }
-        // Focus at row y − 1 needs rows y − 2 and y.
-        if let Some((a, b)) = prev {
-            // a = row y − 2, b = row y − 1: the central differences at row y − 1.
-            let (bl, br, rc, ac) = (&b[..w - 2], &b[2..w], &row[1..w - 1], &a[1..w - 1]);
-            let (s1x, s2x) = abs_diff_sums(bl, br);
-            let (s1y, s2y) = abs_diff_sums(rc, ac);
-            self.grad_sum += s1x + s1y;
-            self.focus_sum += s2x + s2y;
-        }
+        self.grad_sum += s.abs_sum;
+        self.focus_sum += s.sq_sum;
     }
 
     /// Ends the frame: flushes the stages and computes the result.
@@ -376,6 +371,10 @@ impl Detector {
         for (y, row) in frame.chunks_exact(w).enumerate() {
             let prev =
                 (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
+            // The next row is read first by the raw statistics, a whole row's work from now.
+            if let Some(next) = frame.get((y + 1) * w..(y + 2) * w) {
+                crate::simd::prefetch(next);
+            }
             self.feed(row, prev);
         }
         self.finish_frame()

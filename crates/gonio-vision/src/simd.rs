@@ -156,3 +156,38 @@ pub fn set_vbmi(enabled: bool) {
     let on = enabled && vbmi_detected();
     VBMI.store(if on { 2 } else { 1 }, Ordering::Relaxed);
 }
+
+/// 0 = not yet checked, 1 = no AVX-512 VNNI, 2 = the CPU has it.
+static VNNI: AtomicU8 = AtomicU8::new(0);
+
+/// True when the level in use is AVX-512 and the CPU has AVX-512 VNNI (`vpdpbusd`), checked once
+/// with `is_x86_feature_detected!`: the focus sums' dot-product path ([`crate::focus`]).
+#[inline]
+pub fn vnni() -> bool {
+    let has = match VNNI.load(Ordering::Relaxed) {
+        1 => false,
+        2 => true,
+        _ => {
+            #[cfg(target_arch = "x86_64")]
+            let has = detected() == Level::Avx512 && std::is_x86_feature_detected!("avx512vnni");
+            #[cfg(not(target_arch = "x86_64"))]
+            let has = false;
+            VNNI.store(if has { 2 } else { 1 }, Ordering::Relaxed);
+            has
+        }
+    };
+    has && level() == Level::Avx512
+}
+
+/// Asks the CPU to bring `bytes` into the L1 cache ahead of their use: one `prefetcht0` per
+/// 64-byte line. A hint only (it never faults and changes no result); nothing on other targets.
+#[inline(always)]
+pub(crate) fn prefetch(bytes: &[u8]) {
+    #[cfg(target_arch = "x86_64")]
+    for line in bytes.chunks(64) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: a prefetch is a hint that cannot fault; the address lies inside `bytes`. SSE
+        // is part of the x86-64 baseline.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(line.as_ptr().cast()) };
+    }
+}
