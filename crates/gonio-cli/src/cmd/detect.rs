@@ -179,7 +179,7 @@ pub fn run(a: Args) -> Result<()> {
         // room for a whole frame (best effort: not a pipe, or over the system's limit, is fine).
         #[cfg(target_os = "linux")]
         let _ = rustix::pipe::fcntl_setpipe_size(std::io::stdin(), (w * h).next_power_of_two());
-        let src = RawFrames::new(std::io::stdin().lock(), w, h);
+        let src = RawFrames::new(std::io::stdin(), w, h);
         detect_all(
             &a,
             &angles,
@@ -231,7 +231,7 @@ pub fn run(a: Args) -> Result<()> {
 /// Every frame of the source through the detector, one JSON line each: on worker threads in
 /// frame order ([`detect_in_order`]), or one at a time when a frame's stages are dumped.
 #[allow(clippy::too_many_arguments)]
-fn detect_all<S: FrameSource>(
+fn detect_all<S: FrameSource + Send>(
     a: &Args,
     angles: &Angles,
     source: S,
