@@ -493,8 +493,6 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
 struct Chain {
     state1: Aligned<u8>,
     state2: Aligned<u8>,
-    /// The chord classes of a chunk of rows of one column vector.
-    scratch: Aligned<u8>,
     fed1: usize,
     fed2: usize,
     /// Padded rows of the first operation (its neutral value around, `rstride` apart); slot 0
@@ -548,7 +546,6 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             Chain {
                 state1: Aligned::new(nstate, neutral1),
                 state2: Aligned::new(nstate, neutral2),
-                scratch: Aligned::new(vbmi::CHUNK * (r + 1) * 64, 0),
                 fed1: 0,
                 fed2: 0,
                 mid: Aligned::new((batch + r) * rstride, neutral2),
@@ -609,17 +606,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
                 .collect();
             let skip = r.saturating_sub(from);
             c.mid_from = from.max(r) - r;
-            vbmi::feed::<F>(
-                r,
-                &mut c.state1,
-                &mut c.scratch,
-                &ins,
-                &mut c.mid,
-                rs,
-                PAD,
-                skip,
-                w,
-            );
+            vbmi::feed::<F>(r, &mut c.state1, &ins, &mut c.mid, rs, PAD, skip, w);
             c.fed1 = to;
         }
         // The second operation's rows y … y + nb − 1.
@@ -636,17 +623,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             })
             .collect();
         let skip = r.saturating_sub(from);
-        vbmi::feed::<S>(
-            r,
-            &mut c.state2,
-            &mut c.scratch,
-            &ins,
-            &mut self.done,
-            rs,
-            0,
-            skip,
-            w,
-        );
+        vbmi::feed::<S>(r, &mut c.state2, &ins, &mut self.done, rs, 0, skip, w);
         c.fed2 = to;
         self.done_from = y;
         self.done_rows = nb;
@@ -772,11 +749,12 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
 ///
 /// For r = 11 the seven classes have half widths 3, 5, 7, 8, 9, 10, 11. [`run`] makes only
 /// 3, 5 and 7 from the pyramid (levels 1 … 3; level 1, the pairs, as the max of the row and
-/// the row loaded one column further, no permute) and keeps them in the scratch; 8 … 11 are
-/// each the next narrower one ∨ the row's columns x ± h (two loads, two max operations), made
-/// in the chain where they are used ([`Plan::BASE`]). Per 64-column vector and row that is
-/// 10 shuffles + 17 max operations for the classes instead of 22 + 15, and 3 class stores
-/// instead of 7 (the chain's 22 max operations are unchanged). [`run`]'s chain updates every
+/// the row loaded one column further, no permute); 8 … 11 are each the next narrower one ∨
+/// the row's columns x ± h (two loads, two max operations) ([`Plan::BASE`]). Per 64-column
+/// vector and row that is 10 shuffles + 17 max operations for the classes instead of 22 + 15
+/// (the chain's 22 max operations are unchanged), all made in the loop that combines them:
+/// no class goes through memory (a scratch of 16 rows' classes, one store and one reload per
+/// class, measured ≈ 8 % slower on the top-hat once the classes needed this few registers). [`run`]'s chain updates every
 /// state vector in place (R_d for descending d, then T_d for ascending d, the row's classes
 /// held in registers), which spares the 11 register copies per row that the shared
 /// `chain_step!` (still used by [`run_direct`], whose state is small) made the compiler emit.
@@ -826,24 +804,6 @@ mod vbmi {
                 dy += 1;
             }
             hw
-        };
-        /// Index of each |dy|'s chord class: classes numbered from |dy| = r (narrowest) up.
-        const CLASS: [usize; MAX_RADIUS + 2] = {
-            let hw = Self::HW;
-            let mut cls = [0; MAX_RADIUS + 2];
-            let mut c = 0;
-            let mut d = R;
-            loop {
-                if d < R && hw[d] != hw[d + 1] {
-                    c += 1;
-                }
-                cls[d] = c;
-                if d == 0 {
-                    break;
-                }
-                d -= 1;
-            }
-            cls
         };
         /// The first class position (|dy|, from the widest class up) whose class is not one
         /// pixel wider than the next narrower one: the classes at |dy| < BASE are each made
@@ -1055,11 +1015,6 @@ mod vbmi {
         }
     }
 
-    /// Rows whose chord classes are made before they are combined (one pass over them with
-    /// the index vectors in registers, the classes kept in an L1 scratch, then the chain with
-    /// its state in registers).
-    pub(super) const CHUNK: usize = 16;
-
     /// Largest radius [`run_direct`] handles.
     const DIRECT_MAX: usize = 4;
 
@@ -1072,11 +1027,16 @@ mod vbmi {
     /// Feeds the rows `ins` (padded rows: column c at `PAD + c`, the operation's neutral value
     /// around) through the chain `state` of every column vector; the output of input row i ≥
     /// `skip` goes to `out[(i − skip)·ostride + ooff ..][.. width]`.
+    ///
+    /// Each row's chord classes are made in the loop that combines them: the classes at
+    /// |dy| ≥ [`Plan::BASE`] from the pyramid, the wider ones, each one pixel wider than the
+    /// next narrower, from that one and the row's two new columns. (Until the classes needed
+    /// fewer vector registers they went through an L1 scratch, one store and one reload each:
+    /// with the 22 state vectors in registers the compiler now still finds room for them.)
     #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
     #[allow(clippy::too_many_arguments)]
     fn run<const MAX: bool, const R: usize>(
         state: &mut [u8],
-        scratch: &mut [u8],
         ins: &[&[u8]],
         out: &mut [u8],
         ostride: usize,
@@ -1087,102 +1047,82 @@ mod vbmi {
         if R <= DIRECT_MAX {
             return run_direct::<MAX, R>(state, ins, out, ostride, ooff, skip, width);
         }
-        let (hw, cls) = (Plan::<R>::HW, Plan::<R>::CLASS);
+        let hw = Plan::<R>::HW;
+        let base = Plan::<R>::BASE;
         let nvec = width.div_ceil(64);
         let zero = _mm512_setzero_si512();
-        // Classes at |dy| ≥ BASE are made here and kept in the scratch; the wider ones, each
-        // one pixel wider than the next narrower, are made in the chain from that one.
-        let base = Plan::<R>::BASE;
-        let nc = cls[base] + 1;
         for v in 0..nvec {
             let mask = store_mask(v, nvec, width);
             let sb = v * 2 * R * 64;
-            for (c, rows) in ins.chunks(CHUNK).enumerate() {
-                // The chord classes of each row, narrowest first.
-                for (j, row) in rows.iter().enumerate() {
-                    let sc = j * nc * 64;
-                    let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
-                    let mut lk = 0;
-                    down_each(
-                        #[inline(always)]
-                        |d: usize| {
-                            if d > R || d < base || (d < R && hw[d] == hw[d + 1]) {
-                                return;
-                            }
+            // The chain: T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
+            load_state!(R, state, sb, t, q);
+            for (i, row) in ins.iter().enumerate() {
+                let x0 = v * 64 + PAD;
+                let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
+                let mut lk = 0;
+                // The classes of |dy| = 0 … r, narrowest first.
+                let mut gs = [zero; MAX_RADIUS + 1];
+                let mut g = zero;
+                down_each(
+                    #[inline(always)]
+                    |d: usize| {
+                        if d > R {
+                            return;
+                        }
+                        if d == R || hw[d] != hw[d + 1] {
                             let h = hw[d];
-                            let k = level(h);
-                            while lk < k {
-                                if lk == 0 {
-                                    // Pairs from the row shifted by one column: loads, no permutes.
-                                    la = ext::<MAX>(la, load(row, v * 64 + 1));
-                                    lb = ext::<MAX>(lb, load(row, v * 64 + 65));
-                                } else {
-                                    let a = ext::<MAX>(la, shift2(la, lb, 1 << lk));
-                                    let b = ext::<MAX>(lb, rot(lb, 1 << lk));
-                                    (la, lb) = (a, b);
+                            g = if d >= base {
+                                let k = level(h);
+                                while lk < k {
+                                    if lk == 0 {
+                                        // Pairs from the row shifted by one column: loads, no
+                                        // permutes.
+                                        la = ext::<MAX>(la, load(row, v * 64 + 1));
+                                        lb = ext::<MAX>(lb, load(row, v * 64 + 65));
+                                    } else {
+                                        let a = ext::<MAX>(la, shift2(la, lb, 1 << lk));
+                                        let b = ext::<MAX>(lb, rot(lb, 1 << lk));
+                                        (la, lb) = (a, b);
+                                    }
+                                    lk += 1;
                                 }
-                                lk += 1;
-                            }
-                            let x = shift2(la, lb, PAD - h);
-                            let y = shift2(la, lb, PAD + h + 1 - (1 << k));
-                            store(scratch, sc + cls[d] * 64, ext::<MAX>(x, y), !0);
-                        },
-                    );
+                                let x = shift2(la, lb, PAD - h);
+                                let y = shift2(la, lb, PAD + h + 1 - (1 << k));
+                                ext::<MAX>(x, y)
+                            } else {
+                                // One wider than `g`: its two new columns from the row.
+                                ext::<MAX>(g, ext::<MAX>(load(row, x0 - h), load(row, x0 + h)))
+                            };
+                        }
+                        gs[d] = g;
+                    },
+                );
+                // The chain, each state vector updated in place: R_d descending, then
+                // T_d ascending (no register copies for the shift by one row).
+                let o = ext::<MAX>(gs[R], q[R - 1]);
+                down_each(
+                    #[inline(always)]
+                    |d: usize| {
+                        if d >= 1 && d < R {
+                            q[d] = ext::<MAX>(gs[d], q[d - 1]);
+                        }
+                    },
+                );
+                q[0] = ext::<MAX>(gs[0], t[0]);
+                up_each(
+                    #[inline(always)]
+                    |d: usize| {
+                        if d >= 1 && d < R {
+                            t[d - 1] = ext::<MAX>(gs[d], t[d]);
+                        }
+                    },
+                );
+                t[R - 1] = gs[R];
+                if i >= skip {
+                    store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
                 }
-                // The chain: T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
-                load_state!(R, state, sb, t, q);
-                for (j, row) in rows.iter().enumerate() {
-                    let sc = j * nc * 64;
-                    let x0 = v * 64 + PAD;
-                    // The classes of |dy| = 0 … r.
-                    let mut gs = [zero; MAX_RADIUS + 1];
-                    let mut g = zero;
-                    down_each(
-                        #[inline(always)]
-                        |d: usize| {
-                            if d > R {
-                                return;
-                            }
-                            if d == R || hw[d] != hw[d + 1] {
-                                let h = hw[d];
-                                g = if d >= base {
-                                    load(scratch, sc + cls[d] * 64)
-                                } else {
-                                    // One wider than `g`: its two new columns from the row.
-                                    ext::<MAX>(g, ext::<MAX>(load(row, x0 - h), load(row, x0 + h)))
-                                };
-                            }
-                            gs[d] = g;
-                        },
-                    );
-                    // The chain, each state vector updated in place: R_d descending, then
-                    // T_d ascending (no register copies for the shift by one row).
-                    let o = ext::<MAX>(gs[R], q[R - 1]);
-                    down_each(
-                        #[inline(always)]
-                        |d: usize| {
-                            if d >= 1 && d < R {
-                                q[d] = ext::<MAX>(gs[d], q[d - 1]);
-                            }
-                        },
-                    );
-                    q[0] = ext::<MAX>(gs[0], t[0]);
-                    up_each(
-                        #[inline(always)]
-                        |d: usize| {
-                            if d >= 1 && d < R {
-                                t[d - 1] = ext::<MAX>(gs[d], t[d]);
-                            }
-                        },
-                    );
-                    t[R - 1] = gs[R];
-                    let i = c * CHUNK + j;
-                    if i >= skip {
-                        store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
-                    }
-                }
-                store_state!(R, state, sb, t, q);
             }
+            store_state!(R, state, sb, t, q);
         }
     }
 
@@ -1286,7 +1226,6 @@ mod vbmi {
     pub(super) fn feed<const MAX: bool>(
         r: usize,
         state: &mut [u8],
-        scratch: &mut [u8],
         ins: &[&[u8]],
         out: &mut [u8],
         ostride: usize,
@@ -1302,7 +1241,7 @@ mod vbmi {
             ($($r:literal)*) => {
                 match r {
                     // SAFETY: the CPU has AVX-512 F/BW and VBMI (asserted above).
-                    $($r => unsafe { run::<MAX, $r>(state, scratch, ins, out, ostride, ooff, skip, width) },)*
+                    $($r => unsafe { run::<MAX, $r>(state, ins, out, ostride, ooff, skip, width) },)*
                     _ => unreachable!("radius {r} outside the VBMI kernel"),
                 }
             };
