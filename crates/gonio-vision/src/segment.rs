@@ -509,6 +509,15 @@ mod avx512 {
     /// `HORIZ`: then they are the left and right ones) and the kept columns into `s.cols`.
     /// Returns the number kept.
     ///
+    /// 64 columns (one word of bits) a step, as two halves of 32 16-bit lanes ([`half`]).
+    /// Inside the row the loads are plain ones (no mask register moved in and out per load);
+    /// only at the row's two ends do masked loads zero the columns outside it. The kept
+    /// columns are listed in a second pass over the words: one `vpcompressb` of the byte
+    /// offsets 0 … 63 per word, widened to 16-bit columns, stored by a 32-byte store (most
+    /// words keep a few pixels). In one pass, every compress waited at the end of its
+    /// word's chain of loads, compares and mask moves (`perf` put ≈ 40 % of the kernel on
+    /// the store after it) and fewer words were in flight.
+    ///
     /// # Safety
     /// The CPU must support AVX-512 F/BW/VL/DQ and VBMI2; `up`, `down` and `cur`'s rows have
     /// the same length, `bits` holds a bit per column.
@@ -527,94 +536,170 @@ mod avx512 {
         assert!(up.len() == w && down.len() == w && cur.gx.len() == w && cur.gy.len() == w);
         assert!(bits.len() * 64 >= w && s.a.len() >= w.div_ceil(32) * 32);
         assert!(s.b.len() == s.a.len() && s.cols.len() >= w + 32 && w <= 1 << 15);
-        let (gxp, gyp, cp) = (cur.gx.as_ptr(), cur.gy.as_ptr(), cur.mag.as_ptr());
-        let (up, dp) = (up.as_ptr(), down.as_ptr());
-        let low = _mm512_set1_epi16(k.low as i16);
-        let tan_mul = _mm512_set1_epi16(k.tan_mul as i16);
-        let tan_all = _mm512_set1_epi16(k.tan_all as i16);
-        let t22 = _mm512_set1_epi16(TAN22_MUL as i16);
-        let zero = _mm512_setzero_si512();
-        let iota = _mm512_set_epi16(
-            31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12, 11, 10,
-            9, 8, 7, 6, 5, 4, 3, 2, 1, 0,
-        );
-        bits.fill(0);
+        let rows = Rows {
+            gx: cur.gx.as_ptr().cast(),
+            gy: cur.gy.as_ptr().cast(),
+            c: cur.mag.as_ptr(),
+            up: up.as_ptr(),
+            down: down.as_ptr(),
+        };
+        // SAFETY: IOTA8 holds 64 bytes.
+        let iota8 = unsafe { _mm512_loadu_si512(IOTA8.as_ptr().cast()) };
         let mut n = 0usize;
-        let mut x0 = 0usize;
-        while x0 < w {
-            let rem = w - x0;
+        for (j, word) in bits[..w.div_ceil(64)].iter_mut().enumerate() {
+            let x0 = 64 * j;
             // Lanes inside the row; for the left/right neighbours, lanes whose neighbour is.
-            let mc: __mmask32 = if rem >= 32 { !0 } else { (1u32 << rem) - 1 };
-            let ml = if x0 == 0 { mc & !1 } else { mc };
-            let mr = if rem > 32 { !0 } else { mc >> 1 };
-            // SAFETY: masked loads read only the lanes of their mask, all inside the rows
-            // (columns 0 … w − 1); the pointers of masked-off lanes are never dereferenced.
-            macro_rules! ld {
-                ($p:expr, $m:expr, $dx:expr) => {
-                    unsafe {
-                        _mm512_maskz_loadu_epi16(
-                            $m,
-                            ($p as *const u16).wrapping_offset(x0 as isize + $dx).cast(),
-                        )
-                    }
-                };
-            }
-            let gx = ld!(gxp, mc, 0);
-            let gy = ld!(gyp, mc, 0);
-            let c = ld!(cp, mc, 0);
-            let cl = ld!(cp, ml, -1);
-            let cr = ld!(cp, mr, 1);
-            let ax = _mm512_abs_epi16(gx);
-            let ay = _mm512_abs_epi16(gy);
-            // tan_all is zero in the horizontal regime (tan_q10 ≤ 424 < 1024).
-            // LLVM legalises `_mm512_mulhi_epu16` by a run-time splat as two zero-extended
-            // halves (≈ 9 vector operations); one `vpmulhuw` written out is the same result.
-            let m = mulhi_epu16(ax, tan_mul);
-            let lim = if HORIZ {
-                m
-            } else {
-                _mm512_add_epi16(m, _mm512_and_si512(ax, tan_all))
+            let masks = |x: usize| -> [__mmask32; 3] {
+                let rem = w.saturating_sub(x);
+                let mc: __mmask32 = if rem >= 32 { !0 } else { (1u32 << rem) - 1 };
+                let ml = if x == 0 { mc & !1 } else { mc };
+                let mr = if rem > 32 { !0 } else { mc >> 1 };
+                [mc, ml, mr]
             };
-            let cand = _mm512_cmpge_epu16_mask(c, low) & _mm512_cmple_epu16_mask(ay, lim) & mc;
-            let (a, b) = if HORIZ {
-                (cl, cr)
-            } else {
-                let (ul, um, ur) = (ld!(up, ml, -1), ld!(up, mc, 0), ld!(up, mr, 1));
-                let (dl, dm, dr) = (ld!(dp, ml, -1), ld!(dp, mc, 0), ld!(dp, mr, 1));
-                let h = _mm512_cmple_epu16_mask(ay, _mm512_mulhi_epu16(ax, t22));
-                let v = _mm512_cmple_epu16_mask(ax, _mm512_mulhi_epu16(ay, t22));
-                let d = !(_mm512_cmpgt_epi16_mask(gx, zero) ^ _mm512_cmpgt_epi16_mask(gy, zero));
-                // Diagonal: up-left/down-right; anti-diagonal: down-left/up-right.
-                let da = _mm512_mask_blend_epi16(d, dl, ul);
-                let db = _mm512_mask_blend_epi16(d, ur, dr);
-                let va = _mm512_mask_blend_epi16(v, da, um);
-                let vb = _mm512_mask_blend_epi16(v, db, dm);
-                (
-                    _mm512_mask_blend_epi16(h, va, cl),
-                    _mm512_mask_blend_epi16(h, vb, cr),
-                )
+            // SAFETY: columns x0 − 1 … x0 + 64 inside the row for the plain loads; else the
+            // masks select columns 0 … w − 1 only (none past the row's end).
+            let ((k0, (a0, b0)), (k1, (a1, b1))) = unsafe {
+                if x0 > 0 && x0 + 65 <= w {
+                    (
+                        half::<HORIZ, false>(&rows, x0, [!0; 3], k),
+                        half::<HORIZ, false>(&rows, x0 + 32, [!0; 3], k),
+                    )
+                } else {
+                    (
+                        half::<HORIZ, true>(&rows, x0, masks(x0), k),
+                        half::<HORIZ, true>(&rows, x0 + 32, masks(x0 + 32), k),
+                    )
+                }
             };
-            let keep = cand & _mm512_cmpge_epu16_mask(c, a) & _mm512_cmpgt_epu16_mask(c, b);
+            let kk = k0 as u64 | (k1 as u64) << 32;
+            *word = kk;
             if !HORIZ {
-                // SAFETY: x0 + 32 ≤ the scratch rows' length (w rounded up to 32).
+                // SAFETY: x0 + 32 ≤ the scratch rows' length (w rounded up to 32), and
+                // x0 + 64 when the second half has columns.
                 unsafe {
-                    _mm512_storeu_si512(s.a.as_mut_ptr().add(x0).cast(), a);
-                    _mm512_storeu_si512(s.b.as_mut_ptr().add(x0).cast(), b);
+                    _mm512_storeu_si512(s.a.as_mut_ptr().add(x0).cast(), a0);
+                    _mm512_storeu_si512(s.b.as_mut_ptr().add(x0).cast(), b0);
+                    if x0 + 32 < w {
+                        _mm512_storeu_si512(s.a.as_mut_ptr().add(x0 + 32).cast(), a1);
+                        _mm512_storeu_si512(s.b.as_mut_ptr().add(x0 + 32).cast(), b1);
+                    }
                 }
             }
-            bits[x0 / 64] |= (keep as u64) << (x0 % 64);
-            let idx = _mm512_add_epi16(iota, _mm512_set1_epi16(x0 as i16));
-            // SAFETY: n ≤ the columns seen so far < w, and `cols` holds w + 32.
-            unsafe {
-                _mm512_storeu_si512(
-                    s.cols.as_mut_ptr().add(n).cast(),
-                    _mm512_maskz_compress_epi16(keep, idx),
-                );
-            }
-            n += keep.count_ones() as usize;
-            x0 += 32;
         }
+        // The kept columns, listed from the words (a second pass: the compress no longer
+        // waits on the classification's chain of loads, compares and mask moves).
+        for (j, &kk) in bits[..w.div_ceil(64)].iter().enumerate() {
+            let x0 = 64 * j;
+            // The kept columns' offsets in the word (bytes), widened to columns.
+            let offs = _mm512_maskz_compress_epi8(kk, iota8);
+            let base = _mm512_set1_epi16(x0 as i16);
+            let lo = _mm512_add_epi16(_mm512_cvtepu8_epi16(_mm512_castsi512_si256(offs)), base);
+            let m = kk.count_ones() as usize;
+            // SAFETY: n ≤ the columns before x0 (x0 < w) and `cols` holds w + 32: the 16
+            // and 32 columns stored from n fit; beyond 32 only the m − 32 lanes kept are.
+            unsafe {
+                let p = s.cols.as_mut_ptr().add(n);
+                if m <= 16 {
+                    _mm256_storeu_si256(p.cast(), _mm512_castsi512_si256(lo));
+                } else {
+                    _mm512_storeu_si512(p.cast(), lo);
+                    if m > 32 {
+                        let hi = _mm512_cvtepu8_epi16(_mm512_extracti64x4_epi64::<1>(offs));
+                        let hi = _mm512_add_epi16(hi, base);
+                        _mm512_mask_storeu_epi16(p.add(32).cast(), !0 >> (64 - m), hi);
+                    }
+                }
+            }
+            n += m;
+        }
+        bits[w.div_ceil(64)..].fill(0);
         n
+    }
+
+    /// The bytes 0 … 63 (the columns' offsets in a word of bits).
+    const IOTA8: [u8; 64] = {
+        let mut t = [0u8; 64];
+        let mut i = 0;
+        while i < 64 {
+            t[i] = i as u8;
+            i += 1;
+        }
+        t
+    };
+
+    /// The rows [`classify`] reads: the gradients and magnitudes of the row, the magnitudes
+    /// above and below it.
+    struct Rows {
+        gx: *const u16,
+        gy: *const u16,
+        c: *const u16,
+        up: *const u16,
+        down: *const u16,
+    }
+
+    /// One 32-column half of [`classify`] at column `x`: the kept columns' mask and the
+    /// neighbours across the edge (before, after). `masks` = (the columns, those whose left
+    /// neighbour, those whose right neighbour is inside the row); all-ones inside it.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F/BW; the lanes the masks select, at x − 1 … x + 32, are
+    /// inside the rows.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    unsafe fn half<const HORIZ: bool, const MASKED: bool>(
+        r: &Rows,
+        x: usize,
+        [mc, ml, mr]: [__mmask32; 3],
+        k: &ClassConsts,
+    ) -> (u32, (__m512i, __m512i)) {
+        // SAFETY: masked loads read only the lanes of their mask (the caller's contract); the
+        // pointers of masked-off lanes are never dereferenced.
+        let ld = |p: *const u16, m: __mmask32, dx: isize| unsafe {
+            let p = p.wrapping_offset(x as isize + dx).cast();
+            if MASKED {
+                _mm512_maskz_loadu_epi16(m, p)
+            } else {
+                _mm512_loadu_si512(p.cast())
+            }
+        };
+        let (gx, gy, c) = (ld(r.gx, mc, 0), ld(r.gy, mc, 0), ld(r.c, mc, 0));
+        let (cl, cr) = (ld(r.c, ml, -1), ld(r.c, mr, 1));
+        let ax = _mm512_abs_epi16(gx);
+        let ay = _mm512_abs_epi16(gy);
+        // tan_all is zero in the horizontal regime (tan_q10 ≤ 424 < 1024).
+        // LLVM legalises `_mm512_mulhi_epu16` by a run-time splat as two zero-extended
+        // halves (≈ 9 vector operations); one `vpmulhuw` written out is the same result.
+        let m = mulhi_epu16(ax, _mm512_set1_epi16(k.tan_mul as i16));
+        let lim = if HORIZ {
+            m
+        } else {
+            _mm512_add_epi16(m, _mm512_and_si512(ax, _mm512_set1_epi16(k.tan_all as i16)))
+        };
+        let cand = _mm512_cmpge_epu16_mask(c, _mm512_set1_epi16(k.low as i16))
+            & _mm512_cmple_epu16_mask(ay, lim)
+            & mc;
+        let (a, b) = if HORIZ {
+            (cl, cr)
+        } else {
+            let t22 = _mm512_set1_epi16(TAN22_MUL as i16);
+            let zero = _mm512_setzero_si512();
+            let (ul, um, ur) = (ld(r.up, ml, -1), ld(r.up, mc, 0), ld(r.up, mr, 1));
+            let (dl, dm, dr) = (ld(r.down, ml, -1), ld(r.down, mc, 0), ld(r.down, mr, 1));
+            let h = _mm512_cmple_epu16_mask(ay, _mm512_mulhi_epu16(ax, t22));
+            let v = _mm512_cmple_epu16_mask(ax, _mm512_mulhi_epu16(ay, t22));
+            let d = !(_mm512_cmpgt_epi16_mask(gx, zero) ^ _mm512_cmpgt_epi16_mask(gy, zero));
+            // Diagonal: up-left/down-right; anti-diagonal: down-left/up-right.
+            let da = _mm512_mask_blend_epi16(d, dl, ul);
+            let db = _mm512_mask_blend_epi16(d, ur, dr);
+            let va = _mm512_mask_blend_epi16(v, da, um);
+            let vb = _mm512_mask_blend_epi16(v, db, dm);
+            (
+                _mm512_mask_blend_epi16(h, va, cl),
+                _mm512_mask_blend_epi16(h, vb, cr),
+            )
+        };
+        let keep = cand & _mm512_cmpge_epu16_mask(c, a) & _mm512_cmpgt_epu16_mask(c, b);
+        (keep, (a, b))
     }
 
     /// `_mm512_mulhi_epu16` as the single instruction it names (see its use in [`classify`]);

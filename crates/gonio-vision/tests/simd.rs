@@ -47,14 +47,15 @@ fn gradient(rng: &mut ChaCha8Rng) -> i16 {
 
 /// The segmentation alone at every level (the AVX-512 row kernel: classification into mask
 /// registers, the kept columns compressed, direction and sub-pixel offset in vector lanes):
-/// rows of every width 1 … 70 and a few wide ones (every tail after the 32-column steps, the
-/// border columns), random and extreme gradients (i16::MIN, ±32767, magnitudes up to u16::MAX
-/// unrelated to the components), tolerances in the horizontal kernel's range (≤ 22.5°) and
+/// rows of every width 1 … 70 and a few wide ones (every tail after the 64-column steps and
+/// their 32-column halves, the border columns), rows where most halves keep nothing, random
+/// and extreme gradients (i16::MIN, ±32767, magnitudes up to u16::MAX unrelated to the
+/// components), tolerances in the horizontal kernel's range (≤ 22.5°) and
 /// beyond (every sector); the rows out must be identical.
 fn segmentation_rows_at_every_level() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let mut kept = 0;
-    for width in (1..=70).chain([127, 128, 129, 1440]) {
+    for width in (1..=70).chain([127, 128, 129, 191, 192, 193, 1440]) {
         for tan_q10 in [339, 424, 859, 2047] {
             let params = SegmentParams {
                 low: 40,
@@ -62,7 +63,7 @@ fn segmentation_rows_at_every_level() {
                 tan_q10,
             };
             let rows: Vec<GradRow> = (0..9)
-                .map(|_| {
+                .map(|y| {
                     let mut g = GradRow::new(width);
                     for x in 0..width {
                         let (gx, gy) = (gradient(&mut rng), gradient(&mut rng));
@@ -73,6 +74,19 @@ fn segmentation_rows_at_every_level() {
                         } else {
                             gx.unsigned_abs().saturating_add(gy.unsigned_abs())
                         };
+                        // Rows 3 and 4: below the low threshold but in a few runs of columns
+                        // (most 64-column words keep nothing or a few pixels). Row 7: one
+                        // diagonal gradient above zero rows 6 and 8, so at 63° every column is
+                        // kept (full words of kept columns).
+                        if (3..5).contains(&y) && (x / 7) % 9 != 0 {
+                            g.mag[x] %= params.low;
+                        }
+                        if y == 6 || y == 8 {
+                            g.mag[x] = 0;
+                        }
+                        if y == 7 {
+                            (g.gx[x], g.gy[x], g.mag[x]) = (100, 100, 200);
+                        }
                     }
                     g
                 })
