@@ -14,9 +14,10 @@
 //!
 //! With AVX-512 (F/BW/VL/DQ and VBMI/VBMI2, [`crate::simd::vbmi`]; `GONIO_SIMD=avx512`) the row is
 //! segmented by hand-written intrinsics instead, because the compiler does not produce what
-//! the kept pixels need: the classification's comparisons go straight into mask registers (32
-//! columns a step, the border columns by the same zero-padded comparisons through masked
-//! loads), the kept columns are compressed into a list (`vpcompressw`) with no loop over bits,
+//! the kept pixels need: the classification's comparisons go straight into mask registers (64
+//! columns, one word of bits, a step; plain loads inside the row, the border columns by the
+//! same zero-padded comparisons through masked loads), the kept columns are listed in a second
+//! pass over the words, one `vpcompressb` of their offsets per word, with no loop over bits,
 //! and the direction and sub-pixel offset of the listed pixels are computed 16 at a time in
 //! vector lanes with the same integer and exact-f32 arithmetic as the scalar path — the
 //! per-pixel branches (quadrant, octant, zero denominators) become selects, so the path has no
@@ -479,8 +480,8 @@ impl KeptScratch {
 }
 
 /// The AVX-512 segmentation of a row (AVX-512 F/BW/VL/DQ): the classification with compares
-/// into mask registers, 32 columns a step, the kept columns compressed into a list
-/// (`vpcompressd`), then the direction and the sub-pixel offset of the kept pixels in vector
+/// into mask registers, 64 columns a step, the kept columns compressed into a list
+/// (`vpcompressb` per word of bits), then the direction and the sub-pixel offset of the kept pixels in vector
 /// lanes, 16 at a time, with no data-dependent branch. Every step is the integer (or exact f32)
 /// arithmetic of the scalar path, so the pixels are the same.
 #[cfg(target_arch = "x86_64")]
