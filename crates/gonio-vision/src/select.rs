@@ -469,6 +469,111 @@ fn inliers(
     n
 }
 
+/// The pixels of `old` not in `new` into `gone` and those of `new` not in `old` into `came`
+/// (both cleared first), for two subsets of one pixel list in raster order (no two pixels at
+/// one position): one merge-like sweep. True when the two are the same set.
+fn diff(
+    old: &[EdgePixel],
+    new: &[EdgePixel],
+    gone: &mut Vec<EdgePixel>,
+    came: &mut Vec<EdgePixel>,
+) -> bool {
+    let key = |e: &EdgePixel| (e.row as u32) << 16 | e.col as u32;
+    gone.clear();
+    came.clear();
+    let (mut i, mut j) = (0, 0);
+    while i < old.len() && j < new.len() {
+        let (a, b) = (key(&old[i]), key(&new[j]));
+        debug_assert!(i == 0 || key(&old[i - 1]) < a, "raster order");
+        debug_assert!(j == 0 || key(&new[j - 1]) < b, "raster order");
+        if a == b {
+            i += 1;
+            j += 1;
+        } else if a < b {
+            gone.push(old[i]);
+            i += 1;
+        } else {
+            came.push(new[j]);
+            j += 1;
+        }
+    }
+    gone.extend_from_slice(&old[i..]);
+    came.extend_from_slice(&new[j..]);
+    gone.is_empty() && came.is_empty()
+}
+
+/// `component_of(new, w)` from the sums `old` of a pixel set that became `new` (in raster
+/// order) by losing the pixels `gone` and gaining `came`: the counts and sums are integers, so
+/// adding what came and taking away what went gives the same values as summing `new` afresh
+/// (in any order); the first and last row and pixel are `new`'s first and last (raster order),
+/// the column range a pass over `new`'s columns. Summed afresh when the change is not smaller
+/// than `new`.
+fn resum(
+    old: &Component,
+    gone: &[EdgePixel],
+    came: &[EdgePixel],
+    new: &[EdgePixel],
+    w: usize,
+) -> Component {
+    let (Some(first), Some(last)) = (new.first(), new.last()) else {
+        return component_of(new, w);
+    };
+    if gone.len() + came.len() >= new.len() {
+        return component_of(new, w);
+    }
+    let mut c = *old;
+    if !came.is_empty() {
+        c.merge(&component_of(came, w));
+    }
+    if !gone.is_empty() {
+        // Every field listed (no `..`): a field added to `Component` must be handled here.
+        let Component {
+            pixels,
+            strong,
+            weak,
+            pos_n,
+            sum_row,
+            sum_row2,
+            sum_row3,
+            sum_row4,
+            sum_col32,
+            sum_row_col32,
+            sum_row2_col32,
+            sum_col32_sq,
+            sum_mag,
+            sum_dev,
+            gx_pos,
+            min_col: _,
+            max_col: _,
+            min_row: _,
+            max_row: _,
+            first_index: _,
+        } = component_of(gone, w);
+        c.pixels -= pixels;
+        c.strong -= strong;
+        c.weak -= weak;
+        c.pos_n -= pos_n;
+        c.sum_row -= sum_row;
+        c.sum_row2 -= sum_row2;
+        c.sum_row3 -= sum_row3;
+        c.sum_row4 -= sum_row4;
+        c.sum_col32 -= sum_col32;
+        c.sum_row_col32 -= sum_row_col32;
+        c.sum_row2_col32 -= sum_row2_col32;
+        c.sum_col32_sq -= sum_col32_sq;
+        c.sum_mag -= sum_mag;
+        c.sum_dev -= sum_dev;
+        c.gx_pos -= gx_pos;
+    }
+    c.min_row = first.row as u32;
+    c.max_row = last.row as u32;
+    c.first_index = first.row as u64 * w as u64 + first.col as u64;
+    (c.min_col, c.max_col) = new.iter().fold((u32::MAX, 0), |(lo, hi), e| {
+        (lo.min(e.col as u32), hi.max(e.col as u32))
+    });
+    c
+}
+
 /// The smooth pieces of a set of same-polarity pixels, strongest first: a deterministic RANSAC
 /// line bent with the frame's curvature `q` (pairs of pixels from the upper and lower halves;
 /// inliers within 1.5 px; slope within the baseline filter's tolerance), its pixels within
@@ -521,12 +626,13 @@ fn split(s: &mut Scratch, p: &Params, q: Option<f64>, out: &mut Vec<(Component, 
                     .iter()
                     .filter(|e| (col_px(e) - cv.at(e.row as f64, h)).abs() <= 1.0),
             );
-            if s.next == s.piece {
+            // Both are subsets of `taken` (raster order): the new sums from the change.
+            if diff(&s.piece, &s.next, &mut s.gone, &mut s.came) {
                 known = Some(cv);
                 break;
             }
+            c = resum(&c, &s.gone, &s.came, &s.next, w);
             std::mem::swap(&mut s.piece, &mut s.next);
-            c = component_of(&s.piece, w);
         }
         if c.pixels == 0 || c.row_span() < p.min_fragment_rows {
             break;
@@ -547,6 +653,9 @@ struct Scratch {
     taken: Vec<EdgePixel>,
     piece: Vec<EdgePixel>,
     next: Vec<EdgePixel>,
+    /// The pixels a re-fit dropped and took in ([`diff`]).
+    gone: Vec<EdgePixel>,
+    came: Vec<EdgePixel>,
     /// The long candidates' curves fitted for the frame's curvature, by sorted candidate.
     fitted: Vec<Option<Curve>>,
     /// RANSAC's rows and reduced columns.
@@ -686,7 +795,9 @@ fn gather_row(
 /// The rising pixels within `gate` px of the left curve and the falling ones within `gate` px
 /// of the right curve, row by row (rows marked in `skip` left out), appended to `lpx` and
 /// `rpx`; `hints[y]` gets where row y's search for the left edge started. One pass over the
-/// rows: the right edge's search in a row starts from the left edge's.
+/// rows: the right edge's search in a row starts from the left edge's, and the left edge's
+/// from where it started in the row above (the same other edges lie left of it from row to
+/// row: the walk is a step or two; [`partition_near`] finds the same index from any hint).
 #[allow(clippy::too_many_arguments)]
 fn gather(
     left: &Curve,
@@ -699,15 +810,17 @@ fn gather(
     rpx: &mut Vec<EdgePixel>,
     hints: &mut [u32],
 ) {
+    let mut above = 0;
     for y in 0..h {
         hints[y] = 0;
         if skip[y] {
             continue;
         }
         let row = edges.row(y);
-        let lo = gather_row(row, 0, left.at(y as f64, h), true, gate, lpx);
+        let lo = gather_row(row, above, left.at(y as f64, h), true, gate, lpx);
         gather_row(row, lo, right.at(y as f64, h), false, gate, rpx);
         hints[y] = lo as u32;
+        above = lo;
     }
 }
 
@@ -903,6 +1016,9 @@ struct RefitScratch {
     rk: Vec<EdgePixel>,
     lnext: Vec<EdgePixel>,
     rnext: Vec<EdgePixel>,
+    /// The pixels a step dropped and took in ([`diff`]).
+    gone: Vec<EdgePixel>,
+    came: Vec<EdgePixel>,
     rows: Vec<f64>,
     cols: Vec<f64>,
     ml: Vec<f64>,
@@ -1008,14 +1124,18 @@ fn refit_pair_with(
     clean_majority(rpx, r, q_frame, p, &mut s.rows, &mut s.cols, rk);
     // The sums of `lk` and `rk` as they stand and their free joint fit, when known: a step
     // that keeps every pixel of an edge keeps that edge's sums (the same pixels give the same
-    // sums), and one that keeps both keeps the fit (the same sums give the same fit).
+    // sums), and one that keeps both keeps the fit (the same sums give the same fit); a step
+    // that changes an edge's pixels changes its sums by those of the pixels it dropped and
+    // took in ([`resum`]: every kept set is a subset of the gathered pixels, in raster order).
     let (mut lsum, mut rsum): (Option<Component>, Option<Component>) = (None, None);
     let mut fit: Option<PairFit> = None;
     let (ln, rn) = (&mut s.lnext, &mut s.rnext);
+    let (gone, came) = (&mut s.gone, &mut s.came);
+    let w = p.width;
     for _ in 0..2 {
         let f = match fit.take() {
             Some(f) => f,
-            None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, p.width)?,
+            None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, w)?,
         };
         let near =
             |e: &EdgePixel, right: bool| (col(e) - f.at(right, e.row as f64, h)).abs() <= 0.75;
@@ -1023,12 +1143,13 @@ fn refit_pair_with(
         ln.extend(lpx.iter().filter(|e| near(e, false)));
         rn.clear();
         rn.extend(rpx.iter().filter(|e| near(e, true)));
-        let (l_same, r_same) = (ln == lk, rn == rk);
+        let l_same = diff(lk, ln, gone, came);
         if !l_same {
-            lsum = None;
+            lsum = lsum.map(|c| resum(&c, gone, came, ln, w));
         }
+        let r_same = diff(rk, rn, gone, came);
         if !r_same {
-            rsum = None;
+            rsum = rsum.map(|c| resum(&c, gone, came, rn, w));
         }
         if l_same && r_same {
             fit = Some(f);
@@ -1059,14 +1180,12 @@ fn refit_pair_with(
             skip[y] = true;
         }
     }
-    let kept = (lk.len(), rk.len());
-    lk.retain(|e| !skip[e.row as usize]);
-    rk.retain(|e| !skip[e.row as usize]);
-    dropped(kept, lk, rk, &mut lsum, &mut rsum, &mut fit);
+    retain_summed(lk, |e| !skip[e.row as usize], &mut lsum, &mut fit, gone, w);
+    retain_summed(rk, |e| !skip[e.row as usize], &mut rsum, &mut fit, gone, w);
     // 4. Rows where another edge is close enough to pull a ring edge.
     let f = match fit {
         Some(f) => f,
-        None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, p.width)?,
+        None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, w)?,
     };
     let g = |c: &Component| c.sum_mag as f64 / c.pos_n.max(1) as f64;
     let (gl, gr) = (g(&f.left), g(&f.right));
@@ -1098,19 +1217,31 @@ fn refit_pair_with(
             }
         }
     }
-    let kept = (lk.len(), rk.len());
-    lk.retain(|e| !near_l[e.row as usize]);
-    rk.retain(|e| !near_r[e.row as usize]);
+    let mut fit = Some(f);
+    retain_summed(
+        lk,
+        |e| !near_l[e.row as usize],
+        &mut lsum,
+        &mut fit,
+        gone,
+        w,
+    );
+    retain_summed(
+        rk,
+        |e| !near_r[e.row as usize],
+        &mut rsum,
+        &mut fit,
+        gone,
+        w,
+    );
     // 5. The fit, with the ring's own curvature: a circle of the optics' radius whose tangent
     // has the fitted slope s bends by (1 + s²)^{3/2}/radius per row² (its sign from the free
     // fit, else from the frame's concentric edges). A free curvature would have to be pinned
     // by the data, and with rows missing at one end the extrapolated mean would follow its
     // error; with every row present c does not depend on it.
-    let mut fit = Some(f);
-    dropped(kept, lk, rk, &mut lsum, &mut rsum, &mut fit);
     let free = match fit {
         Some(f) => f,
-        None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, p.width)?,
+        None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, w)?,
     };
     let slope = 2.0 * free.b;
     let q_mag = (1.0 + slope * slope).powf(1.5) / (8.0 * p.ring_radius_px);
@@ -1175,22 +1306,27 @@ fn fit_kept(
     fit_sums(l, r, h, None)
 }
 
-/// After pixels were dropped from `lk`, `rk` (which held `kept` pixels): the sums of an edge
-/// that lost pixels, and then the fit, are no longer known.
-fn dropped(
-    kept: (usize, usize),
-    lk: &[EdgePixel],
-    rk: &[EdgePixel],
-    lsum: &mut Option<Component>,
-    rsum: &mut Option<Component>,
+/// Keeps the pixels of an edge's kept set `k` that `keep` accepts. When some are dropped, its
+/// sums `sum` (when known) follow by those of the dropped pixels ([`resum`]) and the joint
+/// `fit` is no longer known.
+fn retain_summed(
+    k: &mut Vec<EdgePixel>,
+    keep: impl Fn(&EdgePixel) -> bool,
+    sum: &mut Option<Component>,
     fit: &mut Option<PairFit>,
+    gone: &mut Vec<EdgePixel>,
+    w: usize,
 ) {
-    if lk.len() != kept.0 {
-        *lsum = None;
-        *fit = None;
-    }
-    if rk.len() != kept.1 {
-        *rsum = None;
+    gone.clear();
+    k.retain(|e| {
+        let kept = keep(e);
+        if !kept {
+            gone.push(*e);
+        }
+        kept
+    });
+    if !gone.is_empty() {
+        *sum = sum.map(|c| resum(&c, gone, &[], k, w));
         *fit = None;
     }
 }
@@ -1363,6 +1499,13 @@ fn rows_in_both(a: &Component, b: &Component, pa: &[bool], pb: &[bool]) -> (u32,
     (first, last, n)
 }
 
+thread_local! {
+    /// The selection's buffers ([`Scratch`], [`RefitScratch`]), kept from frame to frame on
+    /// each thread: every use clears them first, only their capacity carries over (no
+    /// allocations to grow them again every frame).
+    static BUFFERS: std::cell::Cell<(Scratch, RefitScratch)> = Default::default();
+}
+
 /// Chooses the ring among the frame's candidate components (see the module documentation);
 /// `edges` holds the frame's edge pixels for the robust steps (an incomplete list disables them:
 /// contaminated components are then dropped), `saturated` the frame's saturated runs.
@@ -1373,7 +1516,7 @@ pub fn select(
     p: &Params,
 ) -> Selection {
     let h = p.height;
-    let mut scratch = Scratch::default();
+    let (mut scratch, mut refit_scratch) = BUFFERS.take();
     let (tracks, q_frame) = tracks_with(cands, edges, p, &mut scratch);
     // Each track's rows as disjoint intervals in row order (`spans[span_of[k].0..span_of[k].1]`),
     // once: every pair and the interior check intersect them without sorting.
@@ -1385,7 +1528,6 @@ pub fn select(
         span_of.push((a, spans.len()));
     }
     let rows_of = |k: usize| &spans[span_of[k].0..span_of[k].1];
-    let mut refit_scratch = RefitScratch::default();
     let mut skip: Vec<bool> = Vec::new();
     let long: Vec<usize> = (0..tracks.len())
         .filter(|&i| 2 * tracks[i].coverage as usize >= p.min_edge_pixels)
@@ -1523,6 +1665,7 @@ pub fn select(
             });
         }
     }
+    BUFFERS.set((scratch, refit_scratch));
     // A ring's inside is flat: drop candidates with a track as strong as their edges running
     // between them, parallel to them, over 30 % of their shared rows (two neighbouring lines,
     // not a ring). A scratch crossing the ring at an angle does not count.
@@ -1670,6 +1813,68 @@ mod tests {
                 _ => (0, 0, 0),
             };
             assert_eq!(shared(&ma, &mb), want, "{a:?} {b:?}");
+        }
+    }
+
+    #[test]
+    fn sums_from_the_change_are_the_sums_of_the_new_set() {
+        // Random pixel lists in raster order (strong and weak, filled ones without a position,
+        // both polarities) and random subsets of them: the sums carried over from one subset to
+        // another by what `diff` says went and came equal `component_of` of the new subset, in
+        // every field (a sign slip or a forgotten field in `resum` fails this).
+        use crate::segment::{FILLED, STRONG, WEAK};
+        let mut s = 0x5851_f42d_4c95_7f2d;
+        let w = 1440;
+        for _ in 0..400 {
+            let mut all = Vec::new();
+            let (mut row, mut col) = (next(&mut s) % 500, 0u64);
+            for _ in 0..(next(&mut s) % 120) {
+                col += 1 + next(&mut s) % 40;
+                if col >= w as u64 {
+                    row += 1 + next(&mut s) % 3;
+                    col %= 40;
+                }
+                let r = next(&mut s);
+                all.push(EdgePixel {
+                    row: row as u16,
+                    col: col as u16,
+                    class: if r.is_multiple_of(3) { STRONG } else { WEAK },
+                    dir: (r >> 8) as u8,
+                    sub: if r.is_multiple_of(11) {
+                        FILLED
+                    } else {
+                        (r >> 16) as i8 % 16
+                    },
+                    mag: (r >> 24) as u16,
+                    comp: 0,
+                });
+            }
+            // The old subset, then the new one with each pixel's membership flipped with a
+            // probability of 1/2 to 1/64: changes small (summed from the change) and large
+            // (summed afresh).
+            let keep = 1 + next(&mut s) % 8;
+            let was: Vec<bool> = all.iter().map(|_| next(&mut s) % 8 < keep).collect();
+            let flip = 2 << (next(&mut s) % 6);
+            let is: Vec<bool> = was
+                .iter()
+                .map(|&k| k ^ next(&mut s).is_multiple_of(flip))
+                .collect();
+            let pick = |m: &[bool]| -> Vec<EdgePixel> {
+                all.iter().zip(m).filter(|x| *x.1).map(|x| *x.0).collect()
+            };
+            let (old, new) = (pick(&was), pick(&is));
+            let (mut gone, mut came) = (Vec::new(), Vec::new());
+            let same = diff(&old, &new, &mut gone, &mut came);
+            assert_eq!(same, old == new);
+            let want = component_of(&new, w);
+            let got = resum(&component_of(&old, w), &gone, &came, &new, w);
+            assert_eq!(got, want, "{} -> {} pixels", old.len(), new.len());
+            // A pure removal, as the refit's row drops make.
+            let kept: Vec<EdgePixel> = old.iter().filter(|e| e.row % 2 == 0).copied().collect();
+            diff(&old, &kept, &mut gone, &mut came);
+            assert!(came.is_empty());
+            let got = resum(&component_of(&old, w), &gone, &[], &kept, w);
+            assert_eq!(got, component_of(&kept, w));
         }
     }
 
