@@ -52,10 +52,14 @@
 //! whose re-fit kept the same pixels); a split component's pixels are looked up within its own
 //! columns; a pair whose tracks' row ranges cannot share enough rows is dropped before their
 //! rows are intersected; the refit gathers both edges in one pass over the rows, each row
-//! searched linearly from a hint; RANSAC stops counting a line once it can no longer win.
+//! searched linearly from where the row above's search ended; RANSAC stops counting a line
+//! once it can no longer win, and skips the tries that cannot (a pair of pixels already
+//! tried, or any try once every pixel is an inlier); when a re-fit or a dropped row changes
+//! an edge's pixels, its sums follow by the sums of the pixels that went and came (`resum`)
+//! instead of being summed afresh; the buffers are kept per thread from frame to frame.
 //! None of this changes a value: the same sums (integers) and the same floating-point
-//! expressions in the same order (BENCHMARKS.md, "Labelling and selection (issue 10)" and
-//! "Selection and features, third pass (issue 10)").
+//! expressions in the same order (BENCHMARKS.md, "Labelling and selection (issue 10)",
+//! "Selection and features, third pass (issue 10)" and its fourth pass).
 //!
 //! ```
 //! use gonio_vision::{Detector, InvalidReason, Optics};
@@ -417,9 +421,25 @@ fn best_line(
     let half = n / 2;
     let mut best: Option<(usize, f64, f64, f64)> = None;
     const TRIES: usize = 48;
+    let ib_of = |k: usize| half + ((k * 37) % TRIES) * (n - half) / TRIES;
+    // The first try with this try's `ia` (`ia` never decreases with k).
+    let mut group = 0;
     for k in 0..TRIES {
+        // Skipped tries could not be chosen (the choice needs strictly more inliers than the
+        // best so far): once every pixel is an inlier of the best line, any later one; and a
+        // try of the same pair of pixels as an earlier one (fewer than 48 pixels a half), whose
+        // line and count are that try's, no more than the best since.
+        if best.is_some_and(|b| b.0 == n) {
+            break;
+        }
         let ia = k * half / TRIES;
-        let ib = half + ((k * 37) % TRIES) * (n - half) / TRIES;
+        if k > 0 && (k - 1) * half / TRIES != ia {
+            group = k;
+        }
+        let ib = ib_of(k);
+        if (group..k).any(|k2| ib_of(k2) == ib) {
+            continue;
+        }
         let dr = rows[ib] - rows[ia];
         if dr < min_rows {
             continue;
@@ -1180,8 +1200,9 @@ fn refit_pair_with(
             skip[y] = true;
         }
     }
-    retain_summed(lk, |e| !skip[e.row as usize], &mut lsum, &mut fit, gone, w);
-    retain_summed(rk, |e| !skip[e.row as usize], &mut rsum, &mut fit, gone, w);
+    // (`moved`: pixels dropped since `ml`, `mr` were computed.)
+    let mut moved = retain_summed(lk, |e| !skip[e.row as usize], &mut lsum, &mut fit, gone, w);
+    moved |= retain_summed(rk, |e| !skip[e.row as usize], &mut rsum, &mut fit, gone, w);
     // 4. Rows where another edge is close enough to pull a ring edge.
     let f = match fit {
         Some(f) => f,
@@ -1218,7 +1239,7 @@ fn refit_pair_with(
         }
     }
     let mut fit = Some(f);
-    retain_summed(
+    moved |= retain_summed(
         lk,
         |e| !near_l[e.row as usize],
         &mut lsum,
@@ -1226,7 +1247,7 @@ fn refit_pair_with(
         gone,
         w,
     );
-    retain_summed(
+    moved |= retain_summed(
         rk,
         |e| !near_r[e.row as usize],
         &mut rsum,
@@ -1267,8 +1288,11 @@ fn refit_pair_with(
     };
     f.left_rows = rows(lk);
     f.right_rows = rows(rk);
-    row_means(lk, h, ml, &mut s.count);
-    row_means(rk, h, mr, &mut s.count);
+    // The row means of step 3 still hold unless pixels were dropped since.
+    if moved {
+        row_means(lk, h, ml, &mut s.count);
+        row_means(rk, h, mr, &mut s.count);
+    }
     f.width_change_px = width_change(ml, mr, h);
     Some(f)
 }
@@ -1308,7 +1332,7 @@ fn fit_kept(
 
 /// Keeps the pixels of an edge's kept set `k` that `keep` accepts. When some are dropped, its
 /// sums `sum` (when known) follow by those of the dropped pixels ([`resum`]) and the joint
-/// `fit` is no longer known.
+/// `fit` is no longer known; returns whether some were.
 fn retain_summed(
     k: &mut Vec<EdgePixel>,
     keep: impl Fn(&EdgePixel) -> bool,
@@ -1316,7 +1340,7 @@ fn retain_summed(
     fit: &mut Option<PairFit>,
     gone: &mut Vec<EdgePixel>,
     w: usize,
-) {
+) -> bool {
     gone.clear();
     k.retain(|e| {
         let kept = keep(e);
@@ -1329,6 +1353,7 @@ fn retain_summed(
         *sum = sum.map(|c| resum(&c, gone, &[], k, w));
         *fit = None;
     }
+    !gone.is_empty()
 }
 
 /// Range over the window of a parabola fitted to the row-wise widths `right − left`, px.
@@ -1875,6 +1900,58 @@ mod tests {
             assert!(came.is_empty());
             let got = resum(&component_of(&old, w), &gone, &[], &kept, w);
             assert_eq!(got, component_of(&kept, w));
+        }
+    }
+
+    #[test]
+    fn skipped_ransac_tries_change_no_line() {
+        // Every try counted in full (no early stop, no skipped try) against `best_line`, on
+        // small sets (repeated pairs of pixels), collinear ones (every pixel an inlier) and
+        // scattered ones: the same line, bit for bit.
+        fn every_try(
+            rows: &[f64],
+            cols: &[f64],
+            min_rows: f64,
+            tan: f64,
+            gate: f64,
+        ) -> Option<(f64, f64, f64)> {
+            let (n, half) = (rows.len(), rows.len() / 2);
+            let mut best: Option<(usize, f64, f64, f64)> = None;
+            for k in 0..48 {
+                let ia = k * half / 48;
+                let ib = half + ((k * 37) % 48) * (n - half) / 48;
+                let dr = rows[ib] - rows[ia];
+                if dr < min_rows {
+                    continue;
+                }
+                let slope = (cols[ib] - cols[ia]) / dr;
+                if slope.abs() > tan {
+                    continue;
+                }
+                let (r0, c0) = (rows[ia], cols[ia]);
+                let inl = rows
+                    .iter()
+                    .zip(cols)
+                    .filter(|&(&r, &c)| (c - c0 - slope * (r - r0)).abs() <= gate)
+                    .count();
+                if best.is_none_or(|b| inl > b.0) {
+                    best = Some((inl, r0, c0, slope));
+                }
+            }
+            best.map(|(_, r0, c0, slope)| (r0, c0, slope))
+        }
+        let mut s = 0x1405_7b7e_f767_814f;
+        for case in 0..3000 {
+            let n = 2 + (next(&mut s) % 200) as usize;
+            let scatter = [0.0, 0.3, 3.0][case % 3];
+            let mut rows: Vec<f64> = (0..n).map(|_| (next(&mut s) % 540) as f64).collect();
+            rows.sort_by(f64::total_cmp);
+            let cols: Vec<f64> = rows
+                .iter()
+                .map(|&r| 700.0 + 0.05 * r + scatter * ((next(&mut s) % 1000) as f64 / 500.0 - 1.0))
+                .collect();
+            let want = every_try(&rows, &cols, 20.0, 0.2, 1.5);
+            assert_eq!(best_line(&rows, &cols, 20.0, 0.2, 1.5), want, "case {case}");
         }
     }
 
