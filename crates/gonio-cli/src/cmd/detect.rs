@@ -176,16 +176,9 @@ pub fn run(a: Args) -> Result<()> {
     let done = if let Some(size) = &a.raw {
         let (w, h) = parse_raw_size(size, &optics)?;
         // A pipe's default 64 kB buffer costs a dozen reader/writer wake-ups per frame; ask for
-        // room for four frames, else for one (best effort: not a pipe, or over the system's
-        // limit — `/proc/sys/fs/pipe-max-size`, 1 MiB unless privileged — is fine).
+        // room for a whole frame (best effort: not a pipe, or over the system's limit, is fine).
         #[cfg(target_os = "linux")]
-        {
-            let one = (w * h).next_power_of_two();
-            let stdin = std::io::stdin();
-            if rustix::pipe::fcntl_setpipe_size(&stdin, 4 * one).is_err() {
-                let _ = rustix::pipe::fcntl_setpipe_size(&stdin, one);
-            }
-        }
+        let _ = rustix::pipe::fcntl_setpipe_size(std::io::stdin(), (w * h).next_power_of_two());
         let src = RawFrames::new(std::io::stdin(), w, h);
         detect_all(
             &a,
