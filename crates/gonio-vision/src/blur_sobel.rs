@@ -438,8 +438,7 @@ mod avx512 {
             let bo = blur(_mm512_add_epi16(op, on), _mm512_add_epi16(ve, en), vo);
             if blurred {
                 let b8 = _mm512_or_si512(be, _mm512_slli_epi16::<8>(bo));
-                let m = if k + 1 == n { tail } else { 64 };
-                let mask: __mmask64 = if m == 64 { !0 } else { (1 << m) - 1 };
+                let mask = crate::simd::first_lanes(if k + 1 == n { tail } else { 64 });
                 // SAFETY: masked to the columns inside the row.
                 unsafe { _mm512_mask_storeu_epi8(out8.as_mut_ptr().add(64 * k).cast(), mask, b8) };
             }

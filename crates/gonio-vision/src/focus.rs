@@ -184,8 +184,7 @@ mod avx512 {
     /// The 64-byte mask of columns i … n − 1 (all 64 when that many remain).
     #[inline(always)]
     fn mask(i: usize, n: usize) -> __mmask64 {
-        let left = n - i;
-        if left >= 64 { !0 } else { (1u64 << left) - 1 }
+        crate::simd::first_lanes(n - i)
     }
 
     /// The sixteen signed 32-bit lanes of `v`, summed as 64-bit.
@@ -418,8 +417,9 @@ mod tests {
     }
 
     /// Both ways through [`RowFocus`] (the direct sums at the level in use, and the VNNI
-    /// identity where the CPU has it) against the definition: frames of random, all-0, all-255 and 0/255 striped
-    /// rows, widths 2 … 200 and wider ones that cross the 64-column steps every way.
+    /// identity where the CPU has it) against the definition: frames of random, all-0,
+    /// all-255 and 0/255 striped rows, widths 2 … 200 and wider ones that cross the 64-column
+    /// steps every way.
     #[test]
     fn row_focus_gives_the_defined_sums() {
         let mut s = 0x2545_f491_4f6c_dd1du64;
@@ -438,9 +438,7 @@ mod tests {
             rows.push(vec![255; w]);
             rows.push(vec![0; w]);
             #[cfg(target_arch = "x86_64")]
-            let vnni = std::is_x86_feature_detected!("avx512f")
-                && std::is_x86_feature_detected!("avx512bw")
-                && std::is_x86_feature_detected!("avx512vnni");
+            let vnni = crate::simd::vnni_detected();
             let mut by_identity = RowFocus::default();
             for y in 0..rows.len() {
                 let prev = (y >= 2).then(|| (&rows[y - 2][..], &rows[y - 1][..]));
@@ -449,7 +447,7 @@ mod tests {
                 assert_eq!(got, want, "direct, width {w}, row {y}");
                 #[cfg(target_arch = "x86_64")]
                 if vnni {
-                    // SAFETY: the features are checked above.
+                    // SAFETY: `vnni_detected` checked the features (AVX-512 F/BW and VNNI).
                     let got = unsafe { by_identity.push_vnni(y, &rows[y], prev) };
                     assert_eq!(got, want, "VNNI identity, width {w}, row {y}");
                 }

@@ -754,9 +754,9 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
 /// vector and row that is 10 shuffles + 17 max operations for the classes instead of 22 + 15
 /// (the chain's 22 max operations are unchanged), all made in the loop that combines them:
 /// no class goes through memory (a scratch of 16 rows' classes, one store and one reload per
-/// class, measured ≈ 8 % slower on the top-hat once the classes needed this few registers). [`run`]'s chain updates every
-/// state vector in place (R_d for descending d, then T_d for ascending d, the row's classes
-/// held in registers), which spares the 11 register copies per row that the shared
+/// class, measured ≈ 8 % slower on the top-hat once the classes needed this few registers).
+/// [`run`]'s chain updates every state vector in place (R_d for descending d, then T_d for
+/// ascending d, the row's classes held in registers), which spares the 11 register copies per row that the shared
 /// `chain_step!` (still used by [`run_direct`], whose state is small) made the compiler emit.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
@@ -1007,11 +1007,10 @@ mod vbmi {
     /// whose `width − 64·(nvec − 1)` columns are the frame's.
     #[inline(always)]
     fn store_mask(v: usize, nvec: usize, width: usize) -> u64 {
-        let tail = width - (nvec - 1) * 64;
-        if v + 1 < nvec || tail == 64 {
+        if v + 1 < nvec {
             !0
         } else {
-            (1u64 << tail) - 1
+            crate::simd::first_lanes(width - (nvec - 1) * 64)
         }
     }
 

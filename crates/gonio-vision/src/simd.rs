@@ -137,16 +137,21 @@ pub fn vbmi_detected() -> bool {
 /// VBMI and VBMI2 and [`set_vbmi`] did not turn them off.
 #[inline]
 pub fn vbmi() -> bool {
-    let on = match VBMI.load(Ordering::Relaxed) {
+    cached(&VBMI, vbmi_detected) && level() == Level::Avx512
+}
+
+/// The flag `flag` (0 = not yet checked, 1 = off, 2 = on), set from `detect` on first use.
+#[inline]
+fn cached(flag: &AtomicU8, detect: fn() -> bool) -> bool {
+    match flag.load(Ordering::Relaxed) {
         1 => false,
         2 => true,
         _ => {
-            let on = vbmi_detected();
-            VBMI.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+            let on = detect();
+            flag.store(if on { 2 } else { 1 }, Ordering::Relaxed);
             on
         }
-    };
-    on && level() == Level::Avx512
+    }
 }
 
 /// Turns the VBMI kernels off (`false`: the AVX-512 level then runs the compiler-vectorised
@@ -160,23 +165,30 @@ pub fn set_vbmi(enabled: bool) {
 /// 0 = not yet checked, 1 = no AVX-512 VNNI, 2 = the CPU has it.
 static VNNI: AtomicU8 = AtomicU8::new(0);
 
-/// True when the level in use is AVX-512 and the CPU has AVX-512 VNNI (`vpdpbusd`), checked once
-/// with `is_x86_feature_detected!`: the focus sums' dot-product path ([`crate::focus`]).
+/// True when the CPU has AVX-512 VNNI (`vpdpbusd`) besides the AVX-512 level (checked with
+/// `is_x86_feature_detected!`).
+pub fn vnni_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if detected() == Level::Avx512 {
+            return std::is_x86_feature_detected!("avx512vnni");
+        }
+    }
+    false
+}
+
+/// True when the level in use is AVX-512 and the CPU has AVX-512 VNNI (checked once): the focus
+/// sums' dot-product path ([`crate::focus`]).
 #[inline]
 pub fn vnni() -> bool {
-    let has = match VNNI.load(Ordering::Relaxed) {
-        1 => false,
-        2 => true,
-        _ => {
-            #[cfg(target_arch = "x86_64")]
-            let has = detected() == Level::Avx512 && std::is_x86_feature_detected!("avx512vnni");
-            #[cfg(not(target_arch = "x86_64"))]
-            let has = false;
-            VNNI.store(if has { 2 } else { 1 }, Ordering::Relaxed);
-            has
-        }
-    };
-    has && level() == Level::Avx512
+    cached(&VNNI, vnni_detected) && level() == Level::Avx512
+}
+
+/// The mask of a 64-lane vector's first `n` lanes (all 64 when `n` ≥ 64): the columns of a
+/// row's tail, for masked loads and stores.
+#[inline(always)]
+pub(crate) const fn first_lanes(n: usize) -> u64 {
+    if n >= 64 { !0 } else { (1u64 << n) - 1 }
 }
 
 /// Asks the CPU to bring `bytes` into the L1 cache ahead of their use: one `prefetcht0` per
