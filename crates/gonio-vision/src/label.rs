@@ -48,25 +48,34 @@
 use crate::rows::{RowSink, StageObserver};
 use crate::segment::{EdgeRow, FILLED, STRONG, SparseEdgeRow, axial_deviation};
 
-/// Adds the sums a [`Component`] and the labeller's hot record share, field by field (`b`'s
-/// into `a`; the columns' range widened).
+/// Applies `op` (`+=` or `-=`) to the counts and integer sums a [`Component`] and the
+/// labeller's hot record share, field by field (`b`'s onto `a`): the one list of those fields.
+macro_rules! each_sum {
+    ($a:expr, $b:expr, $op:tt) => {{
+        let (a, b) = ($a, $b);
+        a.pixels $op b.pixels;
+        a.strong $op b.strong;
+        a.pos_n $op b.pos_n;
+        a.gx_pos $op b.gx_pos;
+        a.sum_dev $op b.sum_dev;
+        a.sum_row $op b.sum_row;
+        a.sum_row2 $op b.sum_row2;
+        a.sum_row3 $op b.sum_row3;
+        a.sum_row4 $op b.sum_row4;
+        a.sum_col32 $op b.sum_col32;
+        a.sum_row_col32 $op b.sum_row_col32;
+        a.sum_row2_col32 $op b.sum_row2_col32;
+        a.sum_col32_sq $op b.sum_col32_sq;
+        a.sum_mag $op b.sum_mag;
+    }};
+}
+
+/// Adds the sums a [`Component`] and the labeller's hot record share (`b`'s into `a`; the
+/// columns' range widened).
 macro_rules! add_sums {
     ($a:expr, $b:expr) => {{
         let (a, b) = ($a, $b);
-        a.pixels += b.pixels;
-        a.strong += b.strong;
-        a.pos_n += b.pos_n;
-        a.gx_pos += b.gx_pos;
-        a.sum_dev += b.sum_dev;
-        a.sum_row += b.sum_row;
-        a.sum_row2 += b.sum_row2;
-        a.sum_row3 += b.sum_row3;
-        a.sum_row4 += b.sum_row4;
-        a.sum_col32 += b.sum_col32;
-        a.sum_row_col32 += b.sum_row_col32;
-        a.sum_row2_col32 += b.sum_row2_col32;
-        a.sum_col32_sq += b.sum_col32_sq;
-        a.sum_mag += b.sum_mag;
+        each_sum!(&mut *a, b, +=);
         a.min_col = a.min_col.min(b.min_col);
         a.max_col = a.max_col.max(b.max_col);
     }};
@@ -179,6 +188,14 @@ impl Component {
         self.min_row = self.min_row.min(o.min_row);
         self.max_row = self.max_row.max(o.max_row);
         self.first_index = self.first_index.min(o.first_index);
+    }
+
+    /// Takes away the counts and sums of `o`, a subset of this component's pixels (integers:
+    /// exactly the sums of the pixels left). The row and column ranges and the first pixel are
+    /// left as they are: only the pixels left can tell them.
+    pub fn remove(&mut self, o: &Component) {
+        each_sum!(&mut *self, o, -=);
+        self.weak -= o.weak;
     }
 
     /// The ranking of components: more pixels first, then earlier first pixel.

@@ -546,44 +546,7 @@ fn resum(
         c.merge(&component_of(came, w));
     }
     if !gone.is_empty() {
-        // Every field listed (no `..`): a field added to `Component` must be handled here.
-        let Component {
-            pixels,
-            strong,
-            weak,
-            pos_n,
-            sum_row,
-            sum_row2,
-            sum_row3,
-            sum_row4,
-            sum_col32,
-            sum_row_col32,
-            sum_row2_col32,
-            sum_col32_sq,
-            sum_mag,
-            sum_dev,
-            gx_pos,
-            min_col: _,
-            max_col: _,
-            min_row: _,
-            max_row: _,
-            first_index: _,
-        } = component_of(gone, w);
-        c.pixels -= pixels;
-        c.strong -= strong;
-        c.weak -= weak;
-        c.pos_n -= pos_n;
-        c.sum_row -= sum_row;
-        c.sum_row2 -= sum_row2;
-        c.sum_row3 -= sum_row3;
-        c.sum_row4 -= sum_row4;
-        c.sum_col32 -= sum_col32;
-        c.sum_row_col32 -= sum_row_col32;
-        c.sum_row2_col32 -= sum_row2_col32;
-        c.sum_col32_sq -= sum_col32_sq;
-        c.sum_mag -= sum_mag;
-        c.sum_dev -= sum_dev;
-        c.gx_pos -= gx_pos;
+        c.remove(&component_of(gone, w));
     }
     c.min_row = first.row as u32;
     c.max_row = last.row as u32;
