@@ -481,9 +481,9 @@ impl KeptScratch {
 
 /// The AVX-512 segmentation of a row (AVX-512 F/BW/VL/DQ): the classification with compares
 /// into mask registers, 64 columns a step, the kept columns compressed into a list
-/// (`vpcompressb` per word of bits), then the direction and the sub-pixel offset of the kept pixels in vector
-/// lanes, 16 at a time, with no data-dependent branch. Every step is the integer (or exact f32)
-/// arithmetic of the scalar path, so the pixels are the same.
+/// (`vpcompressb` per word of bits), then the direction and the sub-pixel offset of the kept
+/// pixels in vector lanes, 16 at a time, with no data-dependent branch. Every step is the
+/// integer (or exact f32) arithmetic of the scalar path, so the pixels are the same.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx512 {
@@ -547,16 +547,17 @@ mod avx512 {
         // SAFETY: IOTA8 holds 64 bytes.
         let iota8 = unsafe { _mm512_loadu_si512(IOTA8.as_ptr().cast()) };
         let mut n = 0usize;
+        // The 32 lanes from column x inside the row; for the left/right neighbours, the lanes
+        // whose neighbour is.
+        let masks = |x: usize| -> [__mmask32; 3] {
+            let rem = w.saturating_sub(x);
+            let mc: __mmask32 = if rem >= 32 { !0 } else { (1u32 << rem) - 1 };
+            let ml = if x == 0 { mc & !1 } else { mc };
+            let mr = if rem > 32 { !0 } else { mc >> 1 };
+            [mc, ml, mr]
+        };
         for (j, word) in bits[..w.div_ceil(64)].iter_mut().enumerate() {
             let x0 = 64 * j;
-            // Lanes inside the row; for the left/right neighbours, lanes whose neighbour is.
-            let masks = |x: usize| -> [__mmask32; 3] {
-                let rem = w.saturating_sub(x);
-                let mc: __mmask32 = if rem >= 32 { !0 } else { (1u32 << rem) - 1 };
-                let ml = if x == 0 { mc & !1 } else { mc };
-                let mr = if rem > 32 { !0 } else { mc >> 1 };
-                [mc, ml, mr]
-            };
             // SAFETY: columns x0 − 1 … x0 + 64 inside the row for the plain loads; else the
             // masks select columns 0 … w − 1 only (none past the row's end).
             let ((k0, (a0, b0)), (k1, (a1, b1))) = unsafe {

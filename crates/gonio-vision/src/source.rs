@@ -346,8 +346,8 @@ enum Done<E: std::error::Error + 'static> {
 /// in the order read) and detects it on the same core, so the frame is still in that core's cache
 /// when the detector reads it and no buffer goes from thread to thread; at most one frame per
 /// worker is being detected, and reading waits while two frames per worker are read and not yet
-/// handed on (a slow sink holds the reading back). A frame the detector refuses (wrong size) reaches `sink` as
-/// [`SourceError::Frame`] in its place; a failing source as [`SourceError::Source`] after every
+/// handed on (a slow sink holds the reading back). A frame the detector refuses (wrong size)
+/// reaches `sink` as [`SourceError::Frame`] in its place; a failing source as [`SourceError::Source`] after every
 /// frame before it, and nothing is read after it. Results equal [`SourceDetector`]'s bit for bit:
 /// every frame goes through the same detector code from a fresh frame start.
 ///
