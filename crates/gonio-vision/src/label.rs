@@ -634,6 +634,79 @@ struct Run {
     label: u32,
 }
 
+/// Writes the pixels `px` of row `row` with their labels `lab` into `out` from index `n` on,
+/// each one kept by advancing the index unless it is filled (the next one overwrites it); the
+/// index after them. `out` has room for all of them.
+#[inline(always)]
+fn write_kept(
+    px: &[EdgePixel],
+    lab: &[u32],
+    row: u16,
+    out: &mut [EdgePixel],
+    mut n: usize,
+) -> usize {
+    for (p, &l) in px.iter().zip(lab) {
+        out[n] = EdgePixel { row, comp: l, ..*p };
+        n += (p.sub != FILLED) as usize;
+    }
+    n
+}
+
+/// [`write_kept`] with AVX-512, four pixels a step (written by hand: no loop the compiler
+/// vectorises compresses): the four pixels' 64 bytes loaded without their padding, the row
+/// and the labels blended in, the kept ones packed to the front by `vpcompressq` and all 64
+/// bytes stored (the unkept tail is overwritten by the next step, as the scalar loop
+/// overwrites a filled pixel). The same fields as [`write_kept`]; padding bytes are zero.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod avx512 {
+    use super::EdgePixel;
+    use crate::segment::FILLED;
+    use std::arch::x86_64::*;
+
+    /// As [`super::write_kept`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F, BW, VL and DQ.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
+    pub(super) unsafe fn write_kept(
+        px: &[EdgePixel],
+        lab: &[u32],
+        row: u16,
+        out: &mut [EdgePixel],
+        mut n: usize,
+    ) -> usize {
+        const _: () = assert!(std::mem::size_of::<EdgePixel>() == 16);
+        assert!(lab.len() >= px.len() && out.len() >= n + px.len());
+        // Per pixel: bytes 0–6 (row, col, class, dir, sub), 8–9 (mag), 12–15 (comp).
+        const FIELDS: u64 = 0xF37F_F37F_F37F_F37F;
+        let rows = _mm512_set1_epi16(row as i16);
+        // Dword 3 of pixel j takes label j.
+        let to_comp = _mm512_set_epi32(3, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0);
+        // `sub` is byte 6 of a pixel's first quadword: kept unless it is FILLED.
+        let sub = _mm512_set_epi64(0, 0xFF << 48, 0, 0xFF << 48, 0, 0xFF << 48, 0, 0xFF << 48);
+        let filled = _mm512_set1_epi64(((FILLED as u8 as u64) << 48) as i64);
+        let mut k = 0;
+        while k + 4 <= px.len() {
+            // SAFETY: pixels k … k + 3 and labels k … k + 3 are in their slices (the masked
+            // load reads no padding byte); the store covers out[n .. n + 4], inside `out`
+            // because n ≤ n₀ + k and out.len() ≥ n₀ + px.len() ≥ n₀ + k + 4.
+            unsafe {
+                let v = _mm512_maskz_loadu_epi8(FIELDS, px.as_ptr().add(k).cast());
+                let l = _mm512_castsi128_si512(_mm_loadu_si128(lab.as_ptr().add(k).cast()));
+                let v = _mm512_mask_permutexvar_epi32(v, 0x8888, to_comp, l);
+                let v = _mm512_mask_mov_epi16(v, 0x0101_0101, rows);
+                let kept = _mm512_test_epi64_mask(_mm512_xor_si512(v, filled), sub);
+                let packed = _mm512_maskz_compress_epi64(kept | (kept << 1), v);
+                _mm512_storeu_si512(out.as_mut_ptr().add(n).cast(), packed);
+                n += kept.count_ones() as usize;
+            }
+            k += 4;
+        }
+        super::write_kept(&px[k..], &lab[k..], row, out, n)
+    }
+}
+
 /// A run slot not written yet.
 const NO_RUN: Run = Run {
     start: 0,
@@ -927,7 +1000,7 @@ impl Labeller {
             };
             return;
         }
-        self.push_sparse_in(edges)
+        self.push_sparse_in::<false>(edges)
     }
 
     /// [`Labeller::push_sparse`] compiled with AVX-512 enabled: the same code (no
@@ -935,12 +1008,13 @@ impl Labeller {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,bmi1,bmi2,lzcnt,popcnt")]
     fn push_sparse_avx512(&mut self, edges: &SparseEdgeRow) {
-        self.push_sparse_in(edges)
+        self.push_sparse_in::<true>(edges)
     }
 
-    /// [`Labeller::push_sparse`], inlined into each level's compilation.
+    /// [`Labeller::push_sparse`], inlined into each level's compilation (`AVX512`: the CPU
+    /// has AVX-512 F/BW/VL/DQ, and the kept edge pixels are written by [`avx512::write_kept`]).
     #[inline(always)]
-    fn push_sparse_in(&mut self, edges: &SparseEdgeRow) {
+    fn push_sparse_in<const AVX512: bool>(&mut self, edges: &SparseEdgeRow) {
         let y = self.row;
         let r = y as i64;
         let rp = RowPowers {
@@ -1045,13 +1119,19 @@ impl Labeller {
         let mut n = row_start;
         // The cap is checked once per row, below (the list grows by one row at most).
         if keep {
-            for (p, &l) in px.iter().zip(lab.iter()) {
-                out[n] = EdgePixel {
-                    row: y as u16,
-                    comp: l,
-                    ..*p
-                };
-                n += (p.sub != FILLED) as usize;
+            #[cfg(target_arch = "x86_64")]
+            if AVX512 {
+                // SAFETY: `AVX512` is set only by `push_sparse_avx512`, whose caller checked
+                // the CPU's AVX-512 F/BW/VL/DQ.
+                #[allow(unsafe_code)]
+                let kept = unsafe { avx512::write_kept(px, lab, y as u16, out, n) };
+                n = kept;
+            } else {
+                n = write_kept(px, lab, y as u16, out, n);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                n = write_kept(px, lab, y as u16, out, n);
             }
         }
         let merges = !f.merged.is_empty();

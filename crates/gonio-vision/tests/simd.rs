@@ -4,7 +4,7 @@
 use gonio_vision::blur_sobel::BlurSobel;
 use gonio_vision::fill::{EdgeFill, fill_pixel};
 use gonio_vision::gradient::GradRow;
-use gonio_vision::label::EdgePixel;
+use gonio_vision::label::{EdgePixel, Labeller};
 use gonio_vision::pipeline::StageImages;
 use gonio_vision::reference::{self, Image};
 use gonio_vision::rows::RowStage;
@@ -269,12 +269,78 @@ fn blur_sobel_at_every_level() {
     set_level(Level::Avx512);
 }
 
+/// The labeller at every level (AVX-512: its kept edge pixels written four at a time by
+/// `vpcompressq`) against the scalar level: every component's sums and the edge list, on rows
+/// of every width 1 … 70 and a few wide ones (every tail of the four-pixel steps), sparse to
+/// nearly full rows (runs of every length, merges), with filled pixels (not kept) among them.
+/// One labeller per level is reused for every frame of a width (the reset).
+fn labelling_at_every_level() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let mut kept = 0;
+    for width in (1..=70).chain([127, 128, 129, 1440]) {
+        let h = 9;
+        let mut labellers: Vec<Labeller> = (0..2)
+            .map(|_| Labeller::new(width, h, true).keep_pixels(width * h))
+            .collect();
+        for density in [2, 8, 15] {
+            let rows: Vec<SparseEdgeRow> = (0..h)
+                .map(|y| {
+                    let mut r = SparseEdgeRow::new(width);
+                    for x in 0..width {
+                        if rng.random_range(0..16) < density {
+                            let filled = rng.random_range(0..5) == 0;
+                            r.push(EdgePixel {
+                                row: y as u16,
+                                col: x as u16,
+                                class: [WEAK, STRONG][rng.random_range(0..2)],
+                                dir: rng.random(),
+                                sub: if filled {
+                                    FILLED
+                                } else {
+                                    rng.random_range(-16..=16)
+                                },
+                                mag: rng.random(),
+                                comp: 0,
+                            });
+                        }
+                    }
+                    r
+                })
+                .collect();
+            let mut got = Vec::new();
+            for (l, level) in labellers.iter_mut().zip([Level::Scalar, Level::Avx512]) {
+                set_level(level);
+                l.reset();
+                for r in &rows {
+                    l.push_sparse(r);
+                }
+                l.finish();
+                let all = l.all().to_vec();
+                let pixels = l.edge_list().and_then(|e| e.pixels().map(|p| p.to_vec()));
+                got.push((all, pixels));
+            }
+            set_level(Level::Avx512);
+            let want = rows
+                .iter()
+                .flat_map(|r| &r.pixels)
+                .filter(|p| p.sub != FILLED)
+                .count();
+            let pixels = got[0].1.as_ref().expect("complete edge list");
+            assert_eq!(pixels.len(), want, "width {width}: kept pixels");
+            kept += want;
+            assert_eq!(got[1], got[0], "width {width}, density {density}");
+        }
+    }
+    assert!(kept > 10_000, "only {kept} kept pixels compared");
+}
+
 #[test]
 fn every_level_gives_the_same_bits() {
     // One test function: the level is process-wide, tests run in parallel threads.
     segmentation_rows_at_every_level();
     filling_rows_with_and_without_avx512();
     blur_sobel_at_every_level();
+    labelling_at_every_level();
     for (w, h, tol) in [(203usize, 101usize, None), (331, 77, Some(40.0))] {
         let o = Optics {
             window_width_px: w as u32,
