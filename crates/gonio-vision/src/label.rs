@@ -874,6 +874,8 @@ pub struct Labeller {
     input: SparseEdgeRow,
     /// Each pixel's label in the row being pushed.
     lab: Vec<u32>,
+    /// The roots a row completes.
+    done: Vec<u32>,
 }
 
 impl Labeller {
@@ -909,6 +911,7 @@ impl Labeller {
             row: 0,
             input: SparseEdgeRow::new(width),
             lab: vec![NO_LABEL; width],
+            done: Vec::with_capacity(width / 2 + 1),
         };
         l.reset();
         l
@@ -1163,20 +1166,24 @@ impl Labeller {
             }
         }
         // Components of the previous row that did not continue are complete; the previous
-        // row's labels are cleared (the array becomes the next row's `here`).
-        for i in 0..self.nprev {
-            let Run { start, end, label } = self.prev[i];
-            set_cols(&mut self.up, start, end, NO_LABEL);
-            let r = if merges {
-                self.forest.find(label)
-            } else {
-                label
-            };
-            if self.last_row[r as usize] != y {
-                self.last_row[r as usize] = y; // complete once
-                self.complete(r);
+        // row's labels are cleared (the array becomes the next row's `here`). The roots to
+        // complete are listed first and completed after, in the same order: the loop over the
+        // runs then works on local slices (a call inside it made every field reload).
+        let mut done = std::mem::take(&mut self.done);
+        done.clear();
+        let (up, last_row, f) = (&mut self.up[..], &mut self.last_row[..], &mut self.forest);
+        for &Run { start, end, label } in &self.prev[..self.nprev] {
+            set_cols(up, start, end, NO_LABEL);
+            let r = if merges { f.find(label) } else { label };
+            if last_row[r as usize] != y {
+                last_row[r as usize] = y; // complete once
+                done.push(r);
             }
         }
+        for &r in &done {
+            self.complete(r);
+        }
+        self.done = done;
         let f = &mut self.forest;
         f.free.extend(f.merged.iter().map(|&(from, _)| from));
         std::mem::swap(&mut self.prev, &mut self.cur);
