@@ -1385,46 +1385,73 @@ fn tracks_with(
         (c.min_row, c.first_index)
     });
     let mut out: Vec<Track> = Vec::with_capacity(frags.len());
-    // Each track's polarity, last row and mean row, side by side: the scan below rejects most
-    // tracks on the first two alone, without touching the tracks themselves.
-    let mut meta: Vec<(i8, u32, f64)> = Vec::with_capacity(frags.len());
+    // What the scan below reads of each track, one list per polarity (rising, falling), each
+    // in the order the tracks started: most tracks are rejected on their last row alone,
+    // without touching the tracks themselves.
+    let mut open: [Vec<Link>; 2] = Default::default();
     for &k in &order {
         let f = &frags[k as usize];
         let f_first = f.comp.min_row as f64;
         let f_mean = f.comp.sum_row as f64 / f.comp.pos_n.max(1) as f64;
+        let f_at_first = f.curve.at(f_first, h);
+        let links = &mut open[usize::from(f.polarity != 1)];
+        // (position in `links`, distance)
         let mut best: Option<(usize, f64)> = None;
-        for (i, &(pol, last, t_mean)) in meta.iter().enumerate() {
-            if pol != f.polarity || last > f.comp.min_row + 12 {
+        for (j, l) in links.iter().enumerate() {
+            if l.last > f.comp.min_row + 12 {
                 continue;
             }
-            let t = &out[i];
             // Where they meet: the track continued down to the fragment's first row, and the
             // fragment continued up to the track's last row.
-            let t_last = last as f64;
+            let t_last = l.last as f64;
             let gap = (f_first - t_last).max(0.0);
-            let reach = (f_first - t_mean).max(f_mean - t_last);
+            let reach = (f_first - l.mean).max(f_mean - t_last);
             let tol = 1.5 + 0.01 * gap + bend * reach * reach;
-            let d1 = (t.curve.at(f_first, h) - f.curve.at(f_first, h)).abs();
-            let d2 = (t.curve.at(t_last, h) - f.curve.at(t_last, h)).abs();
+            let d1 = (l.curve.at(f_first, h) - f_at_first).abs();
+            let d2 = (l.at_last - f.curve.at(t_last, h)).abs();
             let d = d1.max(d2);
             if d <= tol && best.is_none_or(|(_, bd)| d < bd) {
-                best = Some((i, d));
+                best = Some((j, d));
             }
         }
         match best {
-            Some((i, _)) => {
-                let t = &mut out[i];
-                t.absorb(f, h, q);
-                meta[i] = (t.polarity, t.last_row(), t.mean_row());
+            Some((j, _)) => {
+                let i = links[j].track;
+                out[i].absorb(f, h, q);
+                links[j] = Link::of(&out[i], i, h);
             }
             None => {
-                let t = Track::start(f);
-                meta.push((t.polarity, t.last_row(), t.mean_row()));
-                out.push(t);
+                out.push(Track::start(f));
+                links.push(Link::of(&out[out.len() - 1], out.len() - 1, h));
             }
         }
     }
     (out, q)
+}
+
+/// What the linking scan of [`tracks_with`] reads of a track, kept apart from it: its index,
+/// last row, mean row, curve and the curve's column at the last row (the same values the
+/// scan would compute from the track).
+#[derive(Debug, Clone, Copy)]
+struct Link {
+    track: usize,
+    last: u32,
+    mean: f64,
+    curve: Curve,
+    at_last: f64,
+}
+
+impl Link {
+    fn of(t: &Track, track: usize, h: usize) -> Link {
+        let last = t.last_row();
+        Link {
+            track,
+            last,
+            mean: t.mean_row(),
+            curve: t.curve,
+            at_last: t.curve.at(last as f64, h),
+        }
+    }
 }
 
 /// A ring candidate: a rising track and a falling track to its right, with both edges
