@@ -107,32 +107,65 @@ impl Curve {
 
 /// Centred moments of a component: Σuᵏ (k = 0…4), Σuᵏ·c (k = 0…2, px), Σc² (px²).
 pub(crate) fn moments(c: &Component, height: usize) -> ([f64; 5], [f64; 3], f64) {
-    // u = 2·row − (H − 1): centred, integer. Exact expansion in i128.
-    let h = height as i128 - 1;
-    let n = c.pos_n as i128;
-    let (s1, s2, s3, s4) = (
-        c.sum_row as i128,
-        c.sum_row2 as i128,
-        c.sum_row3 as i128,
-        c.sum_row4 as i128,
-    );
-    let u1 = 2 * s1 - h * n;
-    let u2 = 4 * s2 - 4 * h * s1 + h * h * n;
-    let u3 = 8 * s3 - 12 * h * s2 + 6 * h * h * s1 - h * h * h * n;
-    let u4 = 16 * s4 - 32 * h * s3 + 24 * h * h * s2 - 8 * h * h * h * s1 + h * h * h * h * n;
-    let (c0, c1, c2) = (
-        c.sum_col32 as i128,
-        c.sum_row_col32 as i128,
-        c.sum_row2_col32 as i128,
-    );
-    let v1 = 2 * c1 - h * c0;
-    let v2 = 4 * c2 - 4 * h * c1 + h * h * c0;
+    // u = 2·row − (H − 1): centred, integer. Exact expansion: in i64 when every product and
+    // partial sum provably fits ([`fits_i64`]: the usual case; the same integers), else in
+    // i128.
+    let h = height as i64 - 1;
+    let s = [
+        c.pos_n as i64,
+        c.sum_row,
+        c.sum_row2,
+        c.sum_row3,
+        c.sum_row4,
+    ];
+    let cs = [c.sum_col32, c.sum_row_col32, c.sum_row2_col32];
+    let e: [i128; 8] = if c.pos_n < 1 << 19 && fits_i64(h, &s, &cs) {
+        expand(h, s, cs).map(i128::from)
+    } else {
+        expand(h as i128, s.map(i128::from), cs.map(i128::from))
+    };
     let f = to_f64;
     (
-        [f(n), f(u1), f(u2), f(u3), f(u4)],
-        [f(c0) / 32.0, f(v1) / 32.0, f(v2) / 32.0],
+        [f(e[0]), f(e[1]), f(e[2]), f(e[3]), f(e[4])],
+        [f(e[5]) / 32.0, f(e[6]) / 32.0, f(e[7]) / 32.0],
         f(c.sum_col32_sq) / 1024.0,
     )
+}
+
+/// The centred sums of [`moments`] from the raw ones (`s` = n, Σr, Σr², Σr³, Σr⁴; `c` = Σc,
+/// Σr·c, Σr²·c; `h` = H − 1): n, Σu…Σu⁴, Σc, Σu·c, Σu²·c, exact in `T` when nothing overflows.
+fn expand<T>(h: T, s: [T; 5], c: [T; 3]) -> [T; 8]
+where
+    T: Copy + From<i8> + std::ops::Add<Output = T> + std::ops::Sub<Output = T>,
+    T: std::ops::Mul<Output = T>,
+{
+    let k = |v: i8| T::from(v);
+    let [n, s1, s2, s3, s4] = s;
+    let u1 = k(2) * s1 - h * n;
+    let u2 = k(4) * s2 - k(4) * h * s1 + h * h * n;
+    let u3 = k(8) * s3 - k(12) * h * s2 + k(6) * h * h * s1 - h * h * h * n;
+    let u4 = k(16) * s4 - k(32) * h * s3 + k(24) * h * h * s2 - k(8) * h * h * h * s1
+        + h * h * h * h * n;
+    let [c0, c1, c2] = c;
+    let v1 = k(2) * c1 - h * c0;
+    let v2 = k(4) * c2 - k(4) * h * c1 + h * h * c0;
+    [n, u1, u2, u3, u4, c0, v1, v2]
+}
+
+/// True when [`expand`] cannot overflow an i64 (with n < 2¹⁹): 0 ≤ h < 2¹⁰ and each raw sum
+/// within a bound that keeps every product below 2⁵⁹ (e.g. 32·h·Σr³ < 2⁵·2¹⁰·2⁴⁴), so each
+/// sum of at most five of them below 2⁶². A 540-row window with a few thousand pixels is far
+/// inside.
+fn fits_i64(h: i64, s: &[i64; 5], c: &[i64; 3]) -> bool {
+    let below = |v: i64, bits: u32| v.unsigned_abs() < 1 << bits;
+    (0..1 << 10).contains(&h)
+        && below(s[1], 26)
+        && below(s[2], 34)
+        && below(s[3], 44)
+        && below(s[4], 55)
+        && below(c[0], 36)
+        && below(c[1], 46)
+        && below(c[2], 56)
 }
 
 /// `x as f64`, through the hardware's i64 conversion when x fits in an i64 (the usual case;
@@ -1163,9 +1196,8 @@ fn refit_pair_with(
             skip[y] = true;
         }
     }
-    // (`moved`: pixels dropped since `ml`, `mr` were computed.)
-    let mut moved = retain_summed(lk, |e| !skip[e.row as usize], &mut lsum, &mut fit, gone, w);
-    moved |= retain_summed(rk, |e| !skip[e.row as usize], &mut rsum, &mut fit, gone, w);
+    retain_summed(lk, |e| !skip[e.row as usize], &mut lsum, &mut fit, gone, w);
+    retain_summed(rk, |e| !skip[e.row as usize], &mut rsum, &mut fit, gone, w);
     // 4. Rows where another edge is close enough to pull a ring edge.
     let f = match fit {
         Some(f) => f,
@@ -1202,7 +1234,7 @@ fn refit_pair_with(
         }
     }
     let mut fit = Some(f);
-    moved |= retain_summed(
+    retain_summed(
         lk,
         |e| !near_l[e.row as usize],
         &mut lsum,
@@ -1210,7 +1242,7 @@ fn refit_pair_with(
         gone,
         w,
     );
-    moved |= retain_summed(
+    retain_summed(
         rk,
         |e| !near_r[e.row as usize],
         &mut rsum,
@@ -1242,20 +1274,19 @@ fn refit_pair_with(
     if f.left.row_span() < p.min_fragment_rows || f.right.row_span() < p.min_fragment_rows {
         return None;
     }
-    let rows = |px: &[EdgePixel]| {
-        let mut v = vec![false; h];
-        for e in px {
-            v[e.row as usize] = true;
+    // The row means of step 3 hold for every row steps 3 and 4 kept (the same pixels, in the
+    // same order); a dropped row has none (NaN, as `row_means` marks a row without pixels). A
+    // row has pixels exactly when its mean is a number.
+    for y in 0..h {
+        if skip[y] || near_l[y] {
+            ml[y] = f64::NAN;
         }
-        v
-    };
-    f.left_rows = rows(lk);
-    f.right_rows = rows(rk);
-    // The row means of step 3 still hold unless pixels were dropped since.
-    if moved {
-        row_means(lk, h, ml, &mut s.count);
-        row_means(rk, h, mr, &mut s.count);
+        if skip[y] || near_r[y] {
+            mr[y] = f64::NAN;
+        }
     }
+    f.left_rows = ml.iter().map(|m| m.is_finite()).collect();
+    f.right_rows = mr.iter().map(|m| m.is_finite()).collect();
     f.width_change_px = width_change(ml, mr, h);
     Some(f)
 }
@@ -1295,7 +1326,7 @@ fn fit_kept(
 
 /// Keeps the pixels of an edge's kept set `k` that `keep` accepts. When some are dropped, its
 /// sums `sum` (when known) follow by those of the dropped pixels ([`resum`]) and the joint
-/// `fit` is no longer known; returns whether some were.
+/// `fit` is no longer known.
 fn retain_summed(
     k: &mut Vec<EdgePixel>,
     keep: impl Fn(&EdgePixel) -> bool,
@@ -1303,7 +1334,7 @@ fn retain_summed(
     fit: &mut Option<PairFit>,
     gone: &mut Vec<EdgePixel>,
     w: usize,
-) -> bool {
+) {
     gone.clear();
     k.retain(|e| {
         let kept = keep(e);
@@ -1316,7 +1347,6 @@ fn retain_summed(
         *sum = sum.map(|c| resum(&c, gone, &[], k, w));
         *fit = None;
     }
-    !gone.is_empty()
 }
 
 /// Range over the window of a parabola fitted to the row-wise widths `right − left`, px.
@@ -1942,6 +1972,98 @@ mod tests {
                 .collect();
             let want = every_try(&rows, &cols, 20.0, 0.2, 1.5);
             assert_eq!(best_line(&rows, &cols, 20.0, 0.2, 1.5), want, "case {case}");
+        }
+    }
+
+    #[test]
+    fn moments_in_i64_are_the_i128_ones() {
+        // Wherever `fits_i64` lets the i64 path run, its integers equal the i128 expansion's:
+        // random sums of either sign up to the bounds (each drawn near its top half the time,
+        // with h up to 1023 and n up to 2¹⁹ − 1: the products the bounds were derived for; one
+        // sum a case drawn up to four bits beyond its bound, for the guard to refuse), computed
+        // with i64 overflow checks (a wrapped product panics). The bounds keep a bit or two of
+        // slack; Σr, Σr³ or Σr⁴ loosened by four bits (e.g. Σr⁴ < 2⁵⁹) fails this.
+        let mut s = 0x3c6e_f372_fe94_f82b;
+        let mut draw = |bits: u32| -> i64 {
+            let r = next(&mut s);
+            let top = 1i64 << bits;
+            let v = if r.is_multiple_of(2) {
+                top - 1 - (r >> 40) as i64 % 1024
+            } else {
+                (r >> 1) as i64 % top
+            };
+            if r & 4 == 0 { v } else { -v }
+        };
+        let mut ran = 0;
+        for case in 0..40_000u32 {
+            let h = 1023 - draw(4).abs();
+            let n = draw(19).abs();
+            let loose = case % 16;
+            let mut wide =
+                |k: u32, bits: u32| draw(bits + u32::from(k == loose) * (1 + case / 16 % 4));
+            let sums = [n, wide(1, 26), wide(2, 34), wide(3, 44), wide(4, 55)];
+            let cs = [wide(5, 36), wide(6, 46), wide(7, 56)];
+            if !fits_i64(h, &sums, &cs) {
+                continue;
+            }
+            ran += 1;
+            let want = expand(h as i128, sums.map(i128::from), cs.map(i128::from));
+            let got = expand(Checked(h), sums.map(Checked), cs.map(Checked));
+            assert_eq!(got.map(|v| v.0 as i128), want, "h {h} {sums:?} {cs:?}");
+        }
+        assert!(ran > 20_000, "{ran}");
+        // And `moments` of a real component against the i128 expansion.
+        let c = component_of(
+            &[(3, 100, 5), (200, 101, -7), (539, 99, 0)].map(|(row, col, sub)| EdgePixel {
+                row,
+                col,
+                class: crate::segment::STRONG,
+                dir: 0,
+                sub,
+                mag: 9,
+                comp: 0,
+            }),
+            1440,
+        );
+        let (u, v, _) = moments(&c, 540);
+        let h = 539i128;
+        let (s1, n) = (c.sum_row as i128, c.pos_n as i128);
+        assert_eq!(u[1], (2 * s1 - h * n) as f64);
+        let u4 = 16 * c.sum_row4 as i128 - 32 * h * c.sum_row3 as i128
+            + 24 * h * h * c.sum_row2 as i128
+            - 8 * h * h * h * s1
+            + h * h * h * h * n;
+        assert_eq!(u[4], u4 as f64);
+        let v2 = 4 * c.sum_row2_col32 as i128 - 4 * h * c.sum_row_col32 as i128
+            + h * h * c.sum_col32 as i128;
+        assert_eq!(v[2], v2 as f64 / 32.0);
+    }
+
+    /// An i64 whose arithmetic panics on overflow (in every build profile).
+    #[derive(Debug, Clone, Copy)]
+    struct Checked(i64);
+
+    impl From<i8> for Checked {
+        fn from(v: i8) -> Self {
+            Checked(v.into())
+        }
+    }
+    impl std::ops::Add for Checked {
+        type Output = Checked;
+        fn add(self, o: Checked) -> Checked {
+            Checked(self.0.checked_add(o.0).expect("i64 overflow"))
+        }
+    }
+    impl std::ops::Sub for Checked {
+        type Output = Checked;
+        fn sub(self, o: Checked) -> Checked {
+            Checked(self.0.checked_sub(o.0).expect("i64 overflow"))
+        }
+    }
+    impl std::ops::Mul for Checked {
+        type Output = Checked;
+        fn mul(self, o: Checked) -> Checked {
+            Checked(self.0.checked_mul(o.0).expect("i64 overflow"))
         }
     }
 
