@@ -56,10 +56,14 @@
 //! once it can no longer win, and skips the tries that cannot (a pair of pixels already
 //! tried, or any try once every pixel is an inlier); when a re-fit or a dropped row changes
 //! an edge's pixels, its sums follow by the sums of the pixels that went and came (`resum`)
-//! instead of being summed afresh; the buffers are kept per thread from frame to frame.
-//! None of this changes a value: the same sums (integers) and the same floating-point
-//! expressions in the same order (BENCHMARKS.md, "Labelling and selection (issue 10)",
-//! "Selection and features, third pass (issue 10)" and its fourth pass).
+//! instead of being summed afresh; the buffers are kept per thread from frame to frame; the
+//! linking scan reads one compact list of the open tracks per polarity (last row, mean row,
+//! curve, its column at the last row) instead of the tracks; the moments' exact integer
+//! expansion runs in i64 when a guard proves it cannot overflow (i128 otherwise); the refit's
+//! row means are computed once, the rows it drops marked. None of this changes a value: the
+//! same sums (integers) and the same floating-point expressions in the same order
+//! (BENCHMARKS.md, "Labelling and selection (issue 10)", "Selection and features, third pass
+//! (issue 10)" and its fourth and fifth passes).
 //!
 //! ```
 //! use gonio_vision::{Detector, InvalidReason, Optics};
