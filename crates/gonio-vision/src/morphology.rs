@@ -44,7 +44,7 @@
 //! assert_eq!(got, vec![[0, 0, 9, 9, 9, 0, 0, 0]; 3]);
 //! ```
 
-use crate::rows::{Aligned, RowLag, RowStage, StageObserver};
+use crate::rows::{Aligned, RowBlock, RowLag, RowSink, RowStage, StageObserver};
 
 /// A discrete disk of radius r: the pixels (dx, dy) with dx² + dy² ≤ r² + r, i.e. within
 /// r + ½ of the centre. Diameter 2r + 1 (r = 11: 23×23; r = 2: 5×5 without its corners).
@@ -467,9 +467,12 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
     first: MorphCore<FIRST_MAX>,
     second: MorphCore<SECOND_MAX>,
-    /// The last `lag + 1` input rows, `rstride` apart (cache-line aligned).
+    /// The last `rdepth` input rows, `rstride` apart (cache-line aligned, padded rows).
     raw: Aligned<u8>,
     rstride: usize,
+    /// Rows in `raw`: lag + 1 and room for a producer's batch written ahead
+    /// ([`RowStage::input_block`]).
+    rdepth: usize,
     /// A batch of the first operation's rows, then of the second one's, `rstride` apart.
     mid: Aligned<u8>,
     done: Aligned<u8>,
@@ -480,6 +483,8 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
     /// The second operation's rows in `done`: the first one's index and how many.
     done_from: usize,
     done_rows: usize,
+    /// The rows of the current batch went straight into the next stage's input slots.
+    direct: bool,
     width: usize,
     radius: usize,
     rows: RowLag,
@@ -504,11 +509,13 @@ struct Chain {
     neutral2: Aligned<u8>,
 }
 
-/// Columns a padded row carries before column 0 (the register kernel loads the 32 columns either
-/// side of a 64-column vector; with this lead those loads are aligned).
-const PAD: usize = 32;
+/// Columns a padded row carries before column 0: 64, so that the register kernel's stores
+/// into padded rows (the first operation's rows, and the top-hat's straight into the opening's
+/// ring) are aligned; the kernel's loads of the 32 columns either side of a vector then cross
+/// a cache line (fewer of them than the stores, and cheaper).
+const PAD: usize = 64;
 
-/// Bytes of a padded row of `width` pixels: [`vbmi::PAD`] columns before column 0 and whole
+/// Bytes of a padded row of `width` pixels: [`PAD`] columns before column 0 and whole
 /// 64-column vectors plus 128 after it (the class loop loads the 128 columns around a vector
 /// and the same shifted by one).
 fn padded_stride(width: usize) -> usize {
@@ -556,18 +563,23 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         });
         #[cfg(not(target_arch = "x86_64"))]
         let chain = None;
+        // A multiple of the chain's batch: batches start at multiples of it, so a batch's rows
+        // are contiguous in the ring (the top-hat's rows subtracted, a producer's block).
+        let rdepth = (lag + 1 + CHAIN_BATCH).next_multiple_of(CHAIN_BATCH);
         MorphPair {
             batch,
             chain,
             first: MorphCore::new(width, &disk, batch.min(BATCH)),
             second: MorphCore::new(width, &disk, batch.min(BATCH)),
-            raw: Aligned::new((lag + 1) * rstride, neutral1),
+            raw: Aligned::new(rdepth * rstride, neutral1),
             rstride,
+            rdepth,
             mid: Aligned::new(batch * rstride, 0),
             done: Aligned::new(batch * rstride, 0),
             mid_rows: 0,
             done_from: 0,
             done_rows: 0,
+            direct: false,
             width,
             radius: r,
             rows: RowLag::new(lag),
@@ -576,17 +588,25 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
 
     /// Ring offset of input row `y`.
     fn raw_slot(&self, y: usize) -> usize {
-        y % (self.rows.lag() + 1) * self.rstride + PAD
+        y % self.rdepth * self.rstride + PAD
     }
 
-    /// Makes the output rows from `y` on into `done` (a batch, fewer at the frame's end) with
-    /// the register chain kernel: the first operation fed the input rows its rows up to
-    /// y + nb − 1 + r need (rows below the frame: neutral), then the second one fed those.
+    /// Output rows from `y` on that the next batch makes (fewer than a batch at the frame's
+    /// end).
+    fn batch_rows(&self, y: usize) -> usize {
+        self.batch.min(self.rows.received() - y)
+    }
+
+    /// Makes the output rows from `y` on (`batch_rows`) with the register chain kernel, into
+    /// `into` (a buffer and each row's offset: the next stage's input slots) or else `done`,
+    /// the top-hat's already minus its input rows: the first operation fed the input rows its
+    /// rows up to y + nb − 1 + r need (rows below the frame: neutral), then the second one fed
+    /// those.
     #[cfg(target_arch = "x86_64")]
-    fn chain_batch(&mut self, y: usize) {
+    fn chain_batch(&mut self, y: usize, into: Option<RowBlock<'_>>) {
         let (n, r, w, rs) = (self.rows.received(), self.radius, self.width, self.rstride);
-        let nb = self.batch.min(n - y);
-        let lag1 = self.rows.lag() + 1;
+        let nb = self.batch_rows(y);
+        let rdepth = self.rdepth;
         let Some(c) = self.chain.as_mut() else {
             unreachable!("chain_batch without the chain kernel")
         };
@@ -597,7 +617,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             let ins: Vec<&[u8]> = (from..to)
                 .map(|m| {
                     if m < n {
-                        let s = m % lag1 * rs;
+                        let s = m % rdepth * rs;
                         &self.raw[s..s + rs]
                     } else {
                         &c.neutral1[..]
@@ -606,7 +626,15 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
                 .collect();
             let skip = r.saturating_sub(from);
             c.mid_from = from.max(r) - r;
-            vbmi::feed::<F>(r, &mut c.state1, &ins, &mut c.mid, rs, PAD, skip, w);
+            let out = vbmi::Out {
+                buf: &mut c.mid,
+                first: PAD,
+                stride: rs,
+                minus: &[],
+                mfirst: 0,
+                mstride: 0,
+            };
+            vbmi::feed::<F, false>(r, &mut c.state1, &ins, out, skip, w);
             c.fed1 = to;
         }
         // The second operation's rows y … y + nb − 1.
@@ -623,7 +651,31 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             })
             .collect();
         let skip = r.saturating_sub(from);
-        vbmi::feed::<S>(r, &mut c.state2, &ins, &mut self.done, rs, 0, skip, w);
+        self.direct = into.is_some();
+        let (buf, first, stride) = match into {
+            Some(b) => (b.buf, b.first, b.stride),
+            None => (&mut self.done[..], 0, rs),
+        };
+        // The top-hat's input rows y … y + nb − 1 (contiguous: y is a multiple of the batch, and
+        // so is the ring's depth), subtracted in the kernel's store.
+        let mfirst = y % rdepth * rs + PAD;
+        assert!(
+            y % rdepth + nb <= rdepth,
+            "a batch of input rows wraps the ring"
+        );
+        let out = vbmi::Out {
+            buf,
+            first,
+            stride,
+            minus: &self.raw,
+            mfirst,
+            mstride: rs,
+        };
+        if SUB {
+            vbmi::feed::<S, true>(r, &mut c.state2, &ins, out, skip, w);
+        } else {
+            vbmi::feed::<S, false>(r, &mut c.state2, &ins, out, skip, w);
+        }
         c.fed2 = to;
         self.done_from = y;
         self.done_rows = nb;
@@ -650,7 +702,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
     /// Makes the second operation's rows from `y` on into `done` (a batch, fewer at the frame's
     /// end).
     fn make_batch(&mut self, y: usize) {
-        let nb = self.batch.min(self.rows.received() - y);
+        let nb = self.batch_rows(y);
         self.make_mid(y, nb);
         self.second
             .combine(y, nb, self.mid_rows, &mut self.done, self.rstride);
@@ -673,6 +725,7 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
         self.mid_rows = 0;
         self.done_from = 0;
         self.done_rows = 0;
+        self.direct = false;
         if let Some(c) = self.chain.as_mut() {
             c.state1.fill(MorphCore::<F>::NEUTRAL);
             c.state2.fill(MorphCore::<S>::NEUTRAL);
@@ -707,7 +760,7 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
             if y >= self.done_from + self.done_rows {
                 #[cfg(target_arch = "x86_64")]
                 if self.chain.is_some() {
-                    self.chain_batch(y);
+                    self.chain_batch(y, None);
                 } else {
                     self.make_batch(y);
                 }
@@ -716,18 +769,55 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
             }
             let d = (y - self.done_from) * self.rstride;
             let row = &self.done[d..d + w];
-            if SUB {
+            if SUB && self.chain.is_none() {
                 for ((o, &c), &i) in out.iter_mut().zip(row).zip(&self.raw[s..s + w]) {
                     *o = c.saturating_sub(i);
                 }
             } else {
+                // The register chain's rows are already minus the input.
                 out.copy_from_slice(row);
             }
         }
+        Self::observe(out, obs);
+    }
+    fn emit_to<N, O>(&mut self, next: &mut N, obs: &mut O)
+    where
+        N: RowSink<Row = [u8]> + ?Sized,
+        O: StageObserver + ?Sized,
+    {
+        let y = self.rows.output_row();
+        // A new batch of the register chain goes straight into the next stage's input slots
+        // when it has room for them (no copy of each row out of `done`).
+        #[cfg(target_arch = "x86_64")]
+        if self.chain.is_some() && y >= self.done_from + self.done_rows {
+            let into = next.input_block(self.batch_rows(y));
+            self.chain_batch(y, into);
+        }
+        if self.direct && y < self.done_from + self.done_rows {
+            Self::observe(next.input(), obs);
+        } else {
+            self.emit(next.input(), obs);
+        }
+    }
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        // The ring keeps lag + 1 rows and CHAIN_BATCH more: rows written that far ahead never
+        // overwrite one still needed; and the block must not wrap.
+        let s = self.rows.received() % self.rdepth;
+        (n <= CHAIN_BATCH && s + n <= self.rdepth).then(|| RowBlock {
+            first: self.raw_slot(self.rows.received()),
+            stride: self.rstride,
+            buf: &mut self.raw,
+        })
+    }
+}
+
+impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
+    /// Shows `obs` an output row (as the top-hat's or the opening's).
+    fn observe<O: StageObserver + ?Sized>(row: &[u8], obs: &mut O) {
         if SUB {
-            obs.tophat(out);
+            obs.tophat(row);
         } else if !F {
-            obs.opened(out);
+            obs.opened(row);
         }
     }
 }
@@ -764,6 +854,10 @@ mod vbmi {
     use std::arch::x86_64::*;
 
     use super::PAD;
+
+    /// Columns of the 128 a class is made from (two vectors `la`, `lb`) before the vector's
+    /// first column: the pyramid's windows reach 32 columns either side.
+    const LEAD: usize = 32;
     /// Largest radius of the kernel (2r state vectors; the pyramid window reaches 32 columns).
     pub(super) const MAX_RADIUS: usize = 12;
 
@@ -1014,6 +1108,30 @@ mod vbmi {
         }
     }
 
+    /// Where the output rows of [`run`] go: row k (the output of input row `skip` + k) at
+    /// `buf[first + k·stride ..][.. width]`; with `SUB`, minus (saturating) `minus`'s row at
+    /// `mfirst + k·mstride` (the top-hat's input rows).
+    pub(super) struct Out<'a> {
+        pub(super) buf: &'a mut [u8],
+        pub(super) first: usize,
+        pub(super) stride: usize,
+        pub(super) minus: &'a [u8],
+        pub(super) mfirst: usize,
+        pub(super) mstride: usize,
+    }
+
+    /// Stores column vector `v` of output row `k` (see [`Out`]), `mask` its frame columns.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+    fn put<const SUB: bool>(out: &mut Out<'_>, k: usize, v: usize, o: __m512i, mask: u64) {
+        let o = if SUB {
+            _mm512_subs_epu8(o, load(out.minus, out.mfirst + k * out.mstride + v * 64))
+        } else {
+            o
+        };
+        store(out.buf, out.first + k * out.stride + v * 64, o, mask);
+    }
+
     /// Largest radius [`run_direct`] handles.
     const DIRECT_MAX: usize = 4;
 
@@ -1033,18 +1151,15 @@ mod vbmi {
     /// fewer vector registers they went through an L1 scratch, one store and one reload each:
     /// with the 22 state vectors in registers the compiler now still finds room for them.)
     #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
-    #[allow(clippy::too_many_arguments)]
-    fn run<const MAX: bool, const R: usize>(
+    fn run<const MAX: bool, const R: usize, const SUB: bool>(
         state: &mut [u8],
         ins: &[&[u8]],
-        out: &mut [u8],
-        ostride: usize,
-        ooff: usize,
+        mut out: Out<'_>,
         skip: usize,
         width: usize,
     ) {
         if R <= DIRECT_MAX {
-            return run_direct::<MAX, R>(state, ins, out, ostride, ooff, skip, width);
+            return run_direct::<MAX, R, SUB>(state, ins, out, skip, width);
         }
         let hw = Plan::<R>::HW;
         let base = Plan::<R>::BASE;
@@ -1057,7 +1172,7 @@ mod vbmi {
             load_state!(R, state, sb, t, q);
             for (i, row) in ins.iter().enumerate() {
                 let x0 = v * 64 + PAD;
-                let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
+                let (mut la, mut lb) = (load(row, x0 - LEAD), load(row, x0 - LEAD + 64));
                 let mut lk = 0;
                 // The classes of |dy| = 0 … r, narrowest first.
                 let mut gs = [zero; MAX_RADIUS + 1];
@@ -1076,8 +1191,8 @@ mod vbmi {
                                     if lk == 0 {
                                         // Pairs from the row shifted by one column: loads, no
                                         // permutes.
-                                        la = ext::<MAX>(la, load(row, v * 64 + 1));
-                                        lb = ext::<MAX>(lb, load(row, v * 64 + 65));
+                                        la = ext::<MAX>(la, load(row, x0 - LEAD + 1));
+                                        lb = ext::<MAX>(lb, load(row, x0 - LEAD + 65));
                                     } else {
                                         let a = ext::<MAX>(la, shift2(la, lb, 1 << lk));
                                         let b = ext::<MAX>(lb, rot(lb, 1 << lk));
@@ -1085,8 +1200,8 @@ mod vbmi {
                                     }
                                     lk += 1;
                                 }
-                                let x = shift2(la, lb, PAD - h);
-                                let y = shift2(la, lb, PAD + h + 1 - (1 << k));
+                                let x = shift2(la, lb, LEAD - h);
+                                let y = shift2(la, lb, LEAD + h + 1 - (1 << k));
                                 ext::<MAX>(x, y)
                             } else {
                                 // One wider than `g`: its two new columns from the row.
@@ -1118,7 +1233,7 @@ mod vbmi {
                 );
                 t[R - 1] = gs[R];
                 if i >= skip {
-                    store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
+                    put::<SUB>(&mut out, i - skip, v, o, mask);
                 }
             }
             store_state!(R, state, sb, t, q);
@@ -1131,13 +1246,10 @@ mod vbmi {
     /// Written out beside [`run`] rather than sharing helpers with it: the helper form (the
     /// chain step taking a closure for the classes) measured ≈ 40 % slower.
     #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
-    #[allow(clippy::too_many_arguments)]
-    fn run_direct<const MAX: bool, const R: usize>(
+    fn run_direct<const MAX: bool, const R: usize, const SUB: bool>(
         state: &mut [u8],
         ins: &[&[u8]],
-        out: &mut [u8],
-        ostride: usize,
-        ooff: usize,
+        mut out: Out<'_>,
         skip: usize,
         width: usize,
     ) {
@@ -1150,13 +1262,13 @@ mod vbmi {
             // T_1 … T_r at t[0 .. r], R_0 … R_{r−1} at q[0 .. r].
             load_state!(R, state, sb, t, q);
             for (i, row) in ins.iter().enumerate() {
-                let (mut la, mut lb) = (load(row, v * 64), load(row, v * 64 + 64));
+                let x0 = v * 64 + PAD;
+                let (mut la, mut lb) = (load(row, x0 - LEAD), load(row, x0 - LEAD + 64));
                 let mut lk = 0;
                 // Chords of half width ≤ LOADED_MAX: columns x − 2 … x + 2 from two loads
                 // 16 bytes apart (`lo` from x − LOADED_MAX) and one in-lane `vpalignr` each:
                 // lane i of `hi` is lane i + 1 of `lo`, so the per-lane byte shift by s is the
                 // whole vector's shift by s (five line-crossing loads become two).
-                let x0 = v * 64 + PAD;
                 let (lo, hi) = if hw[0] <= LOADED_MAX {
                     (load(row, x0 - LOADED_MAX), load(row, x0 - LOADED_MAX + 16))
                 } else {
@@ -1200,15 +1312,15 @@ mod vbmi {
                             (la, lb) = (a, b);
                             lk += 1;
                         }
-                        let x = _mm512_permutex2var_epi8(la, idx(PAD - h), lb);
-                        let y = _mm512_permutex2var_epi8(la, idx(PAD + h + 1 - (1 << k)), lb);
+                        let x = _mm512_permutex2var_epi8(la, idx(LEAD - h), lb);
+                        let y = _mm512_permutex2var_epi8(la, idx(LEAD + h + 1 - (1 << k)), lb);
                         g = ext::<MAX>(x, y);
                     }
                     chain_step!(R, MAX, d, g, t, q, tprev, o);
                 };
                 down!(step);
                 if i >= skip {
-                    store(out, (i - skip) * ostride + ooff + v * 64, o, mask);
+                    put::<SUB>(&mut out, i - skip, v, o, mask);
                 }
             }
             store_state!(R, state, sb, t, q);
@@ -1221,14 +1333,11 @@ mod vbmi {
     }
 
     /// [`run`] for radius `r` (1 … [`MAX_RADIUS`]); `state` holds 2r vectors per column vector.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn feed<const MAX: bool>(
+    pub(super) fn feed<const MAX: bool, const SUB: bool>(
         r: usize,
         state: &mut [u8],
         ins: &[&[u8]],
-        out: &mut [u8],
-        ostride: usize,
-        ooff: usize,
+        out: Out<'_>,
         skip: usize,
         width: usize,
     ) {
@@ -1240,7 +1349,7 @@ mod vbmi {
             ($($r:literal)*) => {
                 match r {
                     // SAFETY: the CPU has AVX-512 F/BW and VBMI (asserted above).
-                    $($r => unsafe { run::<MAX, $r>(state, ins, out, ostride, ooff, skip, width) },)*
+                    $($r => unsafe { run::<MAX, $r, SUB>(state, ins, out, skip, width) },)*
                     _ => unreachable!("radius {r} outside the VBMI kernel"),
                 }
             };

@@ -280,6 +280,27 @@ pub trait RowStage {
     /// Writes output row [`RowLag::output_row`] into `out`, showing `obs` the rows it made.
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut Self::Out, obs: &mut O);
 
+    /// Writes output row [`RowLag::output_row`] into `next`'s input, showing `obs` the rows it
+    /// made (default: [`RowStage::emit`] into [`RowSink::input`]). A stage that makes its rows
+    /// in batches may write a whole batch straight into `next`'s input slots at once
+    /// ([`RowSink::input_block`]) and later only show the rows that are already there.
+    fn emit_to<N, O>(&mut self, next: &mut N, obs: &mut O)
+    where
+        N: RowSink<Row = Self::Out> + ?Sized,
+        O: StageObserver + ?Sized,
+    {
+        self.emit(next.input(), obs);
+    }
+    /// The ring slots of the next `n` input rows at once (rows [`RowLag::received`] + k, k < n),
+    /// for a producer that makes rows in batches and writes them straight in; `None` when the
+    /// ring cannot take them as one [`RowBlock`] (the default: rows come one at a time). The
+    /// stage leaves those slots alone until each row is pushed, in order ([`RowStage::input`] is
+    /// then that slot).
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        let _ = n;
+        None
+    }
+
     /// Lag in rows between an input row and the output row of the same index.
     fn lag(&self) -> usize {
         self.rows().lag()
@@ -291,25 +312,40 @@ pub trait RowStage {
     /// An input row has been written into [`RowStage::input`]: writes the next output row into
     /// `out` and returns true once enough rows have arrived.
     fn pushed<O: StageObserver + ?Sized>(&mut self, out: &mut Self::Out, obs: &mut O) -> bool {
-        self.accept();
-        if self.rows_mut().pushed() {
-            self.emit(out, obs);
-            self.rows_mut().advance();
-            true
-        } else {
-            false
-        }
+        self.pushed_to(&mut Slot(out), obs)
     }
     /// After the frame's last row: writes the next pending output row into `out`, false when
     /// none is left.
     fn flushed<O: StageObserver + ?Sized>(&mut self, out: &mut Self::Out, obs: &mut O) -> bool {
-        if self.rows().pending() {
-            self.emit(out, obs);
-            self.rows_mut().advance();
-            true
-        } else {
-            false
+        self.flushed_to(&mut Slot(out), obs)
+    }
+    /// [`RowStage::pushed`] with the next output row written into `next`'s input
+    /// ([`RowStage::emit_to`]); `next` is not told (the caller pushes it).
+    fn pushed_to<N, O>(&mut self, next: &mut N, obs: &mut O) -> bool
+    where
+        N: RowSink<Row = Self::Out> + ?Sized,
+        O: StageObserver + ?Sized,
+    {
+        self.accept();
+        if !self.rows_mut().pushed() {
+            return false;
         }
+        self.emit_to(next, obs);
+        self.rows_mut().advance();
+        true
+    }
+    /// [`RowStage::flushed`] with the row written into `next`'s input.
+    fn flushed_to<N, O>(&mut self, next: &mut N, obs: &mut O) -> bool
+    where
+        N: RowSink<Row = Self::Out> + ?Sized,
+        O: StageObserver + ?Sized,
+    {
+        if !self.rows().pending() {
+            return false;
+        }
+        self.emit_to(next, obs);
+        self.rows_mut().advance();
+        true
     }
     /// Pushes one input row (copied in); true when `out` holds the next output row.
     fn push_row(&mut self, row: &Self::In, out: &mut Self::Out) -> bool {
@@ -336,6 +372,43 @@ pub trait RowSink {
     fn reset(&mut self);
     /// Rows between a row's arrival and its reaching the last consumer.
     fn lag(&self) -> usize;
+    /// The slots of the next `n` rows at once (see [`RowStage::input_block`]); default `None`.
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        let _ = n;
+        None
+    }
+}
+
+/// Input slots of several byte rows at once ([`RowStage::input_block`]): row k at
+/// `buf[first + k·stride ..][.. width]`, 64-byte aligned, the buffer long enough for the whole
+/// 64-byte vectors that cover each row.
+#[derive(Debug)]
+pub struct RowBlock<'a> {
+    /// The stage's ring.
+    pub buf: &'a mut [u8],
+    /// Offset of the first row.
+    pub first: usize,
+    /// Bytes from one row to the next.
+    pub stride: usize,
+}
+
+/// A single output row as a [`RowSink`] (what [`RowStage::pushed`] writes into): it takes one
+/// row, does nothing with it, and has no slots ahead.
+struct Slot<'a, T: ?Sized>(&'a mut T);
+
+impl<T: ?Sized> RowSink for Slot<'_, T> {
+    type Row = T;
+    #[inline]
+    fn input(&mut self) -> &mut T {
+        self.0
+    }
+    #[inline]
+    fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {}
+    fn finish<O: StageObserver + ?Sized>(&mut self, _: &mut O) {}
+    fn reset(&mut self) {}
+    fn lag(&self) -> usize {
+        0
+    }
 }
 
 /// A stage followed by the rest of the cascade: each output row of `stage` is written straight
@@ -356,15 +429,19 @@ impl<S: RowStage, N: RowSink<Row = S::Out>> RowSink for Then<S, N> {
     }
     #[inline]
     fn pushed<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
-        if self.stage.pushed(self.next.input(), obs) {
+        if self.stage.pushed_to(&mut self.next, obs) {
             self.next.pushed(obs);
         }
     }
     fn finish<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
-        while self.stage.flushed(self.next.input(), obs) {
+        while self.stage.flushed_to(&mut self.next, obs) {
             self.next.pushed(obs);
         }
         self.next.finish(obs);
+    }
+    #[inline]
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        self.stage.input_block(n)
     }
     fn reset(&mut self) {
         self.stage.reset();
