@@ -48,7 +48,7 @@
 
 use crate::gaussian::Gaussian5;
 use crate::gradient::{GradRow, Sobel};
-use crate::rows::{RowLag, RowStage, StageObserver};
+use crate::rows::{RowBlock, RowLag, RowStage, StageObserver};
 
 /// The blur and the Sobel in one stage: `u8` rows in, [`GradRow`]s out 3 rows later.
 #[derive(Debug, Clone)]
@@ -168,6 +168,9 @@ impl RowStage for BlurSobel {
     }
     fn input(&mut self) -> &mut [u8] {
         self.blur.input()
+    }
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        self.blur.input_block(n)
     }
     fn accept(&mut self) {
         // Counted only: the blurred rows are made when the Sobel needs them.

@@ -15,7 +15,12 @@
 //! assert_eq!(rows, vec![[50u8; 6]; 4]); // a flat image stays flat
 //! ```
 
-use crate::rows::{Aligned, RowLag, RowStage, StageObserver, line};
+use crate::rows::{Aligned, RowBlock, RowLag, RowStage, StageObserver, line};
+
+/// Rows in the ring: the five the kernel reads and room for a producer's batch of 16 written
+/// ahead ([`RowStage::input_block`]; the opening's register chain), a multiple of 16 so that
+/// batches starting at multiples of 16 do not wrap.
+const DEPTH: usize = 32;
 
 /// The binomial kernel (sums to 16).
 pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];
@@ -24,7 +29,7 @@ pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];
 #[derive(Debug, Clone)]
 pub struct Gaussian5 {
     pub(crate) width: usize,
-    /// The last five input rows, `stride` apart.
+    /// The last [`DEPTH`] input rows, `stride` apart.
     pub(crate) ring: Aligned<u8>,
     pub(crate) stride: usize,
     /// Vertical sums of the output row: column x at `line + x`, two replicated columns on each
@@ -39,10 +44,10 @@ impl Gaussian5 {
         let stride = width.div_ceil(line::<u8>()) * line::<u8>();
         Gaussian5 {
             width,
-            ring: Aligned::new(5 * stride, 0),
+            ring: Aligned::new(DEPTH * stride, 0),
             stride,
             vsum: Aligned::new(line::<u16>() + width + 2, 0),
-            rows: RowLag::new(2),
+            rows: RowLag::with_depth(2, DEPTH),
         }
     }
 
@@ -87,6 +92,14 @@ impl RowStage for Gaussian5 {
     fn input(&mut self) -> &mut [u8] {
         let s = self.rows.input_slot() * self.stride;
         &mut self.ring[s..s + self.width]
+    }
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        let s = self.rows.block(n)?;
+        Some(RowBlock {
+            buf: &mut self.ring,
+            first: s * self.stride,
+            stride: self.stride,
+        })
     }
     fn emit<O: StageObserver + ?Sized>(&mut self, out: &mut [u8], obs: &mut O) {
         crate::simd::dispatch(

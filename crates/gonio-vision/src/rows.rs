@@ -26,6 +26,7 @@ use crate::segment::SparseEdgeRow;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RowLag {
     lag: usize,
+    depth: usize,
     n_in: usize,
     n_out: usize,
 }
@@ -33,8 +34,16 @@ pub struct RowLag {
 impl RowLag {
     /// Bookkeeping for a stage whose output row y needs input rows up to y + `lag`.
     pub const fn new(lag: usize) -> Self {
+        Self::with_depth(lag, 2 * lag + 1)
+    }
+
+    /// The same with a deeper ring of `depth` (≥ 2·lag + 1) rows: room for rows written ahead
+    /// ([`RowStage::input_block`]).
+    pub const fn with_depth(lag: usize, depth: usize) -> Self {
+        assert!(depth > 2 * lag, "a ring shallower than the kernel");
         RowLag {
             lag,
+            depth,
             n_in: 0,
             n_out: 0,
         }
@@ -46,10 +55,19 @@ impl RowLag {
         self.lag
     }
 
-    /// Rows in the ring: 2·lag + 1.
+    /// Rows in the ring: 2·lag + 1, or more ([`RowLag::with_depth`]).
     #[inline]
     pub fn depth(&self) -> usize {
-        2 * self.lag + 1
+        self.depth
+    }
+
+    /// The ring slots of the next `n` input rows as one run of slots (the first one), when
+    /// they do not wrap the ring and writing them now overwrites no row still needed (the
+    /// last 2·lag + 1 rows stay): what a stage's [`RowStage::input_block`] offers.
+    #[inline]
+    pub fn block(&self, n: usize) -> Option<usize> {
+        let s = self.input_slot();
+        (n + 2 * self.lag < self.depth && s + n <= self.depth).then_some(s)
     }
 
     /// Starts a new frame.

@@ -314,6 +314,94 @@ proptest! {
     }
 }
 
+/// The last stage of a test cascade: keeps every row it is given.
+struct Collect {
+    row: Vec<u8>,
+    rows: Vec<u8>,
+}
+
+impl gonio_vision::rows::RowSink for Collect {
+    type Row = [u8];
+    fn input(&mut self) -> &mut [u8] {
+        &mut self.row
+    }
+    fn pushed<O: gonio_vision::rows::StageObserver + ?Sized>(&mut self, _: &mut O) {
+        self.rows.extend_from_slice(&self.row);
+    }
+    fn finish<O: gonio_vision::rows::StageObserver + ?Sized>(&mut self, _: &mut O) {}
+    fn reset(&mut self) {
+        self.rows.clear();
+    }
+    fn lag(&self) -> usize {
+        0
+    }
+}
+
+/// The top-hat's and the opening's rows as a cascade shows them.
+#[derive(Default)]
+struct Seen {
+    tophat: Vec<u8>,
+    opened: Vec<u8>,
+}
+
+impl gonio_vision::rows::StageObserver for Seen {
+    fn tophat(&mut self, row: &[u8]) {
+        self.tophat.extend_from_slice(row);
+    }
+    fn opened(&mut self, row: &[u8]) {
+        self.opened.extend_from_slice(row);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(40))]
+    /// A cascade top-hat → opening → Gaussian, where the register chain writes its batches
+    /// straight into the next stage's ring (`RowStage::input_block`): every stage's rows equal
+    /// the reference's, with and without the chain, frame after frame (several batches, frames
+    /// shorter than the lag, the frame's last batch shorter than the others).
+    #[test]
+    fn cascade_hands_batches_over_in_place(w in 1usize..300, h in 1usize..90, r in 0usize..13, r2 in 0usize..5, seed in any::<u64>()) {
+        use gonio_vision::gaussian::Gaussian5;
+        use gonio_vision::morphology::{BlackTopHat, Disk, Opening};
+        use gonio_vision::reference::{Image, black_tophat, gaussian5, opening};
+        use gonio_vision::rows::{RowSink, Then};
+        use gonio_vision::simd::{Level, set_level, set_vbmi};
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let img: Vec<u8> = (0..w * h).map(|_| rng.random::<u8>()).collect();
+        let t = black_tophat(&Image::from_vec(w, h, img.clone()), &Disk::new(r));
+        let o = opening(&t, &Disk::new(r2));
+        let g = gaussian5(&o);
+        for vbmi in [false, true] {
+            set_level(Level::Avx512);
+            set_vbmi(vbmi);
+            let mut line = Then {
+                stage: BlackTopHat::new(w, Disk::new(r)),
+                next: Then {
+                    stage: Opening::new(w, Disk::new(r2)),
+                    next: Then {
+                        stage: Gaussian5::new(w),
+                        next: Collect { row: vec![0; w], rows: Vec::new() },
+                    },
+                },
+            };
+            set_vbmi(true);
+            for frame in 0..2 {
+                line.reset();
+                let mut seen = Seen::default();
+                for row in img.chunks_exact(w) {
+                    line.input().copy_from_slice(row);
+                    line.pushed(&mut seen);
+                }
+                line.finish(&mut seen);
+                prop_assert_eq!(&seen.tophat, &t.data, "top-hat, frame {}", frame);
+                prop_assert_eq!(&seen.opened, &o.data, "opening, frame {}", frame);
+                prop_assert_eq!(&line.next.next.next.rows, &g.data, "blur, frame {}", frame);
+            }
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(60))]
     /// Streaming dilation and erosion equal the reference for every radius (0 included), narrow
