@@ -462,7 +462,17 @@ impl<const MAX: bool> RowStage for Morph<MAX> {
 /// one's rows as the second one needs them): b = 4 for radii ≥ 4, where each chord-class row
 /// loaded serves up to 4 output rows (the top-hat's 23×23 disk: the class rows come from L2),
 /// else 1 (the opening's 5×5 disk: its class rows stay in L1 and batching only adds work).
-/// The last 2r + b input rows are kept for the subtraction.
+/// The input ring keeps the last 2r + b rows (for the subtraction) and 16 more, so that a
+/// producer can write a batch of rows into it ahead ([`RowStage::input_block`]).
+///
+/// The hand-over with the VBMI register chain: the kernel's second operation makes 16 rows
+/// at once, column vector by column vector, so no row is finished before the last vector.
+/// In a cascade ([`RowStage::emit_to`]) the batch is written straight into the next stage's
+/// input slots when its ring offers them (the opening's ring, the Gaussian's), and the next
+/// 16 `emit`s only show the observer the rows already there; the top-hat's subtraction is
+/// done in the kernel's store (`vpsubusb` with the input row), so each top-hat row is written
+/// once, into the opening's ring. Without such a consumer (a stage pushed on its own) the
+/// batch goes into `done` and each `emit` copies a row out.
 #[derive(Debug, Clone)]
 pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRACT: bool> {
     first: MorphCore<FIRST_MAX>,
@@ -826,7 +836,7 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
 /// intrinsics (used only where the CPU has them, see [`crate::simd::vbmi`]).
 ///
 /// Per 64-column vector, an input row's chord classes are made in registers: the row's 128
-/// columns x − 32 … x + 95 (two aligned loads of a padded row), a doubling pyramid over them
+/// columns x − 32 … x + 95 (two loads of a padded row), a doubling pyramid over them
 /// with `vpermt2b` byte shifts across the two vectors, each class as the max of two shifted
 /// pyramid vectors. The vertical union is the chain of the module doc: with G_j the class of
 /// |dy| = j, T_j(m) = G_j(m) ∨ T_{j+1}(m − 1) (T_r = G_r) and R_j(m) = G_j(m) ∨ R_{j−1}(m − 1)
@@ -1143,7 +1153,7 @@ mod vbmi {
 
     /// Feeds the rows `ins` (padded rows: column c at `PAD + c`, the operation's neutral value
     /// around) through the chain `state` of every column vector; the output of input row i ≥
-    /// `skip` goes to `out[(i − skip)·ostride + ooff ..][.. width]`.
+    /// `skip` goes to row i − `skip` of `out` (see [`Out`]; with `SUB`, minus its input row).
     ///
     /// Each row's chord classes are made in the loop that combines them: the classes at
     /// |dy| ≥ [`Plan::BASE`] from the pyramid, the wider ones, each one pixel wider than the

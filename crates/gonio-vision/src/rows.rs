@@ -6,7 +6,10 @@
 //! Every stage with a vertical kernel of half-height `lag` keeps the last 2·lag + 1 input rows in
 //! a ring and emits output row y once row y + lag has arrived (or, after the frame's last row,
 //! while [`RowLag::pending`]). A producer writes its output row straight into the next stage's
-//! ring slot ([`RowStage::input`]), so rows are handed on without copies.
+//! ring slot ([`RowStage::input`]), so rows are handed on without copies; a producer that makes
+//! its rows in batches (the morphology's register chain, 16 rows at once) writes a whole batch
+//! into the next stage's slots ([`RowStage::input_block`], [`RowStage::emit_to`]) when that
+//! stage's ring has room for it ([`RowLag::with_depth`]).
 //!
 //! ```
 //! use gonio_vision::rows::RowLag;
