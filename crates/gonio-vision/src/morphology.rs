@@ -608,8 +608,8 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
     }
 
     /// Makes the output rows from `y` on (`batch_rows`) with the register chain kernel, into
-    /// `into` (a buffer and each row's offset: the next stage's input slots) or else `done`,
-    /// the top-hat's already minus its input rows: the first operation fed the input rows its
+    /// `into` (the next stage's input slots) or else `done`, the top-hat's already minus its
+    /// input rows: the first operation fed the input rows its
     /// rows up to y + nb − 1 + r need (rows below the frame: neutral), then the second one fed
     /// those.
     #[cfg(target_arch = "x86_64")]
