@@ -6,9 +6,10 @@
 //! columns widened by one), and when it touches several, their components are merged on the spot
 //! (union–find with path halving; the sums are added). After each row the runs hold root labels
 //! only, so labels merged away are recycled at once and a component whose runs stop is complete:
-//! it is handed to the result with its sums and its label is recycled. Memory: two rows of runs,
-//! two per-column label rows and a label pool of width + 4 entries, whatever the frame's height
-//! or content.
+//! it is handed to the result with its sums and its label is recycled (the previous row is
+//! walked pixel by pixel, its columns and root labels kept from the row before: one store a
+//! pixel, not a run record). Memory: two rows of pixel columns and labels, two per-column label
+//! rows and a label pool of width + 4 entries, whatever the frame's height or content.
 //!
 //! Most runs are one pixel (98 % on a dense frame), so those take a path of their own. The
 //! previous row's labels are kept per column (0 = no pixel), so a pixel's three upper
@@ -626,14 +627,6 @@ struct Origin {
     index: u64,
 }
 
-/// A run of one row: its first and last columns and its label.
-#[derive(Debug, Clone, Copy)]
-struct Run {
-    start: u32,
-    end: u32,
-    label: u32,
-}
-
 /// Writes the pixels `px` of row `row` with their labels `lab` into `out` from index `n` on,
 /// each one kept by advancing the index unless it is filled (the next one overwrites it); the
 /// index after them. `out` has room for all of them.
@@ -706,13 +699,6 @@ mod avx512 {
         super::write_kept(&px[k..], &lab[k..], row, out, n)
     }
 }
-
-/// A run slot not written yet.
-const NO_RUN: Run = Run {
-    start: 0,
-    end: 0,
-    label: 0,
-};
 
 /// "No edge pixel" in the per-column label arrays; components take labels 1 ..= pool.
 const NO_LABEL: u32 = 0;
@@ -848,13 +834,13 @@ impl Forest {
 #[derive(Debug, Clone)]
 pub struct Labeller {
     width: usize,
-    /// The previous row's runs: the first `nprev` of a buffer with room for a whole row's.
-    prev: Vec<Run>,
+    /// The previous row's pixels: the first `nprev` of `prev_cols` (columns) and `prev_lab`
+    /// (their roots at the end of that row).
+    prev_cols: Vec<u16>,
+    prev_lab: Vec<u32>,
     nprev: usize,
-    /// The current row's runs (the buffer `prev` becomes at the row's end). Written by index
-    /// with the count in a local, not pushed: a `Vec::push` stores and reloads the length on
-    /// every run, a store-to-load chain through memory that set the pace of the run loop.
-    cur: Vec<Run>,
+    /// The current row's columns (the buffer `prev_cols` becomes at the row's end).
+    cols: Vec<u16>,
     /// The previous row's label of column x at index x + 1 ([`NO_LABEL`] where it has no edge
     /// pixel; one empty column on each side): a pixel's three upper neighbours are three loads.
     up: Vec<u32>,
@@ -889,9 +875,10 @@ impl Labeller {
         let mut l = Labeller {
             width,
             // A row of `width` pixels has at most ⌈width / 2⌉ runs.
-            prev: vec![NO_RUN; width / 2 + 1],
+            prev_cols: vec![0; width],
+            prev_lab: vec![NO_LABEL; width],
             nprev: 0,
-            cur: vec![NO_RUN; width / 2 + 1],
+            cols: vec![0; width],
             up: vec![NO_LABEL; width + 2],
             here: vec![NO_LABEL; width + 2],
             forest: Forest {
@@ -1049,12 +1036,10 @@ impl Labeller {
         let keep = !out.is_empty();
         let f = &mut self.forest;
         let (up, here, last_row) = (&self.up[..], &mut self.here[..], &mut self.last_row[..]);
-        let cur = &mut self.cur[..];
-        let mut nc = 0usize;
         f.merged.clear();
         let px = &edges.pixels[..];
-        // Pass 1, the runs: each run's component, its columns in `here`, the run for the next
-        // row and each pixel's (provisional) label in `lab`. Pass 2, below: the sums and the
+        // Pass 1, the runs: each run's component, its columns in `here` and each pixel's
+        // (provisional) label in `lab`. Pass 2, below: the sums and the
         // edge list from `lab`. Two passes, not one: the sums' read-modify-writes hang on a
         // chain of loads (the pixel, the labels above it, the component's record) and one
         // pass held about one pixel in flight; the second pass's records are known up front.
@@ -1063,7 +1048,7 @@ impl Labeller {
         while let Some(p) = px.get(k) {
             let a = p.col as usize;
             let single = px.get(k + 1).is_none_or(|q| q.col as usize != a + 1);
-            let (l, b) = if single {
+            let l = if single {
                 // One pixel (most runs: the edges are one pixel wide and run down the frame).
                 // Straight above: the up-left and up-right pixels, when present, are in its
                 // run. Otherwise they are in different runs, joined when both are present
@@ -1085,7 +1070,7 @@ impl Labeller {
                 here[a + 1] = l;
                 lab[k] = l;
                 k += 1;
-                (l, a)
+                l
             } else {
                 let mut k1 = k + 2;
                 while px.get(k1).is_some_and(|q| q.col as usize == a + (k1 - k)) {
@@ -1095,22 +1080,24 @@ impl Labeller {
                 let l = f.label_wide_run(up, here, a, b, rp.first + a as u64, y);
                 lab[k..k1].fill(l);
                 k = k1;
-                (l, b)
+                l
             };
-            cur[nc] = Run {
-                start: a as u32,
-                end: b as u32,
-                label: l,
-            };
-            nc += 1;
             last_row[l as usize] = y;
         }
         // A merge later in the row may have left earlier pixels with a label that is no
-        // longer a root: their sums and edge-list entries go to the root.
+        // longer a root: their sums, edge-list entries and columns in `here` go to the root,
+        // and the row mark too (a merge later in the row may have moved it to another root).
         if !f.merged.is_empty() {
-            for l in lab.iter_mut() {
-                *l = f.find(*l);
+            for (l, p) in lab.iter_mut().zip(px) {
+                let r = f.find(*l);
+                *l = r;
+                here[p.col as usize + 1] = r;
+                last_row[r as usize] = y;
             }
+        }
+        // The columns, for the next row's walk over this one.
+        for (c, p) in self.cols.iter_mut().zip(px) {
+            *c = p.col;
         }
         for (p, &l) in px.iter().zip(lab.iter()) {
             if p.sub != FILLED {
@@ -1152,19 +1139,6 @@ impl Labeller {
                     .map(|&(from, to)| Event::Merge { from, to, row: y }),
             );
         }
-        // Without a merge in this row every label is still a root (the common case: edges
-        // running down the frame), and nothing needs relabelling.
-        if merges {
-            for run in cur[..nc].iter_mut() {
-                let r = f.find(run.label);
-                if r != run.label {
-                    run.label = r;
-                    set_cols(here, run.start, run.end, r);
-                }
-                // A merge later in the row may have moved the row mark to another root.
-                last_row[r as usize] = y;
-            }
-        }
         // Components of the previous row that did not continue are complete; the previous
         // row's labels are cleared (the array becomes the next row's `here`). The roots to
         // complete are listed first and completed after, in the same order: the loop over the
@@ -1172,8 +1146,9 @@ impl Labeller {
         let mut done = std::mem::take(&mut self.done);
         done.clear();
         let (up, last_row, f) = (&mut self.up[..], &mut self.last_row[..], &mut self.forest);
-        for &Run { start, end, label } in &self.prev[..self.nprev] {
-            set_cols(up, start, end, NO_LABEL);
+        let prev = self.prev_cols[..self.nprev].iter();
+        for (&c, &label) in prev.zip(&self.prev_lab[..self.nprev]) {
+            up[c as usize + 1] = NO_LABEL;
             let r = if merges { f.find(label) } else { label };
             if last_row[r as usize] != y {
                 last_row[r as usize] = y; // complete once
@@ -1186,8 +1161,9 @@ impl Labeller {
         self.done = done;
         let f = &mut self.forest;
         f.free.extend(f.merged.iter().map(|&(from, _)| from));
-        std::mem::swap(&mut self.prev, &mut self.cur);
-        self.nprev = nc;
+        std::mem::swap(&mut self.prev_cols, &mut self.cols);
+        std::mem::swap(&mut self.prev_lab, &mut self.lab);
+        self.nprev = edges.pixels.len();
         std::mem::swap(&mut self.up, &mut self.here);
         self.row += 1;
     }
@@ -1199,8 +1175,8 @@ impl Labeller {
             e.row_start.push(e.len as u32);
         }
         for i in 0..self.nprev {
-            let Run { start, end, label } = self.prev[i];
-            set_cols(&mut self.up, start, end, NO_LABEL);
+            let (c, label) = (self.prev_cols[i], self.prev_lab[i]);
+            self.up[c as usize + 1] = NO_LABEL;
             let r = self.forest.find(label);
             if self.last_row[r as usize] != y {
                 self.last_row[r as usize] = y;
