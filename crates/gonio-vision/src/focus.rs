@@ -214,9 +214,15 @@ mod avx512 {
         while i < n {
             let end = (i + 64 * FLUSH).min(n);
             let mut acc = zero;
+            // Whole vectors by plain loads, the last part of the row by a masked one.
             while i < end {
-                // SAFETY: the mask covers only columns i … n − 1 of the row.
-                let x = unsafe { _mm512_maskz_loadu_epi8(mask(i, n), p.add(i).cast()) };
+                let x = if i + 64 <= end {
+                    // SAFETY: columns i … i + 63 are in the row.
+                    unsafe { _mm512_loadu_si512(p.add(i).cast()) }
+                } else {
+                    // SAFETY: the mask covers only columns i … n − 1 of the row.
+                    unsafe { _mm512_maskz_loadu_epi8(mask(i, n), p.add(i).cast()) }
+                };
                 sat += _mm512_cmpeq_epi8_mask(x, full).count_ones();
                 sum = _mm512_add_epi64(sum, _mm512_sad_epu8(x, zero));
                 acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
@@ -252,13 +258,23 @@ mod avx512 {
             let end = (i + 64 * FLUSH).min(n);
             let mut acc = zero;
             while i < end {
-                let m = mask(i, n);
-                // SAFETY: the mask covers only columns i … n − 1 of both rows.
-                let (a, b) = unsafe {
-                    (
-                        _mm512_maskz_loadu_epi8(m, px.add(i).cast()),
-                        _mm512_maskz_loadu_epi8(m, py.add(i).cast()),
-                    )
+                let (a, b) = if i + 64 <= end {
+                    // SAFETY: columns i … i + 63 are in both rows.
+                    unsafe {
+                        (
+                            _mm512_loadu_si512(px.add(i).cast()),
+                            _mm512_loadu_si512(py.add(i).cast()),
+                        )
+                    }
+                } else {
+                    let m = mask(i, n);
+                    // SAFETY: the mask covers only columns i … n − 1 of both rows.
+                    unsafe {
+                        (
+                            _mm512_maskz_loadu_epi8(m, px.add(i).cast()),
+                            _mm512_maskz_loadu_epi8(m, py.add(i).cast()),
+                        )
+                    }
                 };
                 sad = _mm512_add_epi64(sad, _mm512_sad_epu8(a, b));
                 acc = _mm512_dpbusd_epi32(acc, a, _mm512_xor_si512(b, flip));
