@@ -580,6 +580,12 @@ impl Acc {
         self.max_col = self.max_col.max(o.max_col);
     }
 
+    /// Strong pixels so far.
+    #[inline(always)]
+    fn strong(&self) -> u64 {
+        self.counts[1]
+    }
+
     /// The component, complete: it started at `o` and its last row is `max_row`.
     fn component(&self, o: Origin, max_row: u32) -> Component {
         let [pixels, strong, pos_n, gx_pos] = self.counts;
@@ -951,20 +957,28 @@ impl Labeller {
     /// Component `root`, whose last row was the one before row `self.row`, is complete.
     fn complete(&mut self, root: u32) {
         let f = &self.forest;
-        let c = f.acc[root as usize].component(f.origin[root as usize], self.row - 1);
+        let (acc, o) = (&f.acc[root as usize], f.origin[root as usize]);
         if let Some(e) = self.edges.as_mut() {
             e.events.push(Event::Complete {
                 root,
                 row: self.row,
-                first_index: c.first_index as u32,
+                first_index: o.index as u32,
             });
         }
         self.count += 1;
-        if self.record_all {
-            self.all.push(c);
-        }
-        if c.is_candidate(self.min_rows) {
-            self.candidates.push(c);
+        // Most components are not candidates: their `Component` is made only when every
+        // component is recorded.
+        let candidate =
+            acc.strong() > 0 && (self.row - 1).saturating_sub(o.row) + 1 >= self.min_rows;
+        if self.record_all || candidate {
+            let c = acc.component(o, self.row - 1);
+            debug_assert_eq!(c.is_candidate(self.min_rows), candidate);
+            if self.record_all {
+                self.all.push(c);
+            }
+            if candidate {
+                self.candidates.push(c);
+            }
         }
         self.forest.free.push(root);
     }
