@@ -213,7 +213,27 @@ mod avx512 {
         let mut i = 0;
         while i < n {
             let end = (i + 64 * FLUSH).min(n);
-            let mut acc = zero;
+            // Two dot-product accumulators, one per vector of a pair: `vpdpbusd` adds into
+            // its destination, so one accumulator would make the loop a chain of its latency.
+            let (mut acc, mut acc2) = (zero, zero);
+            while i + 128 <= end {
+                // SAFETY: columns i … i + 127 are in the row.
+                let (x, x2) = unsafe {
+                    (
+                        _mm512_loadu_si512(p.add(i).cast()),
+                        _mm512_loadu_si512(p.add(i + 64).cast()),
+                    )
+                };
+                sat += _mm512_cmpeq_epi8_mask(x, full).count_ones()
+                    + _mm512_cmpeq_epi8_mask(x2, full).count_ones();
+                sum = _mm512_add_epi64(
+                    sum,
+                    _mm512_add_epi64(_mm512_sad_epu8(x, zero), _mm512_sad_epu8(x2, zero)),
+                );
+                acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
+                acc2 = _mm512_dpbusd_epi32(acc2, x2, _mm512_xor_si512(x2, flip));
+                i += 128;
+            }
             // Whole vectors by plain loads, the last part of the row by a masked one.
             while i < end {
                 let x = if i + 64 <= end {
@@ -228,7 +248,8 @@ mod avx512 {
                 acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
                 i += 64;
             }
-            sq += lanes_i64(acc);
+            // Both accumulators' lanes together stay below 2^30: a block has at most FLUSH steps.
+            sq += lanes_i64(_mm512_add_epi32(acc, acc2));
         }
         let sum = _mm512_reduce_add_epi64(sum);
         // Σx(x − 128) + 128 Σx = Σx².
@@ -256,7 +277,26 @@ mod avx512 {
         let mut i = 0;
         while i < n {
             let end = (i + 64 * FLUSH).min(n);
-            let mut acc = zero;
+            // Two dot-product accumulators (see `totals`).
+            let (mut acc, mut acc2) = (zero, zero);
+            while i + 128 <= end {
+                // SAFETY: columns i … i + 127 are in both rows.
+                let (a, b, a2, b2) = unsafe {
+                    (
+                        _mm512_loadu_si512(px.add(i).cast()),
+                        _mm512_loadu_si512(py.add(i).cast()),
+                        _mm512_loadu_si512(px.add(i + 64).cast()),
+                        _mm512_loadu_si512(py.add(i + 64).cast()),
+                    )
+                };
+                sad = _mm512_add_epi64(
+                    sad,
+                    _mm512_add_epi64(_mm512_sad_epu8(a, b), _mm512_sad_epu8(a2, b2)),
+                );
+                acc = _mm512_dpbusd_epi32(acc, a, _mm512_xor_si512(b, flip));
+                acc2 = _mm512_dpbusd_epi32(acc2, a2, _mm512_xor_si512(b2, flip));
+                i += 128;
+            }
             while i < end {
                 let (a, b) = if i + 64 <= end {
                     // SAFETY: columns i … i + 63 are in both rows.
@@ -280,7 +320,7 @@ mod avx512 {
                 acc = _mm512_dpbusd_epi32(acc, a, _mm512_xor_si512(b, flip));
                 i += 64;
             }
-            dot += lanes_i64(acc);
+            dot += lanes_i64(_mm512_add_epi32(acc, acc2));
         }
         (_mm512_reduce_add_epi64(sad) as u64, dot)
     }
