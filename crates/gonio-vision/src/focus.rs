@@ -17,6 +17,8 @@
 //! zero and `vpdpbusd` of x with x − 128, together with the `vpcmpeqb` count of 255s) and kept for
 //! the two rows that pair with it; a pair then costs `vpsadbw` for Σ|x − y| and one `vpdpbusd`
 //! for Σx(y − 128) = Σxy − 128 Σx, four vector operations per 64 columns instead of ten per 32.
+//! Each loop keeps two dot-product accumulators, one per vector of a 128-column step: `vpdpbusd`
+//! adds into its destination, so a single one made the loop a chain of its latency.
 //! The end columns a pair leaves out are subtracted from the row totals in scalar code. This is
 //! written by hand (no crate computes these sums); the plain definition is the reference the
 //! tests hold it to.
