@@ -17,8 +17,10 @@
 //! zero and `vpdpbusd` of x with x − 128, together with the `vpcmpeqb` count of 255s) and kept for
 //! the two rows that pair with it; a pair then costs `vpsadbw` for Σ|x − y| and one `vpdpbusd`
 //! for Σx(y − 128) = Σxy − 128 Σx, four vector operations per 64 columns instead of ten per 32.
-//! Each loop keeps two dot-product accumulators, one per vector of a 128-column step: `vpdpbusd`
-//! adds into its destination, so a single one made the loop a chain of its latency.
+//! From row 2 on, one pass over the three rows takes the row's totals and both pairs' cross
+//! terms, each pair's sums added together (only their total is used): one loop and one set of
+//! reductions a row instead of three, and three independent `vpdpbusd` accumulators (the
+//! instruction adds into its destination; one accumulator a loop made it a chain of its latency).
 //! The end columns a pair leaves out are subtracted from the row totals in scalar code. This is
 //! written by hand (no crate computes these sums); the plain definition is the reference the
 //! tests hold it to.
@@ -136,39 +138,43 @@ impl RowFocus {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
     unsafe fn push_vnni(&mut self, y: usize, row: &[u8], prev: Option<(&[u8], &[u8])>) -> RowStats {
-        // SAFETY (all calls): the caller guarantees the features.
-        let (t, saturated) = unsafe { avx512::totals(row) };
-        let mut s = RowStats {
-            saturated,
-            ..RowStats::default()
+        let Some((a, b)) = prev else {
+            // SAFETY: the caller guarantees the features.
+            let (t, saturated) = unsafe { avx512::totals(row) };
+            self.totals[y % 2] = t;
+            return RowStats {
+                saturated,
+                ..RowStats::default()
+            };
         };
-        if let Some((a, b)) = prev {
-            let w = row.len();
-            assert!(
-                w >= 2 && a.len() == w && b.len() == w,
-                "rows of one width ≥ 2"
-            );
-            // Row y − 2's totals sit where row y's go.
-            let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
-            let sq = |v: u8| i64::from(v) * i64::from(v);
-            let one = |v: u8| i64::from(v);
-            // Horizontal: x = b[0 .. w − 2], y = b[2 .. w].
-            let (d1, dot) = unsafe { avx512::cross(&b[..w - 2], &b[2..w]) };
-            let sum_x = tb.sum - one(b[w - 2]) - one(b[w - 1]);
-            let sq_x = tb.sq - sq(b[w - 2]) - sq(b[w - 1]);
-            let sq_y = tb.sq - sq(b[0]) - sq(b[1]);
-            let h2 = sq_x + sq_y - 2 * (dot + 128 * sum_x);
-            // Vertical: x = row[1 .. w − 1], y = a[1 .. w − 1].
-            let (e1, dot) = unsafe { avx512::cross(&row[1..w - 1], &a[1..w - 1]) };
-            let sum_x = t.sum - one(row[0]) - one(row[w - 1]);
-            let sq_x = t.sq - sq(row[0]) - sq(row[w - 1]);
-            let sq_y = ta.sq - sq(a[0]) - sq(a[w - 1]);
-            let v2 = sq_x + sq_y - 2 * (dot + 128 * sum_x);
-            s.abs_sum = d1 + e1;
-            s.sq_sum = (h2 + v2) as u64;
-        }
+        let w = row.len();
+        assert!(
+            w >= 2 && a.len() == w && b.len() == w,
+            "rows of one width ≥ 2"
+        );
+        // One pass over the three rows: row y's totals and both pairs' cross sums, the two
+        // pairs' Σ|x − y| and Σx(y − 128) added together (only their sums are used).
+        // SAFETY: the caller guarantees the features; the lengths are asserted above.
+        let (t, saturated, sad, dot) = unsafe { avx512::fused(row, a, b) };
+        // Row y − 2's totals sit where row y's go.
+        let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
+        let sq = |v: u8| i64::from(v) * i64::from(v);
+        let one = |v: u8| i64::from(v);
+        // Horizontal: x = b[0 .. w − 2], y = b[2 .. w].
+        let sum_xh = tb.sum - one(b[w - 2]) - one(b[w - 1]);
+        let sq_xh = tb.sq - sq(b[w - 2]) - sq(b[w - 1]);
+        let sq_yh = tb.sq - sq(b[0]) - sq(b[1]);
+        // Vertical: x = row[1 .. w − 1], y = a[1 .. w − 1].
+        let sum_xv = t.sum - one(row[0]) - one(row[w - 1]);
+        let sq_xv = t.sq - sq(row[0]) - sq(row[w - 1]);
+        let sq_yv = ta.sq - sq(a[0]) - sq(a[w - 1]);
+        let sq_sum = sq_xh + sq_yh + sq_xv + sq_yv - 2 * (dot + 128 * (sum_xh + sum_xv));
         self.totals[y % 2] = t;
-        s
+        RowStats {
+            saturated,
+            abs_sum: sad,
+            sq_sum: sq_sum as u64,
+        }
     }
 }
 
@@ -198,7 +204,7 @@ mod avx512 {
         _mm512_reduce_add_epi64(_mm512_add_epi64(lo, hi))
     }
 
-    /// Σx, Σx² and the count of 255s of a row.
+    /// Σx, Σx² and the count of 255s of a row (a frame's first two rows; [`fused`] after).
     ///
     /// # Safety
     /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
@@ -215,27 +221,7 @@ mod avx512 {
         let mut i = 0;
         while i < n {
             let end = (i + 64 * FLUSH).min(n);
-            // Two dot-product accumulators, one per vector of a pair: `vpdpbusd` adds into
-            // its destination, so one accumulator would make the loop a chain of its latency.
-            let (mut acc, mut acc2) = (zero, zero);
-            while i + 128 <= end {
-                // SAFETY: columns i … i + 127 are in the row.
-                let (x, x2) = unsafe {
-                    (
-                        _mm512_loadu_si512(p.add(i).cast()),
-                        _mm512_loadu_si512(p.add(i + 64).cast()),
-                    )
-                };
-                sat += _mm512_cmpeq_epi8_mask(x, full).count_ones()
-                    + _mm512_cmpeq_epi8_mask(x2, full).count_ones();
-                sum = _mm512_add_epi64(
-                    sum,
-                    _mm512_add_epi64(_mm512_sad_epu8(x, zero), _mm512_sad_epu8(x2, zero)),
-                );
-                acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
-                acc2 = _mm512_dpbusd_epi32(acc2, x2, _mm512_xor_si512(x2, flip));
-                i += 128;
-            }
+            let mut acc = zero;
             // Whole vectors by plain loads, the last part of the row by a masked one.
             while i < end {
                 let x = if i + 64 <= end {
@@ -250,8 +236,7 @@ mod avx512 {
                 acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
                 i += 64;
             }
-            // Both accumulators' lanes together stay below 2^30: a block has at most FLUSH steps.
-            sq += lanes_i64(_mm512_add_epi32(acc, acc2));
+            sq += lanes_i64(acc);
         }
         let sum = _mm512_reduce_add_epi64(sum);
         // Σx(x − 128) + 128 Σx = Σx².
@@ -264,67 +249,83 @@ mod avx512 {
         )
     }
 
-    /// Σ|x − y| and Σx(y − 128) of two rows of one length.
+    /// [`totals`] of `row` and, added together, Σ|x − y| and Σx(y − 128) of the two pairs
+    /// (b[0 .. w − 2], b[2 .. w]) and (row[1 .. w − 1], a[1 .. w − 1]), in one pass over
+    /// the three rows: one loop and one set of reductions a row instead of three.
     ///
     /// # Safety
     /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
-    pub(super) unsafe fn cross(x: &[u8], y: &[u8]) -> (u64, i64) {
-        let n = x.len();
-        assert_eq!(n, y.len(), "rows of one length");
-        let (px, py) = (x.as_ptr(), y.as_ptr());
-        let (zero, flip) = (_mm512_setzero_si512(), _mm512_set1_epi8(i8::MIN));
-        let mut sad = zero;
-        let mut dot = 0i64;
+    pub(super) unsafe fn fused(row: &[u8], a: &[u8], b: &[u8]) -> (Totals, u32, u64, i64) {
+        let w = row.len();
+        assert!(
+            w >= 2 && a.len() == w && b.len() == w,
+            "rows of one width ≥ 2"
+        );
+        // The pairs cover w − 2 columns: b from 0 and 2, row and a from 1.
+        let m = w - 2;
+        let (pr, pa, pb) = (row.as_ptr(), a.as_ptr(), b.as_ptr());
+        let (zero, flip, full) = (
+            _mm512_setzero_si512(),
+            _mm512_set1_epi8(i8::MIN),
+            _mm512_set1_epi8(-1),
+        );
+        let (mut sum, mut sad, mut sat) = (zero, zero, 0u32);
+        let (mut sq, mut dot) = (0i64, 0i64);
         let mut i = 0;
-        while i < n {
-            let end = (i + 64 * FLUSH).min(n);
-            // Two dot-product accumulators (see `totals`).
-            let (mut acc, mut acc2) = (zero, zero);
-            while i + 128 <= end {
-                // SAFETY: columns i … i + 127 are in both rows.
-                let (a, b, a2, b2) = unsafe {
-                    (
-                        _mm512_loadu_si512(px.add(i).cast()),
-                        _mm512_loadu_si512(py.add(i).cast()),
-                        _mm512_loadu_si512(px.add(i + 64).cast()),
-                        _mm512_loadu_si512(py.add(i + 64).cast()),
-                    )
+        while i < w {
+            let end = (i + 64 * FLUSH).min(w);
+            let (mut acc, mut dh, mut dv) = (zero, zero, zero);
+            while i < end {
+                // SAFETY: plain loads when columns i … i + 63 of the row and i … i + 65 of
+                // the pairs' reads are inside the rows; masked loads otherwise, each covering
+                // only its own slice's columns (the row's i … w − 1; the pairs' i … m − 1).
+                let (x, hx, hy, vx, vy) = unsafe {
+                    if i + 64 <= m {
+                        (
+                            _mm512_loadu_si512(pr.add(i).cast()),
+                            _mm512_loadu_si512(pb.add(i).cast()),
+                            _mm512_loadu_si512(pb.add(i + 2).cast()),
+                            _mm512_loadu_si512(pr.add(i + 1).cast()),
+                            _mm512_loadu_si512(pa.add(i + 1).cast()),
+                        )
+                    } else {
+                        let (kr, kp) = (mask(i, w), mask(i.min(m), m));
+                        // (`wrapping_add`: with an empty mask the address may lie past
+                        // the row; it is never dereferenced.)
+                        (
+                            _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast()),
+                            _mm512_maskz_loadu_epi8(kp, pb.wrapping_add(i).cast()),
+                            _mm512_maskz_loadu_epi8(kp, pb.wrapping_add(i + 2).cast()),
+                            _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 1).cast()),
+                            _mm512_maskz_loadu_epi8(kp, pa.wrapping_add(i + 1).cast()),
+                        )
+                    }
                 };
+                sat += _mm512_cmpeq_epi8_mask(x, full).count_ones();
+                sum = _mm512_add_epi64(sum, _mm512_sad_epu8(x, zero));
+                acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
                 sad = _mm512_add_epi64(
                     sad,
-                    _mm512_add_epi64(_mm512_sad_epu8(a, b), _mm512_sad_epu8(a2, b2)),
+                    _mm512_add_epi64(_mm512_sad_epu8(hx, hy), _mm512_sad_epu8(vx, vy)),
                 );
-                acc = _mm512_dpbusd_epi32(acc, a, _mm512_xor_si512(b, flip));
-                acc2 = _mm512_dpbusd_epi32(acc2, a2, _mm512_xor_si512(b2, flip));
-                i += 128;
-            }
-            while i < end {
-                let (a, b) = if i + 64 <= end {
-                    // SAFETY: columns i … i + 63 are in both rows.
-                    unsafe {
-                        (
-                            _mm512_loadu_si512(px.add(i).cast()),
-                            _mm512_loadu_si512(py.add(i).cast()),
-                        )
-                    }
-                } else {
-                    let m = mask(i, n);
-                    // SAFETY: the mask covers only columns i … n − 1 of both rows.
-                    unsafe {
-                        (
-                            _mm512_maskz_loadu_epi8(m, px.add(i).cast()),
-                            _mm512_maskz_loadu_epi8(m, py.add(i).cast()),
-                        )
-                    }
-                };
-                sad = _mm512_add_epi64(sad, _mm512_sad_epu8(a, b));
-                acc = _mm512_dpbusd_epi32(acc, a, _mm512_xor_si512(b, flip));
+                dh = _mm512_dpbusd_epi32(dh, hx, _mm512_xor_si512(hy, flip));
+                dv = _mm512_dpbusd_epi32(dv, vx, _mm512_xor_si512(vy, flip));
                 i += 64;
             }
-            dot += lanes_i64(_mm512_add_epi32(acc, acc2));
+            sq += lanes_i64(acc);
+            dot += lanes_i64(dh) + lanes_i64(dv);
         }
-        (_mm512_reduce_add_epi64(sad) as u64, dot)
+        let sum = _mm512_reduce_add_epi64(sum);
+        (
+            Totals {
+                sum,
+                sq: sq + 128 * sum,
+            },
+            sat,
+            _mm512_reduce_add_epi64(sad) as u64,
+            dot,
+        )
     }
 }
 
