@@ -218,8 +218,15 @@ impl Component {
 
     /// A ring-edge candidate: a strong pixel (hysteresis) and at least `min_rows` rows.
     pub fn is_candidate(&self, min_rows: u32) -> bool {
-        self.strong > 0 && self.row_span() >= min_rows
+        candidate(self.strong, self.min_row, self.max_row, min_rows)
     }
+}
+
+/// The candidate rule of [`Component::is_candidate`] from the counts it reads: a strong pixel
+/// and at least `min_rows` rows from `min_row` to `max_row`.
+#[inline(always)]
+fn candidate(strong: u64, min_row: u32, max_row: u32, min_rows: u32) -> bool {
+    strong > 0 && max_row.saturating_sub(min_row) + 1 >= min_rows
 }
 
 /// One positioned edge pixel as the labeller saw it, with its component.
@@ -531,24 +538,14 @@ impl Acc {
     /// [`Component::add_pixel`].
     #[inline(always)]
     fn add_positioned(&mut self, rp: &RowPowers, p: &EdgePixel) {
-        let col = p.col as u32;
         let c = p.col as i64 * 32 + p.sub as i64;
-        let counts = [
-            1,
-            (p.class == STRONG) as u64,
-            1,
-            (p.dir.wrapping_add(64) < 128) as u64,
-        ];
-        add4(&mut self.counts, counts);
+        self.add_counts(p, 1);
         add4(&mut self.rows, rp.pow);
         add4(
             &mut self.cols,
             [c, rp.pow[0] * c, rp.pow[1] * c, p.mag as i64],
         );
         self.sum_col32_sq += (c * c) as i128;
-        self.sum_dev += axial_deviation(p.dir) as i64;
-        self.min_col = self.min_col.min(col);
-        self.max_col = self.max_col.max(col);
     }
 
     /// Adds one filled pixel (no sub-pixel position: only the counts, the direction and the
@@ -556,11 +553,18 @@ impl Acc {
     #[cold]
     #[inline(never)]
     fn add_filled(&mut self, p: &EdgePixel) {
+        self.add_counts(p, 0);
+    }
+
+    /// What every pixel adds, positioned (`pos` 1) or filled (0): the counts, the direction's
+    /// deviation and the column range.
+    #[inline(always)]
+    fn add_counts(&mut self, p: &EdgePixel, pos: u64) {
         let col = p.col as u32;
         let counts = [
             1,
             (p.class == STRONG) as u64,
-            0,
+            pos,
             (p.dir.wrapping_add(64) < 128) as u64,
         ];
         add4(&mut self.counts, counts);
@@ -649,6 +653,25 @@ fn write_kept(
         n += (p.sub != FILLED) as usize;
     }
     n
+}
+
+/// [`write_kept`], by [`avx512::write_kept`] when `AVX512` (set only in
+/// [`Labeller::push_sparse_avx512`], whose caller checked the CPU's AVX-512 F/BW/VL/DQ).
+#[inline(always)]
+fn write_kept_at<const AVX512: bool>(
+    px: &[EdgePixel],
+    lab: &[u32],
+    row: u16,
+    out: &mut [EdgePixel],
+    n: usize,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if AVX512 {
+        // SAFETY: see above: `AVX512` is true only on a CPU with the kernel's features.
+        #[allow(unsafe_code)]
+        return unsafe { avx512::write_kept(px, lab, row, out, n) };
+    }
+    write_kept(px, lab, row, out, n)
 }
 
 /// [`write_kept`] with AVX-512, four pixels a step (written by hand: no loop the compiler
@@ -811,9 +834,7 @@ impl Forest {
         }
         label
     }
-}
 
-impl Forest {
     /// Labels the run `a ..= b` of two or more pixels of row `y` (`up` the previous row's
     /// labels; `index` the raster index of its first pixel): its component, a new one when it
     /// touches none above, with its columns set in `here`.
@@ -880,7 +901,7 @@ impl Labeller {
         let labels = width + 5;
         let mut l = Labeller {
             width,
-            // A row of `width` pixels has at most ⌈width / 2⌉ runs.
+            // A row has at most `width` pixels.
             prev_cols: vec![0; width],
             prev_lab: vec![NO_LABEL; width],
             nprev: 0,
@@ -968,11 +989,9 @@ impl Labeller {
         self.count += 1;
         // Most components are not candidates: their `Component` is made only when every
         // component is recorded.
-        let candidate =
-            acc.strong() > 0 && (self.row - 1).saturating_sub(o.row) + 1 >= self.min_rows;
+        let candidate = candidate(acc.strong(), o.row, self.row - 1, self.min_rows);
         if self.record_all || candidate {
             let c = acc.component(o, self.row - 1);
-            debug_assert_eq!(c.is_candidate(self.min_rows), candidate);
             if self.record_all {
                 self.all.push(c);
             }
@@ -1120,24 +1139,12 @@ impl Labeller {
                 f.acc[l as usize].add_filled(p);
             }
         }
-        let mut n = row_start;
         // The cap is checked once per row, below (the list grows by one row at most).
-        if keep {
-            #[cfg(target_arch = "x86_64")]
-            if AVX512 {
-                // SAFETY: `AVX512` is set only by `push_sparse_avx512`, whose caller checked
-                // the CPU's AVX-512 F/BW/VL/DQ.
-                #[allow(unsafe_code)]
-                let kept = unsafe { avx512::write_kept(px, lab, y as u16, out, n) };
-                n = kept;
-            } else {
-                n = write_kept(px, lab, y as u16, out, n);
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            {
-                n = write_kept(px, lab, y as u16, out, n);
-            }
-        }
+        let n = if keep {
+            write_kept_at::<AVX512>(px, lab, y as u16, out, row_start)
+        } else {
+            row_start
+        };
         let merges = !f.merged.is_empty();
         if let Some(e) = self.edges.as_mut() {
             if !e.overflow {
@@ -1153,10 +1160,34 @@ impl Labeller {
                     .map(|&(from, to)| Event::Merge { from, to, row: y }),
             );
         }
-        // Components of the previous row that did not continue are complete; the previous
-        // row's labels are cleared (the array becomes the next row's `here`). The roots to
-        // complete are listed first and completed after, in the same order: the loop over the
-        // runs then works on local slices (a call inside it made every field reload).
+        self.close_prev(merges);
+        let f = &mut self.forest;
+        f.free.extend(f.merged.iter().map(|&(from, _)| from));
+        std::mem::swap(&mut self.prev_cols, &mut self.cols);
+        std::mem::swap(&mut self.prev_lab, &mut self.lab);
+        self.nprev = edges.pixels.len();
+        std::mem::swap(&mut self.up, &mut self.here);
+        self.row += 1;
+    }
+
+    /// Ends the frame: every component still open is complete.
+    pub fn finish(&mut self) {
+        if let Some(e) = self.edges.as_mut() {
+            e.row_start.push(e.len as u32);
+        }
+        self.close_prev(true);
+        self.nprev = 0;
+    }
+
+    /// Completes the components of the previous row's pixels that row `self.row` did not
+    /// continue (their roots not marked with it in `last_row`), each once, and clears that
+    /// row's labels from `up` (the array becomes the next row's `here`). `merges`: labels may
+    /// no longer be roots (a merge in this row), so they are looked up. The roots are listed
+    /// first and completed after, in the same order: the walk then works on local slices (a
+    /// call inside it made every field reload).
+    #[inline(always)]
+    fn close_prev(&mut self, merges: bool) {
+        let y = self.row;
         let mut done = std::mem::take(&mut self.done);
         done.clear();
         let (up, last_row, f) = (&mut self.up[..], &mut self.last_row[..], &mut self.forest);
@@ -1173,31 +1204,6 @@ impl Labeller {
             self.complete(r);
         }
         self.done = done;
-        let f = &mut self.forest;
-        f.free.extend(f.merged.iter().map(|&(from, _)| from));
-        std::mem::swap(&mut self.prev_cols, &mut self.cols);
-        std::mem::swap(&mut self.prev_lab, &mut self.lab);
-        self.nprev = edges.pixels.len();
-        std::mem::swap(&mut self.up, &mut self.here);
-        self.row += 1;
-    }
-
-    /// Ends the frame: every component still open is complete.
-    pub fn finish(&mut self) {
-        let y = self.row;
-        if let Some(e) = self.edges.as_mut() {
-            e.row_start.push(e.len as u32);
-        }
-        for i in 0..self.nprev {
-            let (c, label) = (self.prev_cols[i], self.prev_lab[i]);
-            self.up[c as usize + 1] = NO_LABEL;
-            let r = self.forest.find(label);
-            if self.last_row[r as usize] != y {
-                self.last_row[r as usize] = y;
-                self.complete(r);
-            }
-        }
-        self.nprev = 0;
     }
 
     /// Number of components completed so far in this frame.
