@@ -17,7 +17,7 @@
 //! zero and `vpdpbusd` of x with x − 128, together with the `vpcmpeqb` count of 255s) and kept for
 //! the two rows that pair with it; a pair then costs `vpsadbw` for Σ|x − y| and one `vpdpbusd`
 //! for Σx(y − 128) = Σxy − 128 Σx, four vector operations per 64 columns instead of ten per 32.
-//! From row 2 on, one pass over the three rows takes the row's totals and both pairs' cross
+//! One pass over the rows takes each row's totals and, from row 2 on, both pairs' cross
 //! terms, each pair's sums added together (only their total is used): one loop and one set of
 //! reductions a row instead of three, and three independent `vpdpbusd` accumulators (the
 //! instruction adds into its destination; one accumulator a loop made it a chain of its latency).
@@ -138,9 +138,11 @@ impl RowFocus {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
     unsafe fn push_vnni(&mut self, y: usize, row: &[u8], prev: Option<(&[u8], &[u8])>) -> RowStats {
+        // One pass over the rows: row y's totals and, from row 2 on, both pairs' cross sums,
+        // the two pairs' Σ|x − y| and Σx(y − 128) added together (only their sums are used).
+        // SAFETY: the caller guarantees the features; `row_sums` checks the lengths.
+        let (t, saturated, sad, dot) = unsafe { avx512::row_sums(row, prev) };
         let Some((a, b)) = prev else {
-            // SAFETY: the caller guarantees the features.
-            let (t, saturated) = unsafe { avx512::totals(row) };
             self.totals[y % 2] = t;
             return RowStats {
                 saturated,
@@ -148,14 +150,6 @@ impl RowFocus {
             };
         };
         let w = row.len();
-        assert!(
-            w >= 2 && a.len() == w && b.len() == w,
-            "rows of one width ≥ 2"
-        );
-        // One pass over the three rows: row y's totals and both pairs' cross sums, the two
-        // pairs' Σ|x − y| and Σx(y − 128) added together (only their sums are used).
-        // SAFETY: the caller guarantees the features; the lengths are asserted above.
-        let (t, saturated, sad, dot) = unsafe { avx512::fused(row, a, b) };
         // Row y − 2's totals sit where row y's go.
         let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
         let sq = |v: u8| i64::from(v) * i64::from(v);
@@ -178,8 +172,8 @@ impl RowFocus {
     }
 }
 
-/// The VNNI path's two kernels (64 columns a step, the tail by a masked load: zero lanes add
-/// nothing to either sum).
+/// The VNNI path's kernel (64 columns a step, the tail by a masked load: zero lanes add
+/// nothing to any sum).
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use super::Totals;
@@ -204,66 +198,34 @@ mod avx512 {
         _mm512_reduce_add_epi64(_mm512_add_epi64(lo, hi))
     }
 
-    /// Σx, Σx² and the count of 255s of a row (a frame's first two rows; [`fused`] after).
+    /// The row's Σx, Σx² and count of 255s and, with `prev` = (a, b), added together,
+    /// Σ|x − y| and Σx(y − 128) of the two pairs (b[0 .. w − 2], b[2 .. w]) and
+    /// (row[1 .. w − 1], a[1 .. w − 1]) (0 and 0 without `prev`), in one pass over the rows:
+    /// one loop and one set of reductions a row instead of one per sum.
     ///
     /// # Safety
     /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
-    #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
-    pub(super) unsafe fn totals(row: &[u8]) -> (Totals, u32) {
-        let (n, p) = (row.len(), row.as_ptr());
-        let (zero, flip, full) = (
-            _mm512_setzero_si512(),
-            _mm512_set1_epi8(i8::MIN),
-            _mm512_set1_epi8(-1),
-        );
-        let (mut sum, mut sat) = (zero, 0u32);
-        let mut sq = 0i64;
-        let mut i = 0;
-        while i < n {
-            let end = (i + 64 * FLUSH).min(n);
-            let mut acc = zero;
-            // Whole vectors by plain loads, the last part of the row by a masked one.
-            while i < end {
-                let x = if i + 64 <= end {
-                    // SAFETY: columns i … i + 63 are in the row.
-                    unsafe { _mm512_loadu_si512(p.add(i).cast()) }
-                } else {
-                    // SAFETY: the mask covers only columns i … n − 1 of the row.
-                    unsafe { _mm512_maskz_loadu_epi8(mask(i, n), p.add(i).cast()) }
-                };
-                sat += _mm512_cmpeq_epi8_mask(x, full).count_ones();
-                sum = _mm512_add_epi64(sum, _mm512_sad_epu8(x, zero));
-                acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
-                i += 64;
-            }
-            sq += lanes_i64(acc);
-        }
-        let sum = _mm512_reduce_add_epi64(sum);
-        // Σx(x − 128) + 128 Σx = Σx².
-        (
-            Totals {
-                sum,
-                sq: sq + 128 * sum,
-            },
-            sat,
-        )
-    }
-
-    /// [`totals`] of `row` and, added together, Σ|x − y| and Σx(y − 128) of the two pairs
-    /// (b[0 .. w − 2], b[2 .. w]) and (row[1 .. w − 1], a[1 .. w − 1]), in one pass over
-    /// the three rows: one loop and one set of reductions a row instead of three.
     ///
-    /// # Safety
-    /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
+    /// # Panics
+    /// If `prev` is given and the rows' lengths differ or are below 2.
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
-    pub(super) unsafe fn fused(row: &[u8], a: &[u8], b: &[u8]) -> (Totals, u32, u64, i64) {
+    pub(super) unsafe fn row_sums(
+        row: &[u8],
+        prev: Option<(&[u8], &[u8])>,
+    ) -> (Totals, u32, u64, i64) {
         let w = row.len();
-        assert!(
-            w >= 2 && a.len() == w && b.len() == w,
-            "rows of one width ≥ 2"
-        );
-        // The pairs cover w − 2 columns: b from 0 and 2, row and a from 1.
-        let m = w - 2;
+        // The pairs cover w − 2 columns (b from 0 and 2, row and a from 1), none without
+        // `prev` (their loads then read no byte).
+        let (a, b, m) = match prev {
+            Some((a, b)) => {
+                assert!(
+                    w >= 2 && a.len() == w && b.len() == w,
+                    "rows of one width ≥ 2"
+                );
+                (a, b, w - 2)
+            }
+            None => (row, row, 0),
+        };
         let (pr, pa, pb) = (row.as_ptr(), a.as_ptr(), b.as_ptr());
         let (zero, flip, full) = (
             _mm512_setzero_si512(),
