@@ -123,7 +123,7 @@ pub(crate) fn moments(c: &Component, height: usize) -> ([f64; 5], [f64; 3], f64)
         c.sum_row4,
     ];
     let cs = [c.sum_col32, c.sum_row_col32, c.sum_row2_col32];
-    let e: [i128; 8] = if c.pos_n < 1 << 19 && fits_i64(h, &s, &cs) {
+    let e: [i128; 8] = if fits_i64(h, &s, &cs) {
         expand(h, s, cs).map(i128::from)
     } else {
         expand(h as i128, s.map(i128::from), cs.map(i128::from))
@@ -156,13 +156,14 @@ where
     [n, u1, u2, u3, u4, c0, v1, v2]
 }
 
-/// True when [`expand`] cannot overflow an i64 (with n < 2¹⁹): 0 ≤ h < 2¹⁰ and each raw sum
+/// True when [`expand`] cannot overflow an i64: 0 ≤ n < 2¹⁹, 0 ≤ h < 2¹⁰ and each raw sum
 /// within a bound that keeps every product below 2⁵⁹ (e.g. 32·h·Σr³ < 2⁵·2¹⁰·2⁴⁴), so each
 /// sum of at most five of them below 2⁶². A 540-row window with a few thousand pixels is far
 /// inside.
 fn fits_i64(h: i64, s: &[i64; 5], c: &[i64; 3]) -> bool {
     let below = |v: i64, bits: u32| v.unsigned_abs() < 1 << bits;
     (0..1 << 10).contains(&h)
+        && (0..1 << 19).contains(&s[0])
         && below(s[1], 26)
         && below(s[2], 34)
         && below(s[3], 44)
