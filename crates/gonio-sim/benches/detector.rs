@@ -190,33 +190,14 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
         })
         .collect();
     g.bench_function("labelling synthetic 32 lines", |b| {
-        b.iter(|| {
-            la.reset();
-            for r in &lines {
-                la.push_sparse(r);
-            }
-            la.finish();
-            black_box(la.candidates().len())
-        })
+        b.iter(|| black_box(label_frame(&mut la, &lines).candidates().len()))
     });
     g.bench_function("labelling", |b| {
-        b.iter(|| {
-            la.reset();
-            for r in &filled {
-                la.push_sparse(r);
-            }
-            la.finish();
-            black_box(la.candidates().len())
-        })
+        b.iter(|| black_box(label_frame(&mut la, &filled).candidates().len()))
     });
     g.bench_function("labelling + ring selection + features", |b| {
         b.iter(|| {
-            la.reset();
-            for r in &filled {
-                la.push_sparse(r);
-            }
-            la.finish();
-            let count = la.component_count();
+            let count = label_frame(&mut la, &filled).component_count();
             let (cands, edges) = la.candidates_and_edges();
             baseline_features(cands, count, edges, &[], RawStats::default(), &p)
         })
@@ -233,6 +214,16 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
                 .unwrap()
         })
     });
+}
+
+/// Labels one frame's sparse rows with `la` (reset first); `la` holds the result.
+fn label_frame<'a>(la: &'a mut Labeller, rows: &[SparseEdgeRow]) -> &'a mut Labeller {
+    la.reset();
+    for r in rows {
+        la.push_sparse(r);
+    }
+    la.finish();
+    la
 }
 
 fn main() {
