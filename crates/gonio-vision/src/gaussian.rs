@@ -15,12 +15,13 @@
 //! assert_eq!(rows, vec![[50u8; 6]; 4]); // a flat image stays flat
 //! ```
 
+use crate::morphology::CHAIN_BATCH;
 use crate::rows::{Aligned, RowBlock, RowLag, RowStage, StageObserver, line};
 
-/// Rows in the ring: the five the kernel reads and room for a producer's batch of 16 written
-/// ahead ([`RowStage::input_block`]; the opening's register chain), a multiple of 16 so that
-/// batches starting at multiples of 16 do not wrap.
-const DEPTH: usize = 32;
+/// Rows in the ring: the five the kernel reads and room for a producer's batch written ahead
+/// ([`RowStage::input_block`]; the opening's register chain, [`CHAIN_BATCH`] rows), a multiple
+/// of the batch so that batches starting at multiples of it do not wrap (32).
+const DEPTH: usize = (5 + CHAIN_BATCH).next_multiple_of(CHAIN_BATCH);
 
 /// The binomial kernel (sums to 16).
 pub const KERNEL: [u16; 5] = [1, 4, 6, 4, 1];

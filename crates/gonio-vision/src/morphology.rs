@@ -109,7 +109,7 @@ const BATCH: usize = 4;
 
 /// Output rows the register chain kernel makes per pass over the column vectors: its 2r state
 /// vectors per column vector are loaded and stored once per pass.
-const CHAIN_BATCH: usize = 16;
+pub(crate) const CHAIN_BATCH: usize = 16;
 
 #[inline(always)]
 fn ext<const MAX: bool>(a: u8, b: u8) -> u8 {
