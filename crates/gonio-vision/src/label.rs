@@ -534,32 +534,43 @@ impl Acc {
         max_col: 0,
     };
 
-    /// Adds one pixel of row `rp.pow[0]` (its powers `rp`), as [`Component::add_pixel`]:
-    /// every pixel its counts, direction and column; a positioned one also its position sums.
-    /// A filled pixel (no sub-pixel position) adds zeros to those, by a mask, not a branch:
-    /// where the filling falls in a new frame is not predictable.
+    /// Adds one positioned pixel of row `rp.pow[0]` (its powers `rp`), as
+    /// [`Component::add_pixel`].
     #[inline(always)]
-    fn add_pixel(&mut self, rp: &RowPowers, p: &EdgePixel) {
-        let positioned = p.sub != FILLED;
-        let m = i64::from(positioned).wrapping_neg();
-        let c = (p.col as i64 * 32 + p.sub as i64) & m;
+    fn add_positioned(&mut self, rp: &RowPowers, p: &EdgePixel) {
+        let c = p.col as i64 * 32 + p.sub as i64;
+        self.add_counts(p, 1);
+        add4(&mut self.rows, rp.pow);
+        add4(
+            &mut self.cols,
+            [c, rp.pow[0] * c, rp.pow[1] * c, p.mag as i64],
+        );
+        self.sum_col32_sq += (c * c) as i128;
+    }
+
+    /// Adds one filled pixel (no sub-pixel position: only the counts, the direction and the
+    /// column range).
+    #[cold]
+    #[inline(never)]
+    fn add_filled(&mut self, p: &EdgePixel) {
+        self.add_counts(p, 0);
+    }
+
+    /// What every pixel adds, positioned (`pos` 1) or filled (0): the counts, the direction's
+    /// deviation and the column range.
+    #[inline(always)]
+    fn add_counts(&mut self, p: &EdgePixel, pos: u64) {
         let col = p.col as u32;
         let counts = [
             1,
             (p.class == STRONG) as u64,
-            u64::from(positioned),
+            pos,
             (p.dir.wrapping_add(64) < 128) as u64,
         ];
         add4(&mut self.counts, counts);
         self.sum_dev += axial_deviation(p.dir) as i64;
         self.min_col = self.min_col.min(col);
         self.max_col = self.max_col.max(col);
-        add4(&mut self.rows, rp.pow.map(|v| v & m));
-        add4(
-            &mut self.cols,
-            [c, rp.pow[0] * c, rp.pow[1] * c, p.mag as i64 & m],
-        );
-        self.sum_col32_sq += (c * c) as i128;
     }
 
     /// Adds another component's sums (a merge).
@@ -1122,7 +1133,11 @@ impl Labeller {
             *c = p.col;
         }
         for (p, &l) in px.iter().zip(lab.iter()) {
-            f.acc[l as usize].add_pixel(&rp, p);
+            if p.sub != FILLED {
+                f.acc[l as usize].add_positioned(&rp, p);
+            } else {
+                f.acc[l as usize].add_filled(p);
+            }
         }
         // The cap is checked once per row, below (the list grows by one row at most).
         let n = if keep {
@@ -1174,23 +1189,17 @@ impl Labeller {
     fn close_prev(&mut self, merges: bool) {
         let y = self.row;
         let mut done = std::mem::take(&mut self.done);
-        // Every root is written at the list's end and kept by advancing the end when its
-        // component did not go on (complete once): no branch on it, which a new frame's
-        // ending components mispredict.
         done.clear();
-        done.resize(self.nprev, NO_LABEL);
-        let mut n = 0;
         let (up, last_row, f) = (&mut self.up[..], &mut self.last_row[..], &mut self.forest);
         let prev = self.prev_cols[..self.nprev].iter();
         for (&c, &label) in prev.zip(&self.prev_lab[..self.nprev]) {
             up[c as usize + 1] = NO_LABEL;
             let r = if merges { f.find(label) } else { label };
-            let ends = last_row[r as usize] != y;
-            last_row[r as usize] = y;
-            done[n] = r;
-            n += usize::from(ends);
+            if last_row[r as usize] != y {
+                last_row[r as usize] = y; // complete once
+                done.push(r);
+            }
         }
-        done.truncate(n);
         for &r in &done {
             self.complete(r);
         }

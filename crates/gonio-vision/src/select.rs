@@ -84,7 +84,6 @@
 use crate::features::{InvalidReason, SaturatedRun};
 use crate::label::{Component, EdgeList, EdgePixel, EdgeRows, component_of};
 use crate::optics::Params;
-use std::hint::select_unpredictable;
 
 /// A least-squares curve of a component's pixels: column = a + b·u + q·u² with
 /// u = 2·row − (H − 1) (q = 0 for a short component), and the scatter about it.
@@ -1431,13 +1430,12 @@ fn tracks_with(
         let f_mean = f.comp.sum_row as f64 / f.comp.pos_n.max(1) as f64;
         let f_at_first = f.curve.at(f_first, h);
         let links = &mut open[usize::from(f.polarity != 1)];
-        // The nearest link within its tolerance (the first of equals): every link's distance
-        // is computed and the choice made by conditional moves. A branch on the row test
-        // went either way link by link, as a new frame's tracks fall (`perf`: this scan took
-        // ≈ 2× as long on new frames as on one frame repeated, where the predictor learns it).
-        let row_limit = f.comp.min_row + 12;
-        let (mut best, mut best_d) = (usize::MAX, f64::INFINITY);
+        // (position in `links`, distance)
+        let mut best: Option<(usize, f64)> = None;
         for (j, l) in links.iter().enumerate() {
+            if l.last > f.comp.min_row + 12 {
+                continue;
+            }
             // Where they meet: the track continued down to the fragment's first row, and the
             // fragment continued up to the track's last row.
             let t_last = l.last as f64;
@@ -1447,12 +1445,12 @@ fn tracks_with(
             let d1 = (l.curve.at(f_first, h) - f_at_first).abs();
             let d2 = (l.at_last - f.curve.at(t_last, h)).abs();
             let d = d1.max(d2);
-            let take = (l.last <= row_limit) & (d <= tol) & (d < best_d);
-            best = select_unpredictable(take, j, best);
-            best_d = select_unpredictable(take, d, best_d);
+            if d <= tol && best.is_none_or(|(_, bd)| d < bd) {
+                best = Some((j, d));
+            }
         }
-        match (best != usize::MAX).then_some(best) {
-            Some(j) => {
+        match best {
+            Some((j, _)) => {
                 let i = links[j].track;
                 out[i].absorb(f, h, q);
                 links[j] = Link::of(&out[i], i, h);
