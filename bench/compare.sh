@@ -3,6 +3,7 @@
 # per-frame time of both and the ratio, in one run. A benchmark, not part of .ci/run.
 #
 #   bench/compare.sh [FRAMES] [SCENE] [ROUNDS]   (defaults: 200 frames of the `dense` scene, 3 rounds)
+#   PROFILE=release bench/compare.sh …           (gonio's release build instead of `dist`)
 #
 # Frames come from `gonio simulate frames --scene SCENE --raw` (seed 1), kept in
 # target/compare-SCENE-FRAMES/. OpenCV runs bench/opencv_reference.py pinned to one core (taskset;
@@ -21,8 +22,11 @@ cd "$(dirname "$0")/.."
 N=${1:-200}
 SCENE=${2:-dense}
 DIR=target/compare-$SCENE-$N
-cargo build --release -q -p gonio
-G=target/release/gonio
+# gonio as shipped for speed: the `dist` profile (fat LTO, one codegen unit; see Cargo.toml).
+# PROFILE=release compares the plain release build instead.
+PROFILE=${PROFILE:-dist}
+cargo build --profile "$PROFILE" -q -p gonio
+G=target/$PROFILE/gonio
 if [ ! -f "$DIR/frames.raw" ]; then
     $G simulate frames --scene "$SCENE" --count "$N" --seed 1 --raw --out "$DIR" 2>/dev/null
 fi
@@ -50,22 +54,23 @@ for ((r = 0; r < ROUNDS; r++)); do
     CV_JSON+=("$("${PIN[@]}" python3 bench/opencv_reference.py "$DIR/frames.raw" --json)")
 done
 
-python3 - "$GONIO_MS" "$GONIO_WALL" "$N" "$SCENE" "${DET_MS[*]}" "${CV_JSON[@]}" <<'EOF'
+python3 - "$GONIO_MS" "$GONIO_WALL" "$N" "$SCENE" "$PROFILE" "${DET_MS[*]}" "${CV_JSON[@]}" <<'EOF'
 import json, statistics, sys
 g, gw, n, scene = float(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
-det = [float(x) for x in sys.argv[5].split()]
-cvs = [json.loads(a) for a in sys.argv[6:]]
+profile = sys.argv[5]
+det = [float(x) for x in sys.argv[6].split()]
+cvs = [json.loads(a) for a in sys.argv[7:]]
 cv_ms = [c["per_frame_ms_median"] for c in cvs]
 gd, cm = statistics.median(det), statistics.median(cv_ms)
 cv = cvs[0]
-print(f"{n} frames of the `{scene}` scene, 1440x540, one core each, {len(det)} alternated rounds")
+print(f"{n} frames of the `{scene}` scene, 1440x540, one core each, {len(det)} alternated rounds (gonio: `{profile}` build)")
 for k, (d, c) in enumerate(zip(det, cv_ms)):
-    print(f"  round {k + 1}: OpenCV {c:7.3f} ms/frame, gonio {d:6.3f} ms/frame, ratio {c / d:5.1f}x")
+    print(f"  round {k + 1}: OpenCV {c:7.3f} ms/frame, gonio {d:6.3f} ms/frame, ratio {c / d:6.2f}x")
 print(f"  OpenCV {cv['opencv']} (numpy {cv['numpy']}), seed's stages: {cm:8.3f} ms/frame (CPU, median of the rounds' medians)")
 for s, v in cv["stages_ms_median"].items():
     print(f"      {s:34} {v:8.3f} ms (round 1)")
 print(f"  gonio detector alone (--timing):     {gd:8.3f} ms/frame (CPU, median of the rounds' medians)")
 print(f"  gonio detect --threads 1, end to end: {g:7.3f} ms/frame (CPU incl. reading and JSON; wall {gw:.3f} ms)")
-print(f"  ratio OpenCV / gonio, same scope:    {cm / gd:8.1f}x")
-print(f"  ratio OpenCV / gonio end to end:     {cm / g:8.1f}x")
+print(f"  ratio OpenCV / gonio, same scope:    {cm / gd:8.2f}x")
+print(f"  ratio OpenCV / gonio end to end:     {cm / g:8.2f}x")
 EOF
