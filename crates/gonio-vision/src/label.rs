@@ -7,9 +7,10 @@
 //! (union–find with path halving; the sums are added). After each row the runs hold root labels
 //! only, so labels merged away are recycled at once and a component whose runs stop is complete:
 //! it is handed to the result with its sums and its label is recycled (the previous row is
-//! walked pixel by pixel, its columns and root labels kept from the row before: one store a
-//! pixel, not a run record). Memory: two rows of pixel columns and labels, two per-column label
-//! rows and a label pool of width + 4 entries, whatever the frame's height or content.
+//! walked pixel by pixel: its columns kept from the row before, each pixel's root read from the
+//! per-column label row as the walk clears it; no run record). Memory: two rows of pixel
+//! columns, one of pixel labels, two per-column label rows and a label pool of width + 4
+//! entries, whatever the frame's height or content.
 //!
 //! Most runs are one pixel (98 % on a dense frame), so those take a path of their own. The
 //! previous row's labels are kept per column (0 = no pixel), so a pixel's three upper
@@ -213,7 +214,7 @@ impl Component {
 
     /// Rows from the first to the last, inclusive.
     pub fn row_span(&self) -> u32 {
-        self.max_row.saturating_sub(self.min_row) + 1
+        row_span(self.min_row, self.max_row)
     }
 
     /// A ring-edge candidate: a strong pixel (hysteresis) and at least `min_rows` rows.
@@ -222,11 +223,17 @@ impl Component {
     }
 }
 
+/// Rows from `min_row` to `max_row` ([`Component::row_span`]).
+#[inline(always)]
+fn row_span(min_row: u32, max_row: u32) -> u32 {
+    max_row.saturating_sub(min_row) + 1
+}
+
 /// The candidate rule of [`Component::is_candidate`] from the counts it reads: a strong pixel
 /// and at least `min_rows` rows from `min_row` to `max_row`.
 #[inline(always)]
 fn candidate(strong: u64, min_row: u32, max_row: u32, min_rows: u32) -> bool {
-    strong > 0 && max_row.saturating_sub(min_row) + 1 >= min_rows
+    strong > 0 && row_span(min_row, max_row) >= min_rows
 }
 
 /// One positioned edge pixel as the labeller saw it, with its component.
@@ -861,10 +868,9 @@ impl Forest {
 #[derive(Debug, Clone)]
 pub struct Labeller {
     width: usize,
-    /// The previous row's pixels: the first `nprev` of `prev_cols` (columns) and `prev_lab`
-    /// (their roots at the end of that row).
+    /// The previous row's pixel columns: the first `nprev` of `prev_cols` (their roots at the
+    /// end of that row are in `up`).
     prev_cols: Vec<u16>,
-    prev_lab: Vec<u32>,
     nprev: usize,
     /// The current row's columns (the buffer `prev_cols` becomes at the row's end).
     cols: Vec<u16>,
@@ -903,7 +909,6 @@ impl Labeller {
             width,
             // A row has at most `width` pixels.
             prev_cols: vec![0; width],
-            prev_lab: vec![NO_LABEL; width],
             nprev: 0,
             cols: vec![0; width],
             up: vec![NO_LABEL; width + 2],
@@ -1164,7 +1169,6 @@ impl Labeller {
         let f = &mut self.forest;
         f.free.extend(f.merged.iter().map(|&(from, _)| from));
         std::mem::swap(&mut self.prev_cols, &mut self.cols);
-        std::mem::swap(&mut self.prev_lab, &mut self.lab);
         self.nprev = edges.pixels.len();
         std::mem::swap(&mut self.up, &mut self.here);
         self.row += 1;
@@ -1191,9 +1195,9 @@ impl Labeller {
         let mut done = std::mem::take(&mut self.done);
         done.clear();
         let (up, last_row, f) = (&mut self.up[..], &mut self.last_row[..], &mut self.forest);
-        let prev = self.prev_cols[..self.nprev].iter();
-        for (&c, &label) in prev.zip(&self.prev_lab[..self.nprev]) {
-            up[c as usize + 1] = NO_LABEL;
+        for &c in &self.prev_cols[..self.nprev] {
+            // The pixel's root at the end of its row (`here` then, fixed after merges).
+            let label = std::mem::replace(&mut up[c as usize + 1], NO_LABEL);
             let r = if merges { f.find(label) } else { label };
             if last_row[r as usize] != y {
                 last_row[r as usize] = y; // complete once
