@@ -25,12 +25,11 @@ use gonio_vision::{Detector, Optics};
 use std::hint::black_box;
 
 fn render(optics: &Optics, scene: GratingScene) -> Vec<u8> {
-    render_at(optics, scene, 33.0, 1)
+    render_at(&GratingRenderer::new(optics, scene).unwrap(), 33.0, 1)
 }
 
-/// A frame of `scene` at shaft angle `theta_deg`, noise and dust from `seed`.
-fn render_at(optics: &Optics, scene: GratingScene, theta_deg: f64, seed: u64) -> Vec<u8> {
-    let r = GratingRenderer::new(optics, scene).unwrap();
+/// A frame of `r`'s scene at shaft angle `theta_deg`, noise and dust from `seed`.
+fn render_at(r: &GratingRenderer, theta_deg: f64, seed: u64) -> Vec<u8> {
     let mut f = vec![0u8; r.frame_len()];
     r.render(theta_deg, 150.0, 20.0, 0.0, seed, &mut f).unwrap();
     f
@@ -63,15 +62,11 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
     // detected over NEW_FRAMES frames at angles spread over a turn, each with its own noise
     // and dust, one after the other (25 MB of frames: each comes from memory, as a camera's
     // frame does).
+    let renderer = GratingRenderer::new(&optics, GratingScene::preset(ScenePreset::Dense)).unwrap();
     let turn: Vec<Vec<u8>> = (0..NEW_FRAMES)
         .map(|k| {
             let theta = 33.0 + 360.0 * k as f64 / NEW_FRAMES as f64;
-            render_at(
-                &optics,
-                GratingScene::preset(ScenePreset::Dense),
-                theta,
-                k as u64 + 1,
-            )
+            render_at(&renderer, theta, k as u64 + 1)
         })
         .collect();
     for f in &turn {
