@@ -142,16 +142,16 @@ impl RowFocus {
         // the two pairs' Σ|x − y| and Σx(y − 128) added together (only their sums are used).
         // SAFETY: the caller guarantees the features; `row_sums` checks the lengths.
         let (t, saturated, sad, dot) = unsafe { avx512::row_sums(row, prev) };
+        // Row y − 2's totals sit where row y's go.
+        let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
+        self.totals[y % 2] = t;
         let Some((a, b)) = prev else {
-            self.totals[y % 2] = t;
             return RowStats {
                 saturated,
                 ..RowStats::default()
             };
         };
         let w = row.len();
-        // Row y − 2's totals sit where row y's go.
-        let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
         let sq = |v: u8| i64::from(v) * i64::from(v);
         let one = |v: u8| i64::from(v);
         // Horizontal: x = b[0 .. w − 2], y = b[2 .. w].
@@ -163,7 +163,6 @@ impl RowFocus {
         let sq_xv = t.sq - sq(row[0]) - sq(row[w - 1]);
         let sq_yv = ta.sq - sq(a[0]) - sq(a[w - 1]);
         let sq_sum = sq_xh + sq_yh + sq_xv + sq_yv - 2 * (dot + 128 * (sum_xh + sum_xv));
-        self.totals[y % 2] = t;
         RowStats {
             saturated,
             abs_sum: sad,
