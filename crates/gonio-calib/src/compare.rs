@@ -9,6 +9,9 @@
 //! ```
 //!
 //! U is each point's expanded uncertainty when given, else 2·u (k = 2); the result says which.
+//! Where both U are 0 (two results without uncertainty, or a self-calibration of identical
+//! turns against a truth) En is undefined (`null`): it is not counted as passing, and the
+//! comparison passes only when every common angle has an En ≤ 1.
 //! Harmonics that either method cannot see are invisible to the comparison too: they are listed.
 //!
 //! ```
@@ -19,7 +22,8 @@
 //! let c = compare(&a, &b).unwrap();
 //! assert_eq!(c.points.len(), 1); // 15° ≡ 375°
 //! assert!((c.points[0].difference_arcsec - 0.1).abs() < 1e-12);
-//! assert!((c.max_en - 0.1 / 0.02f64.sqrt()).abs() < 1e-12); // U = 2·u = 0.1″ each
+//! assert!((c.max_en.unwrap() - 0.1 / 0.02f64.sqrt()).abs() < 1e-12); // U = 2·u = 0.1″ each
+//! assert!(c.all_en_pass && c.en_undefined == 0);
 //! ```
 
 use crate::certificate::Certificate;
@@ -167,12 +171,17 @@ pub struct Comparison {
     pub mean_difference_arcsec: f64,
     /// RMS difference over the common angles, arcsec.
     pub rms_difference_arcsec: f64,
-    /// The largest En (0 if none is defined).
-    pub max_en: f64,
-    /// Where it occurs, degrees.
-    pub max_en_angle_deg: f64,
-    /// Whether every defined En is ≤ 1.
+    /// The largest En (`None`, JSON `null`: no En is defined, every common angle has U_a = U_b
+    /// = 0).
+    pub max_en: Option<f64>,
+    /// Where it occurs, degrees (`None`: no En is defined).
+    pub max_en_angle_deg: Option<f64>,
+    /// Whether every common angle has an En and every En is ≤ 1 (an undefined En does not
+    /// pass).
     pub all_en_pass: bool,
+    /// Common angles whose En is undefined (U_a = U_b = 0).
+    #[serde(default)]
+    pub en_undefined: usize,
     /// How U was obtained for each curve.
     pub uncertainty_source: UncertaintySource,
     /// Harmonics each method cannot see (the comparison is blind to their union).
@@ -286,20 +295,20 @@ pub fn compare(a: &Curve, b: &Curve) -> Result<Comparison, CompareError> {
     }
     points.sort_by(|x, y| x.angle_deg.total_cmp(&y.angle_deg));
     let n = points.len() as f64;
-    let (mut maxd, mut maxd_at, mut maxen, mut maxen_at) =
-        (0.0f64, points[0].angle_deg, 0.0f64, 0.0);
+    let (mut maxd, mut maxd_at) = (0.0f64, points[0].angle_deg);
+    let mut max_en: Option<(f64, f64)> = None;
     for p in &points {
         if p.difference_arcsec.abs() > maxd {
             maxd = p.difference_arcsec.abs();
             maxd_at = p.angle_deg;
         }
         if let Some(e) = p.en
-            && e > maxen
+            && max_en.is_none_or(|(m, _)| e > m)
         {
-            maxen = e;
-            maxen_at = p.angle_deg;
+            max_en = Some((e, p.angle_deg));
         }
     }
+    let en_undefined = points.iter().filter(|p| p.en.is_none()).count();
     let mean = points.iter().map(|p| p.difference_arcsec).sum::<f64>() / n;
     let rms = (points
         .iter()
@@ -317,7 +326,7 @@ pub fn compare(a: &Curve, b: &Curve) -> Result<Comparison, CompareError> {
         }
     };
     let note = format!(
-        "the comparison cannot see harmonics {} ({}) or {} ({}); En uses U_arcsec when given, else k = 2·u",
+        "the comparison cannot see harmonics {} ({}) or {} ({}); En uses U_arcsec when given, else k = 2·u; where both U are 0 En is undefined and does not pass",
         fmt_orders(&a.undetectable_orders),
         a.label,
         fmt_orders(&b.undetectable_orders),
@@ -332,9 +341,10 @@ pub fn compare(a: &Curve, b: &Curve) -> Result<Comparison, CompareError> {
         max_abs_difference_angle_deg: maxd_at,
         mean_difference_arcsec: mean,
         rms_difference_arcsec: rms,
-        max_en: maxen,
-        max_en_angle_deg: maxen_at,
-        all_en_pass: maxen <= 1.0,
+        max_en: max_en.map(|m| m.0),
+        max_en_angle_deg: max_en.map(|m| m.1),
+        all_en_pass: en_undefined == 0 && max_en.is_some_and(|m| m.0 <= 1.0),
+        en_undefined,
         uncertainty_source: UncertaintySource {
             a: source_of(a),
             b: source_of(b),
@@ -384,8 +394,8 @@ mod tests {
         assert_eq!(c.points.len(), 2);
         assert!((c.points[0].difference_arcsec - 0.2).abs() < 1e-12);
         let en0 = 0.2 / (0.15f64.powi(2) + 0.02f64.powi(2)).sqrt();
-        assert!((c.max_en - en0).abs() < 1e-12);
-        assert_eq!(c.max_en_angle_deg, 0.0);
+        assert!((c.max_en.unwrap() - en0).abs() < 1e-12);
+        assert_eq!(c.max_en_angle_deg, Some(0.0));
         assert!(c.uncertainty_source.b.starts_with("k=2"));
         assert_eq!(c.uncertainty_source.a, "U_arcsec");
         assert_eq!(c.undetectable_harmonics.b, vec![84]);
@@ -413,5 +423,36 @@ mod tests {
         // Both uncertainties zero: En undefined, not infinite.
         let c = compare(&a, &a).unwrap();
         assert_eq!(c.points[0].en, None);
+    }
+
+    #[test]
+    fn an_undefined_en_never_passes() {
+        // Two results without uncertainty that differ by 0.13″: no En, no pass.
+        let a = Curve {
+            label: "a".into(),
+            points: vec![pt(0.0, 0.13, 0.0, Some(0.0)), pt(90.0, 0.0, 0.0, Some(0.0))],
+            undetectable_orders: vec![],
+        };
+        let mut b = a.clone();
+        b.points[0].value_arcsec = 0.0;
+        let c = compare(&a, &b).unwrap();
+        assert_eq!(c.max_en, None);
+        assert_eq!(c.max_en_angle_deg, None);
+        assert_eq!(c.en_undefined, 2);
+        assert!(!c.all_en_pass);
+        // One angle with an uncertainty: its En is defined, the other still is not.
+        b.points[1].expanded_arcsec = Some(0.1);
+        let c = compare(&a, &b).unwrap();
+        assert_eq!(c.max_en, Some(0.0));
+        assert_eq!(c.en_undefined, 1);
+        assert!(!c.all_en_pass);
+        // Every En defined and ≤ 1: passes; one above 1: does not.
+        b.points[0].expanded_arcsec = Some(0.2);
+        let c = compare(&a, &b).unwrap();
+        assert!(c.all_en_pass, "{c:?}");
+        b.points[0].expanded_arcsec = Some(0.1);
+        let c = compare(&a, &b).unwrap();
+        assert!(!c.all_en_pass);
+        assert!((c.max_en.unwrap() - 1.3).abs() < 1e-12);
     }
 }

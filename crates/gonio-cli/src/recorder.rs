@@ -185,7 +185,7 @@ impl Part {
         let turn = RecordedTurn {
             t_start_s: f64::NAN,
             kind: gonio_station::record::TurnKind::Initial,
-            focus_um: f64::NAN,
+            focus_um: None,
             frames: frames.to_vec(),
             log: log.to_vec(),
         };

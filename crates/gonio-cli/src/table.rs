@@ -30,10 +30,26 @@ pub fn dof_text(nu: f64) -> String {
     }
 }
 
-/// A number with `sig` significant digits (plain notation for 1e-5 ≤ |x| < 1e6).
+/// What a table shows for a quantity that is not defined (`null` in JSON): an en dash.
+pub const UNDEFINED: &str = "–";
+
+/// A number with `decimals` decimals, or [`UNDEFINED`] when it is not defined (`None`, NaN):
+/// `fixed(2.345, 1)` is `2.3`, `fixed(None, 1)` is `–`.
+pub fn fixed(x: impl Into<Option<f64>>, decimals: usize) -> String {
+    match x.into() {
+        Some(v) if !v.is_nan() => format!("{v:.decimals$}"),
+        _ => UNDEFINED.into(),
+    }
+}
+
+/// A number with `sig` significant digits (plain notation for 1e-5 ≤ |x| < 1e6); NaN (not
+/// defined) as [`UNDEFINED`].
 pub fn sig(x: f64, digits: usize) -> String {
     if x == 0.0 {
         return "0".into();
+    }
+    if x.is_nan() {
+        return UNDEFINED.into();
     }
     if !x.is_finite() {
         return format!("{x}");
@@ -112,4 +128,19 @@ pub fn text_table(out: &mut String, r: &BudgetResult) {
         );
     }
     let _ = writeln!(out, "  {}\n", summary_line(r));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn undefined_is_a_dash_never_nan() {
+        assert_eq!(fixed(2.345, 1), "2.3");
+        assert_eq!(fixed(Some(-0.5), 2), "-0.50");
+        assert_eq!(fixed(None, 1), UNDEFINED);
+        assert_eq!(fixed(f64::NAN, 2), UNDEFINED);
+        assert_eq!(sig(f64::NAN, 3), UNDEFINED);
+        assert_eq!(sig(1.23456, 3), "1.23");
+    }
 }

@@ -24,13 +24,7 @@ fn keys_of(files: &[PathBuf]) -> BTreeSet<String> {
 }
 
 fn old_keys(name: &str) -> BTreeSet<String> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/json-keys-{name}.txt"));
-    std::fs::read_to_string(p)
-        .unwrap()
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.is_empty())
-        .map(String::from)
-        .collect()
+    common::frozen_keys(name)
 }
 
 /// Simulated readings for both methods in `d`: (shift-angle readings, selfcal readings).

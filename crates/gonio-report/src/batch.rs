@@ -4,6 +4,10 @@
 use gonio_station::fit::Sample;
 use serde::{Deserialize, Deserializer};
 
+fn nan() -> f64 {
+    f64::NAN
+}
+
 fn nan_or<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
@@ -43,7 +47,8 @@ pub struct PartView {
     pub final_e_um: f64,
     /// Pushes made.
     pub pushes: u32,
-    /// Time for the part, s.
+    /// Time for the part, s (NaN: `null`, the clock failed).
+    #[serde(deserialize_with = "nan_or", default = "nan")]
     pub time_s: f64,
     /// How it ended (`accepted`, `rejected_…`).
     pub result: String,
@@ -72,9 +77,11 @@ impl PartView {
 pub struct SummaryView {
     /// Parts.
     pub parts: usize,
-    /// Mean time per part, s.
+    /// Mean time per part, s (NaN: `null`, no part's time known).
+    #[serde(deserialize_with = "nan_or", default = "nan")]
     pub mean_time_s: f64,
-    /// Mean final e, µm.
+    /// Mean final e, µm (NaN: `null`, no part measured by a trusted turn).
+    #[serde(deserialize_with = "nan_or", default = "nan")]
     pub mean_final_e_um: f64,
     /// Mean pushes per part.
     pub mean_pushes: f64,

@@ -81,8 +81,8 @@ impl X {
         self.leaf("si:unit", unit)?;
         if let Some((u, k, p)) = unc {
             self.open("si:expandedUnc")?;
-            self.leaf("si:uncertainty", &num(u, 6))?;
-            self.leaf("si:coverageFactor", &format!("{:.3}", k.max(1.0)))?;
+            self.leaf("si:uncertainty", &num(u, 6)?)?;
+            self.leaf("si:coverageFactor", &format!("{k:.3}"))?;
             self.leaf("si:coverageProbability", &format!("{p:.4}"))?;
             self.close("si:expandedUnc")?;
         }
@@ -119,18 +119,51 @@ impl X {
     }
 }
 
-/// A decimal number with `d` decimals (the D-SI decimal pattern; no `NaN`).
-fn num(v: f64, d: usize) -> String {
-    if v.is_finite() {
-        let s = format!("{v:.d$}");
+/// A decimal number with `d` decimals (the D-SI decimal pattern); a number that is not finite
+/// is an error, never a made-up value.
+fn num(v: f64, d: usize) -> io::Result<String> {
+    if !v.is_finite() {
+        return Err(io::Error::other(format!(
+            "{v} is not a number a DCC can state"
+        )));
+    }
+    let s = format!("{v:.d$}");
+    Ok(
         if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
             s[1..].to_string()
         } else {
             s
-        }
-    } else {
-        "0".into()
+        },
+    )
+}
+
+/// An expanded uncertainty as the D-SI states one: U ≥ 0, k ≥ 1 (`si:kValueType`) and p in
+/// (0, 1), all finite; `what` names the quantity in the error.
+fn expanded(what: &str, u: f64, k: f64, p: f64) -> io::Result<(f64, f64, f64)> {
+    if !(u.is_finite() && u >= 0.0) {
+        return Err(io::Error::other(format!(
+            "{what}: U = {u}: expected a finite number ≥ 0"
+        )));
     }
+    if !(k.is_finite() && k >= 1.0) {
+        return Err(io::Error::other(format!(
+            "{what}: coverage factor k = {k}: a DCC states k ≥ 1 (a coverage probability of about 0.69 or more)"
+        )));
+    }
+    if !(p > 0.0 && p < 1.0) {
+        return Err(io::Error::other(format!(
+            "{what}: coverage probability p = {p}: expected a value strictly between 0 and 1"
+        )));
+    }
+    Ok((u, k, p))
+}
+
+/// The first character XML 1.0 cannot carry (or a control character other than tab, newline
+/// and carriage return), with its byte offset.
+fn bad_xml_char(s: &str) -> Option<(usize, char)> {
+    s.char_indices().find(|&(_, c)| {
+        (c.is_control() && !matches!(c, '\t' | '\n' | '\r')) || matches!(c, '\u{FFFE}' | '\u{FFFF}')
+    })
 }
 
 fn valid_country(c: &str) -> bool {
@@ -153,8 +186,13 @@ fn xml_err(e: io::Error) -> ReportError {
 /// with [`ReportError::MissingMeta`] unless `draft` is set; a draft fills each missing text with
 /// `not given (DRAFT)`, each missing date with 0001-01-01, and says DRAFT in its statements.
 ///
+/// Every number is finite and every text is XML 1.0 text, or nothing is written: a value a DCC
+/// cannot state (NaN, an expanded uncertainty with k < 1, U < 0, p outside (0, 1)) or a text
+/// with a control character is a [`ReportError::Xml`] naming it (certificates read from files
+/// are checked before, [`Certificate::validate`]).
+///
 /// # Errors
-/// [`ReportError::MissingMeta`], or [`ReportError::Xml`] if the writer fails.
+/// [`ReportError::MissingMeta`], or [`ReportError::Xml`] for a value or text a DCC cannot carry.
 ///
 /// ```
 /// # use gonio_calib::certificate::{Certificate, Instrument};
@@ -185,9 +223,26 @@ pub fn write(cert: &Certificate, draft: bool) -> Result<String, ReportError> {
         lang,
     };
     body(&mut x, cert, &meta, &missing).map_err(xml_err)?;
-    String::from_utf8(x.w.into_inner()).map_err(|e| ReportError::Xml {
+    let xml = String::from_utf8(x.w.into_inner()).map_err(|e| ReportError::Xml {
         message: e.to_string(),
-    })
+    })?;
+    if let Some((at, c)) = bad_xml_char(&xml) {
+        let line = xml[..at].lines().count();
+        let context: String = xml[..at]
+            .rsplit('<')
+            .next()
+            .unwrap_or_default()
+            .chars()
+            .take(40)
+            .collect();
+        return Err(ReportError::Xml {
+            message: format!(
+                "control character U+{:04X} in the text of <{context}… (line {line}): not allowed in XML 1.0",
+                c as u32
+            ),
+        });
+    }
+    Ok(xml)
 }
 
 const GIVEN: &str = "not given (DRAFT)";
@@ -466,12 +521,23 @@ fn body(x: &mut X, cert: &Certificate, m: &CertificateMeta, missing: &[String]) 
                 x.text("dcc:name", name)?;
                 x.open("dcc:data")?;
                 x.open("dcc:quantity")?;
-                x.real(None, &num(v, 2), unit, None)?;
+                x.real(
+                    None,
+                    &num(v, 2).map_err(|e| io::Error::other(format!("{name}: {e}")))?,
+                    unit,
+                    None,
+                )?;
                 x.close("dcc:quantity")?;
                 if let Some(t) = tol {
                     x.open("dcc:quantity")?;
                     x.text("dcc:name", "variation (±)")?;
-                    x.real(None, &num(t, 2), unit, None)?;
+                    x.real(
+                        None,
+                        &num(t, 2)
+                            .map_err(|e| io::Error::other(format!("{name} variation: {e}")))?,
+                        unit,
+                        None,
+                    )?;
                     x.close("dcc:quantity")?;
                 }
                 x.close("dcc:data")?;
@@ -492,17 +558,25 @@ fn body(x: &mut X, cert: &Certificate, m: &CertificateMeta, missing: &[String]) 
     x.close("dcc:description")?;
     x.open("dcc:data")?;
     x.open("dcc:list")?;
-    for p in &cert.points {
+    for (i, p) in cert.points.iter().enumerate() {
+        let what = format!("angle {i} ({}°)", p.angle_deg);
+        let at = |e: io::Error| io::Error::other(format!("{what}: {e}"));
         x.open("dcc:list")?;
-        x.quantity("angle θ", None, &num(p.angle_deg, 6), "\\degree", None)?;
+        x.quantity(
+            "angle θ",
+            None,
+            &num(p.angle_deg, 6).map_err(at)?,
+            "\\degree",
+            None,
+        )?;
         let unc = match (p.expanded_arcsec, p.k, p.p) {
-            (Some(u), Some(k), Some(pp)) if u.is_finite() && k.is_finite() => Some((u, k, pp)),
+            (Some(u), Some(k), Some(pp)) => Some(expanded(&what, u, k, pp)?),
             _ => None,
         };
         x.quantity(
             "encoder error α",
             None,
-            &num(p.value_arcsec, 6),
+            &num(p.value_arcsec, 6).map_err(at)?,
             "\\arcsecond",
             unc,
         )?;
@@ -517,14 +591,15 @@ fn body(x: &mut X, cert: &Certificate, m: &CertificateMeta, missing: &[String]) 
         x.open("dcc:data")?;
         x.open("dcc:list")?;
         for b in pitch {
+            let what = format!("β of face {}", b.face);
             let unc = match (b.expanded_arcsec, b.k) {
-                (Some(u), Some(k)) if u.is_finite() => Some((u, k, cert.uncertainty.coverage)),
+                (Some(u), Some(k)) => Some(expanded(&what, u, k, cert.uncertainty.coverage)?),
                 _ => None,
             };
             x.quantity(
-                &format!("β of face {}", b.face),
+                &what,
                 Some(&format!("face {}", b.face)),
-                &num(b.value_arcsec, 6),
+                &num(b.value_arcsec, 6).map_err(|e| io::Error::other(format!("{what}: {e}")))?,
                 "\\arcsecond",
                 unc,
             )?;

@@ -209,12 +209,17 @@ impl Report {
             f(c.mean_difference_arcsec, 4),
             f(c.rms_difference_arcsec, 4),
             if c.all_en_pass { "pass" } else { "fail" },
-            f(c.max_en, 2),
-            f(c.max_en_angle_deg, 3),
+            opt(c.max_en, 2),
+            opt(c.max_en_angle_deg, 3),
             if c.all_en_pass {
-                "every En ≤ 1"
+                "every En ≤ 1".to_string()
+            } else if c.en_undefined > 0 {
+                format!(
+                    "not passed: En undefined at {} angles, where both U are 0",
+                    c.en_undefined
+                )
             } else {
-                "some En > 1"
+                "some En > 1".to_string()
             },
             esc(&c.uncertainty_source.a),
             esc(&c.uncertainty_source.b),
@@ -663,9 +668,9 @@ fn harmonic_check_table(b: &mut String, cert: &Certificate) {
          <table class=\"grid\"><thead><tr><th>shift S / °</th><th>start face</th><th>U fit / ″</th><th>U closure / ″</th><th>difference / ″</th></tr></thead><tbody>",
         h.order,
         f(h.amplitude_arcsec, 4),
-        f(h.u_amplitude_arcsec, 4),
+        opt(h.u_amplitude_arcsec, 4),
         f(h.phase_rad, 4),
-        f(h.u_phase_rad, 4)
+        opt(h.u_phase_rad, 4)
     );
     for s in &h.shifts {
         let _ = write!(

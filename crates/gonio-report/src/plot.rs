@@ -910,7 +910,7 @@ pub fn comparison(c: &Comparison) -> Result<Figure, ReportError> {
             .flat_map(|q| [q.difference_arcsec - ud(q), q.difference_arcsec + ud(q)]),
         0.08,
     );
-    let en_top = (c.max_en * 1.25).max(1.3);
+    let en_top = (c.max_en.unwrap_or(0.0) * 1.25).max(1.3);
     let worst = p
         .iter()
         .filter(|q| q.en.is_some())
@@ -1033,12 +1033,14 @@ pub fn comparison(c: &Comparison) -> Result<Figure, ReportError> {
         id: "comparison".into(),
         title: "Comparison: differences and En".into(),
         caption: format!(
-            "A = {}, B = {}: the difference at each of the {} common angles with ±√(U_A² + U_B²), and En = |A − B|/√(U_A² + U_B²) (|En| ≤ 1 passes); largest En {:.2} at {}°.",
+            "A = {}, B = {}: the difference at each of the {} common angles with ±√(U_A² + U_B²), and En = |A − B|/√(U_A² + U_B²) (|En| ≤ 1 passes); {}.",
             c.method_a,
             c.method_b,
             p.len(),
-            c.max_en,
-            trim(c.max_en_angle_deg)
+            match (c.max_en, c.max_en_angle_deg) {
+                (Some(e), Some(at)) => format!("largest En {e:.2} at {}°", trim(at)),
+                _ => "En undefined at every angle (both U are 0)".to_string(),
+            }
         ),
         svg,
     })

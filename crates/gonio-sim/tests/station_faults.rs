@@ -27,7 +27,7 @@ fn ring_lost_before_the_first_turn_rejects() {
     for p in &r.parts {
         assert_eq!(p.record.result, PartResult::RejectedRingLost);
         assert_eq!(p.record.pushes, 0);
-        assert!(p.record.initial_e_um.is_nan());
+        assert!(p.record.initial_e_um.is_none());
         // The lost turn is measured again once after a refocus (the recipe's default).
         assert_eq!(p.record.remeasured_turns, 1);
         assert_eq!(p.record.turns.len(), 2);
@@ -54,7 +54,7 @@ fn ring_lost_after_a_push_rejects() {
     for p in &r.parts {
         // Parts already within the threshold are accepted without a push; the others lose the
         // ring on the verification turn.
-        if p.record.initial_e_um >= 5.0 {
+        if p.record.initial_e_um.unwrap() >= 5.0 {
             assert_eq!(p.record.result, PartResult::RejectedRingLost);
             assert_eq!(p.record.pushes, 1);
             // Initial, verify (lost), and its re-measurement (lost).
@@ -90,7 +90,7 @@ fn autofocus_finds_the_best_focus() {
             2,
             i + 1,
         );
-        let got = r.parts[i as usize].record.focus_um;
+        let got = r.parts[i as usize].record.focus_um.unwrap();
         // Sweep step 16.7 µm, depth of focus 25 µm, 1 % noise on the measure.
         assert!(
             (got - truth.best_focus_um).abs() < 3.0,
@@ -216,7 +216,7 @@ fn device_error_mid_part_keeps_the_record_and_the_batch_can_go_on() {
     assert_eq!(failed.len(), 1);
     let p = &failed[0].record;
     // What happened before the error is kept: the focus, the turns and pushes so far.
-    assert!(p.focus_um.is_finite());
+    assert!(p.focus_um.is_some_and(f64::is_finite));
     assert!(!p.turns.is_empty(), "{p:?}");
     assert!(p.reject_reason.as_deref().unwrap().starts_with("camera:"));
     // The other parts are mounted as usual.

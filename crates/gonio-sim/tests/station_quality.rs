@@ -208,7 +208,7 @@ fn assert_untrusted(r: &PartRecord, checks: &[QualityCheck]) {
     let why = r.reject_reason.as_deref().unwrap();
     assert!(checks.iter().any(|c| why.contains(c.name())), "{why}");
     // Never measured trustworthily: no e is reported.
-    assert!(r.initial_e_um.is_nan() && r.final_e_um.is_nan());
+    assert!(r.initial_e_um.is_none() && r.final_e_um.is_none());
 }
 
 /// What catches a line on 40 % of frames (see the test below).
@@ -364,7 +364,7 @@ fn a_rod_at_30_percent_gain_stops_after_one_push() {
             Some(f) => f,
             None => continue, // within the threshold from the start
         };
-        if first.consistent == Some(false) && first.e_after_um >= cfg.recipe.threshold_um {
+        if first.consistent == Some(false) && first.e_after_um.unwrap() >= cfg.recipe.threshold_um {
             assert_eq!(
                 rec.result,
                 PartResult::PushInconsistent,
@@ -374,11 +374,11 @@ fn a_rod_at_30_percent_gain_stops_after_one_push() {
             );
             assert_eq!(rec.pushes, 1);
             assert_eq!(first.consistent, Some(false));
-            assert!(first.deviation_um > first.tolerance_um);
+            assert!(first.deviation_um.unwrap() > first.tolerance_um);
             let why = rec.reject_reason.as_deref().unwrap();
             assert!(why.starts_with("push 1: verify turn"), "{why}");
             // The part moved only ≈ 30 % of the way: the record keeps its measured e.
-            assert!(rec.final_e_um > 0.5 * rec.initial_e_um);
+            assert!(rec.final_e_um.unwrap() > 0.5 * rec.initial_e_um.unwrap());
             caught += 1;
         } else {
             // A smaller part still moves the right way (30 % per push) and ends within the
@@ -462,8 +462,8 @@ fn no_cost_on_good_parts_false_reject_rate() {
             b.push_inconsistent,
             b.remeasured_turns,
             b.mean_pushes,
-            b.mean_time_s,
-            b.mean_final_e_um
+            b.mean_time_s.unwrap(),
+            b.mean_final_e_um.unwrap()
         );
         assert!(b.untrusted + b.push_inconsistent <= 5, "{b:?}");
         assert_eq!(b.device_errors, 0);

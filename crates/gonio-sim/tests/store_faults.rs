@@ -205,7 +205,7 @@ fn run(fault: Fault, policy: DeviceErrorPolicy) -> (Vec<StoredPart>, String, usi
 fn pushed(parts: &[StoredPart]) -> Vec<&StoredPart> {
     parts
         .iter()
-        .filter(|p| p.initial_e_um.is_finite() && p.initial_e_um >= 5.0)
+        .filter(|p| p.initial_e_um.is_some_and(|e| e >= 5.0))
         .collect()
 }
 
@@ -229,7 +229,7 @@ fn a_device_error_mid_part_is_stored_and_the_batch_goes_on() {
     assert_eq!(fault.device, "push rod");
     assert_eq!(fault.kind, DeviceErrorKind::Fault);
     // What the part did before the error is kept: its focus and its trusted initial turn.
-    assert!(p.focus_um.is_finite());
+    assert!(p.focus_um.is_some_and(f64::is_finite));
     assert_eq!(p.turns.len(), 1);
     assert!(p.turns[0].valid_frames > 0);
     assert!(p.push_log.is_empty(), "the failed push made no stroke");

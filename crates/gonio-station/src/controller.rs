@@ -164,7 +164,7 @@ impl Controller {
             Ok((t0, (result, reason))) => {
                 rec.result = result;
                 rec.reject_reason = reason;
-                rec.time_s = d.clock.now_s().map_or(f64::NAN, |t| t - t0);
+                rec.time_s = d.clock.now_s().ok().map(|t| t - t0);
             }
             Err(StationError::Device {
                 device,
@@ -182,7 +182,7 @@ impl Controller {
                 let _ = d.rod.retract();
                 let _ = d.servo.stop();
                 if let Ok(t0) = t0 {
-                    rec.time_s = d.clock.now_s().map_or(f64::NAN, |t| t - t0);
+                    rec.time_s = d.clock.now_s().ok().map(|t| t - t0);
                 }
             }
             Err(other) => return Err(other),
@@ -211,7 +211,7 @@ impl Controller {
         let focus = self.autofocus(d)?;
         rec.phase_times.focus_s += now(d)? - t;
         match focus {
-            Some(z) => rec.focus_um = z,
+            Some(z) => rec.focus_um = Some(z),
             None => {
                 return Ok((
                     PartResult::RejectedFocusFailure,
@@ -225,7 +225,7 @@ impl Controller {
             Gated::Trusted(f) => *f,
             Gated::Rejected(r, why) => return Ok((r, Some(why))),
         };
-        rec.initial_e_um = current.0.e_px * um;
+        rec.initial_e_um = Some(current.0.e_px * um);
         rec.final_e_um = rec.initial_e_um;
         loop {
             let (e_um, theta_max) = (current.0.e_px * um, current.0.theta_max_deg);
@@ -271,7 +271,7 @@ impl Controller {
                     ));
                 }
             };
-            push.duration_s = push_duration;
+            push.duration_s = Some(push_duration);
             obs.push(&push);
             rec.pushes += 1;
             rec.push_log.push(push);
@@ -284,10 +284,10 @@ impl Controller {
                 .hypot(after[1] - prediction.e_after_vec_um[1]);
             let consistent = deviation <= prediction.tolerance_um;
             let e_after = next.0.e_px * um;
-            rec.final_e_um = e_after;
+            rec.final_e_um = Some(e_after);
             let last = rec.push_log.last_mut().expect("the push was just logged");
-            last.e_after_um = e_after;
-            last.deviation_um = deviation;
+            last.e_after_um = Some(e_after);
+            last.deviation_um = Some(deviation);
             last.consistent = Some(consistent);
             if !consistent {
                 if e_after < threshold {
@@ -386,7 +386,7 @@ impl Controller {
                 let z = self.autofocus(d)?;
                 rec.phase_times.focus_s += now(d)? - t;
                 match z {
-                    Some(z) => rec.focus_um = z,
+                    Some(z) => rec.focus_um = Some(z),
                     None => {
                         return Ok(Gated::Rejected(
                             PartResult::RejectedFocusFailure,
@@ -474,7 +474,7 @@ impl Controller {
         t0: f64,
         kind: TurnKind,
         turn_index: usize,
-        focus_um: f64,
+        focus_um: Option<f64>,
         obs: &mut dyn Observer,
     ) -> Result<Turn, StationError>
     where
@@ -599,10 +599,10 @@ impl Controller {
                 predicted_move_um: prediction.move_um,
                 predicted_e_after_um: prediction.e_after_um,
                 tolerance_um: prediction.tolerance_um,
-                e_after_um: f64::NAN,
-                deviation_um: f64::NAN,
+                e_after_um: None,
+                deviation_um: None,
                 consistent: None,
-                duration_s: f64::NAN,
+                duration_s: None,
             },
             prediction,
         )))

@@ -181,10 +181,12 @@ pub struct EccentricityFit {
     pub theta_max_deg: f64,
     /// Mean column c₀, px.
     pub c0_px: f64,
-    /// Standard uncertainty of e, px (least squares; NaN for the paper's method).
-    pub u_e_px: f64,
-    /// Standard uncertainty of θ_max, degrees (least squares; NaN for the paper's method).
-    pub u_theta_max_deg: f64,
+    /// Standard uncertainty of e, px (least squares; `None`, JSON `null`, for the paper's
+    /// method, which defines none).
+    pub u_e_px: Option<f64>,
+    /// Standard uncertainty of θ_max, degrees (least squares; `None`, JSON `null`, for the
+    /// paper's method and at e = 0, where the direction is undefined).
+    pub u_theta_max_deg: Option<f64>,
     /// RMS of the residuals of the samples used, px (for the paper's method: against the
     /// sinusoid `c₀ + e cos(θ − θ_max)`).
     pub residual_rms_px: f64,
@@ -313,22 +315,14 @@ pub fn fit_judged(
                 &used,
                 samples.len(),
                 frames_taken,
-                ls.residual_rms_px,
+                Some(ls.residual_rms_px),
                 ls.u_e_px,
                 halves,
                 limits,
             )
         }
         // The data do not determine the least-squares model: nothing to trust.
-        Err(_) => quality::judge(
-            &[],
-            samples.len(),
-            frames_taken,
-            f64::NAN,
-            f64::NAN,
-            None,
-            limits,
-        ),
+        Err(_) => quality::judge(&[], samples.len(), frames_taken, None, None, None, limits),
     };
     Ok(out)
 }
@@ -574,13 +568,15 @@ fn fit_least_squares(
         let (ta, tb) = (-b / (e * e), a / (e * e));
         (
             (ja * ja * caa + 2.0 * ja * jb * cab + jb * jb * cbb).sqrt(),
-            (ta * ta * caa + 2.0 * ta * tb * cab + tb * tb * cbb)
-                .sqrt()
-                .to_degrees(),
+            Some(
+                (ta * ta * caa + 2.0 * ta * tb * cab + tb * tb * cbb)
+                    .sqrt()
+                    .to_degrees(),
+            ),
         )
     } else {
         // At e = 0 the direction is undefined; u(e) is the mean of the two components'.
-        ((0.5 * (caa + cbb)).sqrt(), f64::NAN)
+        ((0.5 * (caa + cbb)).sqrt(), None)
     };
     let roundness = orders
         .iter()
@@ -599,7 +595,7 @@ fn fit_least_squares(
         e_px: e,
         theta_max_deg: wrap360(b.atan2(a).to_degrees()),
         c0_px: beta[0],
-        u_e_px: u_e,
+        u_e_px: Some(u_e),
         u_theta_max_deg: u_t,
         residual_rms_px: rms,
         sigma_px: sigma,
@@ -676,8 +672,8 @@ fn fit_paper(samples: &[Sample], opts: &FitOptions) -> Result<EccentricityFit, S
         e_px: e,
         theta_max_deg: theta_max,
         c0_px: c0,
-        u_e_px: f64::NAN,
-        u_theta_max_deg: f64::NAN,
+        u_e_px: None,
+        u_theta_max_deg: None,
         residual_rms_px: rms,
         sigma_px: robust_sigma(&r),
         frames_used: n,

@@ -153,8 +153,9 @@ impl Default for QualityLimits {
 /// What the gate measured on a turn.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct QualityMetrics {
-    /// RMS of the least-squares residuals of the used frames, px.
-    pub residual_rms_px: f64,
+    /// RMS of the least-squares residuals of the used frames, px (`None`, JSON `null`: the
+    /// data do not determine the least-squares model).
+    pub residual_rms_px: Option<f64>,
     /// Share of the 36 sectors of 10° holding a used frame.
     pub coverage: f64,
     /// Largest angle without a used frame, degrees.
@@ -167,14 +168,17 @@ pub struct QualityMetrics {
     pub outliers: usize,
     /// Share of the fit's frames rejected as outliers.
     pub outlier_fraction: f64,
-    /// Standard uncertainty of e, µm (least squares).
-    pub u_e_um: f64,
-    /// Distance between the half-turns' (c₀, a, b), standard deviations (NaN: not determined).
-    pub half_turn_z: f64,
-    /// Difference of the half-turns' mean columns c₀, px.
-    pub half_turn_dc0_px: f64,
-    /// Length of the difference of the half-turns' eccentricity vectors, µm.
-    pub half_turn_de_um: f64,
+    /// Standard uncertainty of e, µm, of the least-squares model, whichever method measured e
+    /// (`None`, JSON `null`: the data do not determine it).
+    pub u_e_um: Option<f64>,
+    /// Distance between the half-turns' (c₀, a, b), standard deviations (`None`, JSON `null`:
+    /// not determined, a half-turn had too few frames).
+    pub half_turn_z: Option<f64>,
+    /// Difference of the half-turns' mean columns c₀, px (`None`: not determined).
+    pub half_turn_dc0_px: Option<f64>,
+    /// Length of the difference of the half-turns' eccentricity vectors, µm (`None`: not
+    /// determined).
+    pub half_turn_de_um: Option<f64>,
 }
 
 /// One check of the gate.
@@ -213,13 +217,13 @@ impl QualityCheck {
     }
 }
 
-/// A failed check: its value and the limit it broke (NaN value: not determined).
+/// A failed check: its value and the limit it broke.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct QualityFailure {
     /// Which check.
     pub check: QualityCheck,
-    /// The value measured.
-    pub value: f64,
+    /// The value measured (`None`, JSON `null`: not determined).
+    pub value: Option<f64>,
     /// The limit.
     pub limit: f64,
 }
@@ -228,10 +232,10 @@ impl std::fmt::Display for QualityFailure {
     /// A short reason such as `residual_rms 26.70 px > 0.95 px`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let name = self.check.name();
-        let (v, l) = (self.value, self.limit);
-        if v.is_nan() {
+        let l = self.limit;
+        let Some(v) = self.value.filter(|v| !v.is_nan()) else {
             return write!(f, "{name} not determined");
-        }
+        };
         match self.check {
             QualityCheck::ResidualRms => write!(f, "{name} {v:.2} px > {l:.2} px"),
             QualityCheck::Coverage | QualityCheck::FramesUsed => {
@@ -300,8 +304,8 @@ pub(crate) fn judge(
     used: &[Sample],
     given: usize,
     frames_taken: usize,
-    residual_rms_px: f64,
-    u_e_px: f64,
+    residual_rms_px: Option<f64>,
+    u_e_px: Option<f64>,
     halves: Option<HalfTurns>,
     limits: &QualityLimits,
 ) -> QualityVerdict {
@@ -317,60 +321,65 @@ pub(crate) fn judge(
         frames_used: used.len(),
         outliers,
         outlier_fraction: outliers as f64 / given.max(1) as f64,
-        u_e_um: u_e_px * um,
-        half_turn_z: halves.map_or(f64::NAN, |h| h.z),
-        half_turn_dc0_px: halves.map_or(f64::NAN, |h| h.dc0_px),
-        half_turn_de_um: halves.map_or(f64::NAN, |h| h.de_px * um),
+        u_e_um: u_e_px.map(|u| u * um),
+        half_turn_z: halves.map(|h| h.z),
+        half_turn_dc0_px: halves.map(|h| h.dc0_px),
+        half_turn_de_um: halves.map(|h| h.de_px * um),
     };
     let used_fraction = used.len() as f64 / frames_taken.max(1) as f64;
-    // `!(v <= limit)` so that NaN (not determined) fails.
+    // A value that is not determined (`None`, or not finite) fails its check.
+    // The last field: whether the limit is a maximum (else a minimum).
+    let (le, ge) = (true, false);
+    let det = |v: f64| v.is_finite().then_some(v);
     let checks = [
         (
             QualityCheck::ResidualRms,
-            m.residual_rms_px,
+            m.residual_rms_px.and_then(det),
             limits.max_residual_rms_px,
-            m.residual_rms_px <= limits.max_residual_rms_px,
+            le,
         ),
         (
             QualityCheck::Coverage,
-            m.coverage,
+            det(m.coverage),
             limits.min_coverage,
-            m.coverage >= limits.min_coverage,
+            ge,
         ),
         (
             QualityCheck::LargestGap,
-            m.largest_gap_deg,
+            det(m.largest_gap_deg),
             limits.max_gap_deg,
-            m.largest_gap_deg <= limits.max_gap_deg,
+            le,
         ),
         (
             QualityCheck::FramesUsed,
-            used_fraction,
+            det(used_fraction),
             limits.min_used_fraction,
-            used_fraction >= limits.min_used_fraction,
+            ge,
         ),
         (
             QualityCheck::Outliers,
-            m.outlier_fraction,
+            det(m.outlier_fraction),
             limits.max_outlier_fraction,
-            m.outlier_fraction <= limits.max_outlier_fraction,
+            le,
         ),
         (
             QualityCheck::UE,
-            m.u_e_um,
+            m.u_e_um.and_then(det),
             limits.max_u_e_um,
-            m.u_e_um <= limits.max_u_e_um,
+            le,
         ),
         (
             QualityCheck::HalfTurns,
-            m.half_turn_z,
+            m.half_turn_z.and_then(det),
             limits.max_half_turn_z,
-            m.half_turn_z <= limits.max_half_turn_z,
+            le,
         ),
     ];
     let failures: Vec<QualityFailure> = checks
         .into_iter()
-        .filter(|c| !c.3)
+        .filter(|&(_, value, limit, max)| {
+            !value.is_some_and(|v| if max { v <= limit } else { v >= limit })
+        })
         .map(|(check, value, limit, _)| QualityFailure {
             check,
             value,
@@ -417,13 +426,13 @@ mod tests {
     fn reasons_read_plainly() {
         let f = QualityFailure {
             check: QualityCheck::ResidualRms,
-            value: 26.7,
+            value: Some(26.7),
             limit: 0.95,
         };
         assert_eq!(f.to_string(), "residual_rms 26.70 px > 0.95 px");
         let f = QualityFailure {
             check: QualityCheck::HalfTurns,
-            value: f64::NAN,
+            value: None,
             limit: 4.6,
         };
         assert_eq!(f.to_string(), "half_turns not determined");

@@ -73,21 +73,22 @@ pub struct TurnRecord {
     pub samples: Vec<Sample>,
     /// Frames without a valid ring.
     pub invalid_frames: usize,
-    /// Eccentricity, µm (NaN when the turn failed).
-    pub e_um: f64,
-    /// Standard uncertainty of e, µm (NaN for the paper's method or a failed turn).
-    pub u_e_um: f64,
-    /// θ_max, degrees.
-    pub theta_max_deg: f64,
-    /// Mean column, px.
-    pub c0_px: f64,
-    /// Residual RMS, px.
-    pub residual_rms_px: f64,
+    /// Eccentricity, µm (`None`, JSON `null`: the ring was lost or the fit failed).
+    pub e_um: Option<f64>,
+    /// Standard uncertainty of e, µm (`None`, JSON `null`: the paper's extreme-point method
+    /// defines none, or the ring was lost or the fit failed).
+    pub u_e_um: Option<f64>,
+    /// θ_max, degrees (`None`: no fit).
+    pub theta_max_deg: Option<f64>,
+    /// Mean column, px (`None`: no fit).
+    pub c0_px: Option<f64>,
+    /// Residual RMS, px (`None`: no fit).
+    pub residual_rms_px: Option<f64>,
     /// Outliers rejected by the fit.
     pub outliers: usize,
-    /// Focus position during the turn, µm (NaN when autofocus never succeeded).
-    #[serde(default = "nan", deserialize_with = "nan_or")]
-    pub focus_um: f64,
+    /// Focus position during the turn, µm (`None`, JSON `null`: autofocus never succeeded).
+    #[serde(default)]
+    pub focus_um: Option<f64>,
     /// The quality gate's verdict (`None` when the ring was lost and nothing was fitted).
     pub quality: Option<QualityVerdict>,
 }
@@ -115,24 +116,18 @@ pub struct PushRecord {
     pub predicted_e_after_um: f64,
     /// How far the verify turn may lie from the prediction, µm.
     pub tolerance_um: f64,
-    /// Eccentricity measured by the trusted verify turn, µm (NaN when there was none).
-    pub e_after_um: f64,
-    /// Distance of the measured eccentricity vector from the predicted one, µm.
-    pub deviation_um: f64,
+    /// Eccentricity measured by the trusted verify turn, µm (`None`, JSON `null`: there was
+    /// no trusted verify turn).
+    pub e_after_um: Option<f64>,
+    /// Distance of the measured eccentricity vector from the predicted one, µm (`None`: no
+    /// trusted verify turn).
+    pub deviation_um: Option<f64>,
     /// Whether the verify turn agreed with the prediction (`None`: no trusted verify turn).
     pub consistent: Option<bool>,
-    /// Duration of the push cycle (align, approach, push, retract), s.
-    #[serde(default = "nan", deserialize_with = "nan_or")]
-    pub duration_s: f64,
-}
-
-fn nan() -> f64 {
-    f64::NAN
-}
-
-/// Reads a number written as `null` (how JSON writes NaN) back as NaN.
-fn nan_or<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    /// Duration of the push cycle (align, approach, push, retract), s (`None`: not recorded,
+    /// in records older than the field).
+    #[serde(default)]
+    pub duration_s: Option<f64>,
 }
 
 /// Time spent in each phase of a part, s.
@@ -166,22 +161,22 @@ pub struct PartRecord {
     pub recipe: String,
     /// The strategy's name.
     pub strategy: String,
-    /// First trusted eccentricity, µm (NaN if never measured).
-    pub initial_e_um: f64,
-    /// Last trusted eccentricity, µm (NaN if never measured).
-    pub final_e_um: f64,
+    /// First trusted eccentricity, µm (`None`, JSON `null`: never measured by a trusted turn).
+    pub initial_e_um: Option<f64>,
+    /// Last trusted eccentricity, µm (`None`, JSON `null`: never measured by a trusted turn).
+    pub final_e_um: Option<f64>,
     /// Pushes made.
     pub pushes: u32,
-    /// Time from start to the end of the part, s.
-    pub time_s: f64,
+    /// Time from start to the end of the part, s (`None`, JSON `null`: the clock failed).
+    pub time_s: Option<f64>,
     /// How the part ended.
     pub result: PartResult,
     /// Why the part was rejected, in words (`None` when accepted).
     pub reject_reason: Option<String>,
     /// Turns measured again because a turn failed the quality gate or lost the ring.
     pub remeasured_turns: u32,
-    /// Focus position found last, µm (NaN on focus failure).
-    pub focus_um: f64,
+    /// Focus position found last, µm (`None`, JSON `null`: autofocus failed).
+    pub focus_um: Option<f64>,
     /// Every measuring turn, re-measurements included.
     pub turns: Vec<TurnRecord>,
     /// Every push.
@@ -199,14 +194,14 @@ impl PartRecord {
             serial: serial.to_string(),
             recipe: recipe.to_string(),
             strategy: strategy.to_string(),
-            initial_e_um: f64::NAN,
-            final_e_um: f64::NAN,
+            initial_e_um: None,
+            final_e_um: None,
             pushes: 0,
-            time_s: f64::NAN,
+            time_s: None,
             result: PartResult::Accepted,
             reject_reason: None,
             remeasured_turns: 0,
-            focus_um: f64::NAN,
+            focus_um: None,
             turns: Vec::new(),
             push_log: Vec::new(),
             phase_times: PhaseTimes::default(),

@@ -63,8 +63,9 @@ pub struct RecordedTurn {
     pub t_start_s: f64,
     /// Why the turn was measured.
     pub kind: TurnKind,
-    /// Focus position during the turn, µm.
-    pub focus_um: f64,
+    /// Focus position during the turn, µm (`None`, JSON `null`: autofocus never succeeded).
+    #[serde(default)]
+    pub focus_um: Option<f64>,
     /// Every frame the camera gave during the turn (its detector's result live).
     pub frames: Vec<CameraFrame>,
     /// The servo's angle log of the turn.
@@ -206,12 +207,26 @@ pub fn compare_turns(a: &TurnRecord, b: &TurnRecord) -> Vec<Difference> {
         }
     };
     num("t_start_s", a.t_start_s, b.t_start_s);
-    num("e_um", a.e_um, b.e_um);
-    num("u_e_um", a.u_e_um, b.u_e_um);
-    num("theta_max_deg", a.theta_max_deg, b.theta_max_deg);
-    num("c0_px", a.c0_px, b.c0_px);
-    num("residual_rms_px", a.residual_rms_px, b.residual_rms_px);
-    num("focus_um", a.focus_um, b.focus_um);
+    let mut undefined = |field: &str, x: Option<f64>, y: Option<f64>| {
+        let same = match (x, y) {
+            (Some(x), Some(y)) => same(x, y),
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            d.push(Difference {
+                field: field.into(),
+                recorded: opt(x),
+                replayed: opt(y),
+            });
+        }
+    };
+    undefined("e_um", a.e_um, b.e_um);
+    undefined("u_e_um", a.u_e_um, b.u_e_um);
+    undefined("theta_max_deg", a.theta_max_deg, b.theta_max_deg);
+    undefined("c0_px", a.c0_px, b.c0_px);
+    undefined("residual_rms_px", a.residual_rms_px, b.residual_rms_px);
+    undefined("focus_um", a.focus_um, b.focus_um);
     let mut count = |field: &str, x: usize, y: usize| {
         if x != y {
             d.push(Difference {

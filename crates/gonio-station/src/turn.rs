@@ -25,9 +25,10 @@
 //!     })
 //!     .collect();
 //! let log = (0..=2002).map(|k| AngleSample { t_s: k as f64 * 1e-3, theta_deg: 0.18 * k as f64 }).collect();
-//! let (turn, fit) = evaluate_turn(&r, Strategy::Learned, &frames, log, 0.0, TurnKind::Initial, 0.0);
+//! let (turn, fit) = evaluate_turn(&r, Strategy::Learned, &frames, log, 0.0, TurnKind::Initial, Some(0.0));
 //! assert_eq!(turn.samples.len(), 200);
-//! assert!((turn.e_um - 30.0).abs() < 0.1, "{}", turn.e_um);
+//! let e = turn.e_um.unwrap();
+//! assert!((e - 30.0).abs() < 0.1, "{e}");
 //! assert!(fit.is_some());
 //! ```
 
@@ -51,7 +52,7 @@ pub fn fit_options(recipe: &Recipe, strategy: Strategy) -> FitOptions {
 /// strategy stamps), keeps angles strictly increasing, fits and judges the turn.
 ///
 /// `t_start_s` is the turn's start relative to the part's start, `focus_um` the focus position
-/// during the turn. Returns the turn's record and, when the ring was found in enough frames
+/// during the turn (`None` when autofocus never succeeded). Returns the turn's record and, when the ring was found in enough frames
 /// (the recipe's `measure.min_valid_fraction`) and the fit succeeded, the fit; `None` means
 /// the ring was lost.
 pub fn evaluate_turn(
@@ -61,7 +62,7 @@ pub fn evaluate_turn(
     log: Vec<AngleSample>,
     t_start_s: f64,
     kind: TurnKind,
-    focus_um: f64,
+    focus_um: Option<f64>,
 ) -> (TurnRecord, Option<EccentricityFit>) {
     let n = frames.len();
     let mut rec = TurnRecord {
@@ -70,11 +71,11 @@ pub fn evaluate_turn(
         frames_taken: n,
         samples: Vec::with_capacity(n),
         invalid_frames: 0,
-        e_um: f64::NAN,
-        u_e_um: f64::NAN,
-        theta_max_deg: f64::NAN,
-        c0_px: f64::NAN,
-        residual_rms_px: f64::NAN,
+        e_um: None,
+        u_e_um: None,
+        theta_max_deg: None,
+        c0_px: None,
+        residual_rms_px: None,
         outliers: 0,
         focus_um,
         quality: None,
@@ -113,11 +114,11 @@ pub fn evaluate_turn(
     match fit_judged(&rec.samples, n, &fit_options(recipe, strategy), &limits) {
         Ok(f) => {
             let um = recipe.um_per_px;
-            rec.e_um = f.e_px * um;
-            rec.u_e_um = f.u_e_px * um;
-            rec.theta_max_deg = f.theta_max_deg;
-            rec.c0_px = f.c0_px;
-            rec.residual_rms_px = f.residual_rms_px;
+            rec.e_um = Some(f.e_px * um);
+            rec.u_e_um = f.u_e_px.map(|u| u * um);
+            rec.theta_max_deg = Some(f.theta_max_deg);
+            rec.c0_px = Some(f.c0_px);
+            rec.residual_rms_px = Some(f.residual_rms_px);
             rec.outliers = f.outliers.len();
             rec.quality = Some(f.quality.clone());
             (rec, Some(f))

@@ -126,20 +126,21 @@ pub struct StoredTurn {
     pub valid_frames: usize,
     /// Frames without a valid ring.
     pub invalid_frames: usize,
-    /// Eccentricity, µm.
-    pub e_um: f64,
-    /// Standard uncertainty of e, µm.
-    pub u_e_um: f64,
-    /// θ_max, degrees.
-    pub theta_max_deg: f64,
-    /// Mean column, px.
-    pub c0_px: f64,
-    /// Residual RMS, px.
-    pub residual_rms_px: f64,
+    /// Eccentricity, µm (`null`: the ring was lost or the fit failed).
+    pub e_um: Option<f64>,
+    /// Standard uncertainty of e, µm (`null`: the paper's extreme-point method defines none,
+    /// or no fit).
+    pub u_e_um: Option<f64>,
+    /// θ_max, degrees (`null`: no fit).
+    pub theta_max_deg: Option<f64>,
+    /// Mean column, px (`null`: no fit).
+    pub c0_px: Option<f64>,
+    /// Residual RMS, px (`null`: no fit).
+    pub residual_rms_px: Option<f64>,
     /// Outliers rejected by the fit.
     pub outliers: usize,
-    /// Focus position during the turn, µm.
-    pub focus_um: f64,
+    /// Focus position during the turn, µm (`null`: autofocus never succeeded).
+    pub focus_um: Option<f64>,
     /// The quality gate's verdict, as the station wrote it (`null`: ring lost, not judged).
     pub quality: Option<serde_json::Value>,
     /// The valid frames' (θ, c).
@@ -172,14 +173,14 @@ pub struct StoredPart {
     pub started_at: String,
     /// Wall-clock end, UTC.
     pub ended_at: String,
-    /// First trusted eccentricity, µm.
-    pub initial_e_um: f64,
-    /// Last trusted eccentricity, µm.
-    pub final_e_um: f64,
+    /// First trusted eccentricity, µm (`null`: never measured by a trusted turn).
+    pub initial_e_um: Option<f64>,
+    /// Last trusted eccentricity, µm (`null`: never measured by a trusted turn).
+    pub final_e_um: Option<f64>,
     /// Pushes made.
     pub pushes: u32,
-    /// Station time for the part, s.
-    pub time_s: f64,
+    /// Station time for the part, s (`null`: the clock failed).
+    pub time_s: Option<f64>,
     /// How the part ended (`accepted`, `rejected_max_pushes`, …).
     pub result: String,
     /// `pass` or `reject`.
@@ -188,8 +189,8 @@ pub struct StoredPart {
     pub reject_reason: Option<String>,
     /// Turns measured again.
     pub remeasured_turns: u32,
-    /// Last focus position, µm.
-    pub focus_um: f64,
+    /// Last focus position, µm (`null`: autofocus failed).
+    pub focus_um: Option<f64>,
     /// Time in each phase, s.
     pub phase_times: PhaseTimes,
     /// The device error that ended it.
@@ -227,14 +228,14 @@ pub struct PartSummary {
     pub started_at: String,
     /// Wall-clock end, UTC.
     pub ended_at: String,
-    /// First trusted eccentricity, µm.
-    pub initial_e_um: f64,
-    /// Last trusted eccentricity, µm.
-    pub final_e_um: f64,
+    /// First trusted eccentricity, µm (`null`: never measured by a trusted turn).
+    pub initial_e_um: Option<f64>,
+    /// Last trusted eccentricity, µm (`null`: never measured by a trusted turn).
+    pub final_e_um: Option<f64>,
     /// Pushes.
     pub pushes: u32,
-    /// Station time, s.
-    pub time_s: f64,
+    /// Station time, s (`null`: the clock failed).
+    pub time_s: Option<f64>,
     /// How it ended.
     pub result: String,
     /// `pass` or `reject`.

@@ -129,7 +129,9 @@ fn upper_quantile(alpha: f64, nu: f64, z: f64) -> f64 {
     while two_sided_tail(hi, nu) > target {
         lo = hi;
         hi *= 2.0;
-        if hi > 1e300 {
+        // Beyond t ≈ 1.3e154, t² overflows and the tail cannot be evaluated: the quantile is
+        // not a number f64 can resolve (ν ≈ 1e-5 puts it near 10^(1e5)), not that value.
+        if !(hi * hi).is_finite() {
             return f64::INFINITY;
         }
     }
@@ -163,7 +165,8 @@ fn upper_quantile(alpha: f64, nu: f64, z: f64) -> f64 {
 /// The GUM coverage factor k_p(ν) = t_{(1+p)/2}(ν): the half-width, in standard uncertainties, of
 /// the two-sided interval that holds the fraction p (0 < p < 1) of a t distribution with ν degrees
 /// of freedom (ν = ∞: the normal value, e.g. 1.96 for p = 0.95, 2.0 for p = 0.9545).
-/// Returns NaN for p outside (0, 1) or ν ≤ 0.
+/// Returns NaN for p outside (0, 1) or ν ≤ 0, and ∞ when the quantile is beyond what an f64
+/// t can resolve (t² would overflow: ν of about 10⁻⁴ or less); callers treat both as errors.
 ///
 /// ```
 /// use gonio_uncertainty::student::coverage_factor;
@@ -181,6 +184,21 @@ pub fn coverage_factor(p: f64, nu: f64) -> f64 {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn a_quantile_beyond_f64_is_infinite_not_a_made_up_number() {
+        // ν = 1e-5: the 97.5 % quantile is about 40^(1/ν); it was reported as 1.3e154 (where t²
+        // overflows).
+        for nu in [1e-5, 1e-4, 1e-3] {
+            let k = coverage_factor(0.95, nu);
+            assert!(k.is_infinite(), "ν = {nu}: k = {k}");
+        }
+        // Small but resolvable ν still gives a finite k that satisfies its defining equation.
+        let nu = 0.05;
+        let k = coverage_factor(0.95, nu);
+        assert!(k.is_finite() && k > 1e20, "{k}");
+        assert!((two_sided_tail(k, nu) / 0.05 - 1.0).abs() < 1e-9);
+    }
 
     /// Two-sided coverage A(t|ν) = P(|T| ≤ t) for whole ν by the finite trigonometric series of
     /// Abramowitz & Stegun 26.7.3–26.7.4 (independent of the incomplete beta function).

@@ -210,8 +210,12 @@ impl LiveObserver {
     }
 }
 
-fn num(x: f64) -> Value {
-    if x.is_finite() { json!(x) } else { Value::Null }
+/// A number, or `null` when it is not defined (`None`) or not finite.
+fn num(x: impl Into<Option<f64>>) -> Value {
+    match x.into() {
+        Some(x) if x.is_finite() => json!(x),
+        _ => Value::Null,
+    }
 }
 
 /// A turn for the live view: samples and the fitted curve, in the angle turned since the

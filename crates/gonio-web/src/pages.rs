@@ -28,11 +28,11 @@ fn nav(title: &str, body: &str) -> String {
     )
 }
 
-fn num(x: f64, d: usize) -> String {
-    if x.is_finite() {
-        format!("{x:.d$}")
-    } else {
-        "—".into()
+/// A number with `d` decimals, or a dash when it is not defined (`None`) or not finite.
+fn num(x: impl Into<Option<f64>>, d: usize) -> String {
+    match x.into() {
+        Some(x) if x.is_finite() => format!("{x:.d$}"),
+        _ => "—".into(),
     }
 }
 
@@ -170,8 +170,8 @@ fn part_body(p: &StoredPart) -> Result<String, String> {
         parts: vec![view],
         summary: SummaryView {
             parts: 1,
-            mean_time_s: p.time_s,
-            mean_final_e_um: p.final_e_um,
+            mean_time_s: p.time_s.unwrap_or(f64::NAN),
+            mean_final_e_um: p.final_e_um.unwrap_or(f64::NAN),
             mean_pushes: f64::from(p.pushes),
             max_pushes: p.pushes,
             rejected: usize::from(p.verdict == gonio_store::Verdict::Reject),

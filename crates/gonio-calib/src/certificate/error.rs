@@ -16,6 +16,15 @@ pub enum CertificateError {
         #[source]
         source: gonio_uncertainty::UncertaintyError,
     },
+    /// A certificate (or its metadata) read from a file holds a value no calibration gives, or
+    /// text that a certificate cannot carry.
+    #[error("{field}: {what}")]
+    Invalid {
+        /// The field, by its JSON name (`encoder_errors[3].U_arcsec`, `meta.customer.name`).
+        field: String,
+        /// What is wrong and what was expected.
+        what: String,
+    },
     /// A coverage probability outside (0, 1).
     #[error(
         "coverage probability {coverage}: expected a value strictly between 0 and 1, e.g. 0.95"

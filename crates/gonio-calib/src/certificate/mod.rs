@@ -49,6 +49,7 @@
 mod build;
 mod error;
 mod meta;
+mod validate;
 mod wire;
 
 pub use build::Instrument;
@@ -57,6 +58,7 @@ pub use meta::{
     Authorisation, CalibrationDates, CertificateMeta, Date, Environment, Item, MethodMeta, Party,
     ReferenceStandard,
 };
+pub use validate::check_text;
 
 use crate::joint::{
     BlindOrders, Consistency, HeadAngles, Interpolation, JointAlpha, JointHarmonic, SigmaUsed,

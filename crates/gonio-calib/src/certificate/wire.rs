@@ -152,7 +152,7 @@ impl<'de> Deserialize<'de> for Certificate {
             }
             _ => {}
         }
-        Ok(Certificate {
+        let cert = Certificate {
             format: w.format,
             procedure: w.procedure,
             method: w.method,
@@ -183,6 +183,11 @@ impl<'de> Deserialize<'de> for Certificate {
             },
             software: w.software,
             meta: w.meta,
-        })
+        };
+        // Validated as it is read: a hand-edited certificate with a value no calibration gives
+        // is refused here, with the place in the file.
+        cert.validate()
+            .map_err(|e| D::Error::custom(e.to_string()))?;
+        Ok(cert)
     }
 }

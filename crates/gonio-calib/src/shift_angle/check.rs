@@ -33,12 +33,14 @@ pub struct HarmonicCheck {
     pub order: u32,
     /// Fitted amplitude A at the first shift, arcsec.
     pub amplitude_arcsec: f64,
-    /// Its standard uncertainty, arcsec.
-    pub u_amplitude_arcsec: f64,
+    /// Its standard uncertainty, arcsec (`None`, JSON `null`: not determined, when the fit has
+    /// no residual degrees of freedom, e.g. a 3-face polygon, or A = 0).
+    pub u_amplitude_arcsec: Option<f64>,
     /// Fitted phase B, radians (`A·sin(kθ + B)`).
     pub phase_rad: f64,
-    /// Its standard uncertainty, radians.
-    pub u_phase_rad: f64,
+    /// Its standard uncertainty, radians (`None`, JSON `null`: not determined, as for A, or A
+    /// = 0, where the phase is undefined).
+    pub u_phase_rad: Option<f64>,
     /// One entry per shift (the first is the one A and B come from).
     pub shifts: Vec<ShiftCheck>,
 }
@@ -97,9 +99,9 @@ pub fn harmonic_check(cal: &Calibration, order: u32) -> Result<HarmonicCheck, Sh
     Ok(HarmonicCheck {
         order,
         amplitude_arcsec: h.amplitude,
-        u_amplitude_arcsec: ua,
+        u_amplitude_arcsec: ua.is_finite().then_some(ua),
         phase_rad: h.phase_rad,
-        u_phase_rad: up,
+        u_phase_rad: up.is_finite().then_some(up),
         shifts: out,
     })
 }

@@ -56,6 +56,41 @@ pub(crate) struct Obs {
     pub value: f64,
 }
 
+/// Refuses two shifts whose difference is a multiple of the pitch 360°/N (to 1 µ°): they put
+/// the table at the same N angles.
+fn same_angles(keys: &[ShiftKey], faces: usize) -> Result<(), ShiftAngleError> {
+    let pitch_deg = 360.0 / faces as f64;
+    // Each shift's place within one pitch, in µ°; equal places (or places a pitch apart, at
+    // the wrap) are the same angles.
+    let pitch = pitch_deg * 1e6;
+    let mut place: Vec<(f64, i64)> = keys
+        .iter()
+        .map(|k| ((k.0 as f64).rem_euclid(pitch), k.0))
+        .collect();
+    place.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = place.len();
+    if n < 2 {
+        return Ok(());
+    }
+    for i in 0..n {
+        let (a, b) = (place[i], place[(i + 1) % n]);
+        let gap = if i + 1 == n {
+            b.0 + pitch - a.0
+        } else {
+            b.0 - a.0
+        };
+        if gap < 0.5 {
+            let (lo, hi) = (a.1.min(b.1), a.1.max(b.1));
+            return Err(ShiftAngleError::SameAngles {
+                first_deg: lo as f64 * 1e-6,
+                second_deg: hi as f64 * 1e-6,
+                pitch_deg,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// A validated set of readings for an N-faced polygon.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadingSet {
@@ -73,8 +108,10 @@ impl ReadingSet {
     /// # Errors
     /// [`ShiftAngleError::TooFewFaces`], [`ShiftAngleError::Empty`],
     /// [`ShiftAngleError::OutOfRange`] for a face or step outside 1..=N,
-    /// [`ShiftAngleError::NotFinite`], [`ShiftAngleError::ConflictingDuplicate`]. Each names the
-    /// reading by its index in `readings`.
+    /// [`ShiftAngleError::NotFinite`], [`ShiftAngleError::ConflictingDuplicate`],
+    /// [`ShiftAngleError::ShiftOutOfRange`] for a shift outside [0°, 360°); each names the
+    /// reading by its index in `readings`. [`ShiftAngleError::SameAngles`] for two shifts a
+    /// multiple of 360°/N apart.
     pub fn new(faces: usize, readings: Vec<Reading>) -> Result<Self, ShiftAngleError> {
         if faces < 3 {
             return Err(ShiftAngleError::TooFewFaces { faces });
@@ -88,9 +125,20 @@ impl ReadingSet {
         if readings.is_empty() {
             return Err(ShiftAngleError::Empty);
         }
+        if let Some((index, r)) = readings
+            .iter()
+            .enumerate()
+            .find(|(_, r)| !(r.shift_deg.is_finite() && (0.0..360.0).contains(&r.shift_deg)))
+        {
+            return Err(ShiftAngleError::ShiftOutOfRange {
+                index,
+                shift_deg: r.shift_deg,
+            });
+        }
         let mut keys: Vec<ShiftKey> = readings.iter().map(|r| ShiftKey::of(r.shift_deg)).collect();
         keys.sort();
         keys.dedup();
+        same_angles(&keys, faces)?;
         let shifts_deg: Vec<f64> = keys.iter().map(|k| k.0 as f64 * 1e-6).collect();
         let index_of: HashMap<ShiftKey, usize> =
             keys.iter().enumerate().map(|(i, k)| (*k, i)).collect();
@@ -196,5 +244,54 @@ impl ReadingSet {
         r.sort_unstable();
         r.dedup();
         r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn runs(shifts: &[f64], faces: usize) -> Vec<Reading> {
+        let mut v = Vec::new();
+        for &s in shifts {
+            for j in 1..=faces {
+                for i in 1..=faces {
+                    v.push(Reading::new(s, j, i, 0.01 * (i * j) as f64));
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn shifts_are_range_checked() {
+        for bad in [1e300, -1.0, 360.0, f64::NAN, f64::INFINITY] {
+            let mut r = runs(&[0.0], 3);
+            r[4].shift_deg = bad;
+            assert!(
+                matches!(
+                    ReadingSet::new(3, r),
+                    Err(ShiftAngleError::ShiftOutOfRange { index: 4, .. })
+                ),
+                "{bad}"
+            );
+        }
+        assert!(ReadingSet::new(3, runs(&[0.0, 359.999], 3)).is_ok());
+    }
+
+    #[test]
+    fn shifts_a_pitch_apart_are_refused() {
+        // N = 24: pitch 15°; 5° and 20° (and 20° and 35°… , 0° and 345°) give the same angles.
+        for pair in [[5.0, 20.0], [0.0, 345.0], [2.5, 182.5], [0.0, 14.9999999]] {
+            let e = ReadingSet::new(24, runs(&pair, 24)).unwrap_err();
+            assert!(
+                matches!(e, ShiftAngleError::SameAngles { .. }),
+                "{pair:?}: {e}"
+            );
+            assert!(e.to_string().contains("pitch 15°"), "{e}");
+        }
+        assert!(ReadingSet::new(24, runs(&[0.0, 5.0, 10.0, 14.9], 24)).is_ok());
+        // A 3-face polygon (the smallest the method allows) is valid.
+        assert!(ReadingSet::new(3, runs(&[0.0, 40.0], 3)).is_ok());
     }
 }

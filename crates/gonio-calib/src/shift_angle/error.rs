@@ -64,6 +64,27 @@ pub enum ShiftAngleError {
         /// The conflicting value, arcsec.
         value: f64,
     },
+    /// A shift angle is not finite or outside [0°, 360°).
+    #[error("reading {index}: shift {shift_deg}° is out of range: expected 0 ≤ shift < 360°")]
+    ShiftOutOfRange {
+        /// Index of the reading.
+        index: usize,
+        /// The shift, degrees.
+        shift_deg: f64,
+    },
+    /// Two shifts differ by a multiple of the pitch 360°/N: they put the table at the same
+    /// angles, and each angle would be calibrated twice with two corrections.
+    #[error(
+        "shifts {first_deg}° and {second_deg}° differ by a multiple of the pitch {pitch_deg}° (360°/N): they calibrate the same angles; give each set of angles once (repeat a shift's readings with the repeat column instead)"
+    )]
+    SameAngles {
+        /// The smaller shift, degrees.
+        first_deg: f64,
+        /// The larger shift, degrees.
+        second_deg: f64,
+        /// The pitch 360°/N, degrees.
+        pitch_deg: f64,
+    },
     /// No readings at all.
     #[error("no readings")]
     Empty,

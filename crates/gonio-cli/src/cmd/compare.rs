@@ -15,7 +15,9 @@ Each file is a certificate (gonio.certificate/1 JSON from `gonio shift-angle --j
 selfcal --json`); the second may also be a simulator's truth.json (`gonio simulate selfcal`), a
 reference without uncertainty. Angles are matched to 1e-6° modulo 360°.
 En = |a − b| / √(U_a² + U_b²) with each angle's U, or k = 2·u where a certificate has no U (the
-output says which). `gonio report cmp.json` plots the comparison.
+output says which). Where both U are 0, En is undefined (null in --json, `–` in the table) and the
+comparison does not pass (all_en_pass false, en_undefined counts them). `gonio report cmp.json`
+plots the comparison.
 
 Examples:
   gonio compare sa/cal.json sc/cal.json
@@ -77,17 +79,25 @@ fn print_summary(c: &Comparison, all: bool) -> Result<()> {
         c.mean_difference_arcsec,
         c.rms_difference_arcsec
     );
-    let _ = writeln!(
-        out,
-        "largest En = {:.3} at {}° ({})",
-        c.max_en,
-        c.max_en_angle_deg,
-        if c.all_en_pass {
-            "every En ≤ 1"
-        } else {
-            "some En > 1"
+    let n = c.points.len();
+    let verdict = if c.all_en_pass {
+        "every En ≤ 1".to_string()
+    } else if c.en_undefined > 0 {
+        format!(
+            "NOT PASSED: En undefined at {} of {n} angles, where both U are 0",
+            c.en_undefined
+        )
+    } else {
+        "some En > 1".to_string()
+    };
+    match (c.max_en, c.max_en_angle_deg) {
+        (Some(e), Some(at)) => {
+            let _ = writeln!(out, "largest En = {e:.3} at {at}° ({verdict})");
         }
-    );
+        _ => {
+            let _ = writeln!(out, "En undefined at every angle ({verdict})");
+        }
+    }
     let _ = writeln!(
         out,
         "U from: A {}; B {}",

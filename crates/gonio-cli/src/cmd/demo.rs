@@ -306,12 +306,12 @@ fn mounting(seed: u64) -> Result<BatchReport> {
             Strategy::LeastSquares => "least squares",
         };
         say!(
-            "  {:<28} {:>12.2} {:>12} {:>13.2}µm {:>9.1}s{}",
+            "  {:<28} {:>12.2} {:>12} {:>13}µm {:>9}s{}",
             name,
             s.mean_pushes,
             s.max_pushes,
-            s.mean_final_e_um,
-            s.mean_time_s,
+            crate::table::fixed(s.mean_final_e_um, 2),
+            crate::table::fixed(s.mean_time_s, 1),
             if s.rejected > 0 {
                 format!("  ({} rejected)", s.rejected)
             } else {
@@ -391,13 +391,13 @@ fn self_calibration(
     }
     say!(
         "  {} common angles: largest |difference| {:.4}″ at {}° (Hsieh et al., 2022: within ±0.1″), RMS {:.4}″; \
-         largest En {:.2} at {}° (Hsieh et al., 2022: 0.69); {}",
+         largest En {} at {}° (Hsieh et al., 2022: 0.69); {}",
         c.points.len(),
         c.max_abs_difference_arcsec,
         c.max_abs_difference_angle_deg,
         c.rms_difference_arcsec,
-        c.max_en,
-        c.max_en_angle_deg,
+        crate::table::fixed(c.max_en, 2),
+        crate::table::fixed(c.max_en_angle_deg, 3),
         if c.all_en_pass {
             "every En ≤ 1".to_string()
         } else {

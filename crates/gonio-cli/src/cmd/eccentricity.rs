@@ -123,14 +123,13 @@ pub fn run(a: Args) -> Result<()> {
     };
     let f = fit_judged(samples, frames_taken, &opts, &limits)
         .map_err(|e| anyhow!("{}: {e}", t.name))?;
-    let finite = |v: f64| v.is_finite().then_some(v);
     let out = Output {
         method: method.name(),
         e_px: f.e_px,
         e_um: f.e_px * um,
-        u_e_um: finite(f.u_e_px * um),
+        u_e_um: f.u_e_px.map(|u| u * um),
         theta_max_deg: f.theta_max_deg,
-        u_theta_max_deg: finite(f.u_theta_max_deg),
+        u_theta_max_deg: f.u_theta_max_deg,
         c0_px: f.c0_px,
         residual_rms_px: f.residual_rms_px,
         sigma_px: f.sigma_px,

@@ -306,8 +306,8 @@ fn worst_angle(out: &mut String, cert: &Certificate, j: &JointSection) {
         r.u_heads_arcsec,
         r.u_polygon_arcsec,
         w.expanded_arcsec.map_or(String::new(), |x| format!(
-            ", U {x:.4}″ (k = {:.3})",
-            w.k.unwrap_or(f64::NAN)
+            ", U {x:.4}″ (k = {})",
+            crate::table::fixed(w.k, 3)
         ))
     );
     let _ = writeln!(

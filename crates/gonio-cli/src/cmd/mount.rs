@@ -2,6 +2,7 @@
 
 use crate::recorder::{self, Recorder};
 use crate::station::{self, FidelityArg, StrategyArg};
+use crate::table::fixed;
 use anyhow::{Result, bail};
 use gonio_cli::formats::frames::load_scene;
 use gonio_cli::formats::recipe;
@@ -260,13 +261,13 @@ fn print_and_write(
         for p in &report.parts {
             let r = &p.record;
             say!(
-                "{:<14} {:>12.1} {:>12.2} {:>7} {:>11} {:>8.1}  {}",
+                "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  {}",
                 r.serial,
-                r.initial_e_um,
-                r.final_e_um,
+                fixed(r.initial_e_um, 1),
+                fixed(r.final_e_um, 2),
                 r.pushes,
                 r.remeasured_turns,
-                r.time_s,
+                fixed(r.time_s, 1),
                 r.result.name()
             )?;
             if let Some(why) = &r.reject_reason {
@@ -275,14 +276,14 @@ fn print_and_write(
         }
         let s = &report.summary;
         say!(
-            "\n{} parts, strategy {}, recipe {}: mean {:.1} s, {:.2} pushes (max {}), final e {:.2} µm (true {:.2} µm), {} rejected",
+            "\n{} parts, strategy {}, recipe {}: mean {} s, {:.2} pushes (max {}), final e {} µm (true {:.2} µm), {} rejected",
             s.parts,
             report.strategy,
             report.recipe,
-            s.mean_time_s,
+            fixed(s.mean_time_s, 1),
             s.mean_pushes,
             s.max_pushes,
-            s.mean_final_e_um,
+            fixed(s.mean_final_e_um, 2),
             s.mean_true_final_e_um,
             s.rejected
         )?;

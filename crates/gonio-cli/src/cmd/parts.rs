@@ -1,6 +1,7 @@
 //! `gonio parts`: query the mounted parts in a results store.
 
 use crate::db;
+use crate::table::fixed;
 use anyhow::{Result, anyhow};
 use gonio_cli::output::Outputs;
 use gonio_store::{PartQuery, PartSummary};
@@ -74,12 +75,9 @@ const CSV_HEADER: [&str; 17] = [
     "remeasured_turns",
 ];
 
-fn num(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x}")
-    } else {
-        String::new()
-    }
+fn num(x: Option<f64>) -> String {
+    x.filter(|x| x.is_finite())
+        .map_or_else(String::new, |x| format!("{x}"))
 }
 
 fn csv_text(rows: &[PartSummary]) -> Result<String> {
@@ -119,14 +117,14 @@ fn table(rows: &[PartSummary]) -> String {
     for p in rows {
         let _ = writeln!(
             s,
-            "{:>6} {:<16} {:<20} {:>12.1} {:>11.2} {:>6} {:>7.1}  {}",
+            "{:>6} {:<16} {:<20} {:>12} {:>11} {:>6} {:>7}  {}",
             p.part,
             p.serial,
             p.started_at.get(..19).unwrap_or(&p.started_at),
-            p.initial_e_um,
-            p.final_e_um,
+            fixed(p.initial_e_um, 1),
+            fixed(p.final_e_um, 2),
             p.pushes,
-            p.time_s,
+            fixed(p.time_s, 1),
             p.result
         );
         if let Some(why) = &p.reject_reason {
@@ -172,15 +170,15 @@ pub fn run(a: Args) -> Result<()> {
             text.push_str("\nno parts match\n");
         } else {
             text.push_str(&format!(
-            "\n{} parts: {} pass, {} reject; mean {:.1} s, {:.2} pushes (max {}), final e {:.2} µm\n",
-            stats.parts,
-            stats.pass,
-            stats.reject,
-            stats.mean_time_s.unwrap_or(f64::NAN),
-            stats.mean_pushes.unwrap_or(f64::NAN),
-            stats.max_pushes.unwrap_or(0),
-            stats.mean_final_e_um.unwrap_or(f64::NAN),
-        ));
+                "\n{} parts: {} pass, {} reject; mean {} s, {} pushes (max {}), final e {} µm\n",
+                stats.parts,
+                stats.pass,
+                stats.reject,
+                fixed(stats.mean_time_s, 1),
+                fixed(stats.mean_pushes, 2),
+                stats.max_pushes.unwrap_or(0),
+                fixed(stats.mean_final_e_um, 2),
+            ));
         }
         outs.write(id, text.as_bytes())?;
         outs.commit()

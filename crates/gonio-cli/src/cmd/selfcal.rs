@@ -178,10 +178,10 @@ fn print_summary(c: &Certificate) -> Result<()> {
     );
     let _ = writeln!(
         out,
-        "residuals: rms {:.4}″, max {:.4}″, σ̂ {:.4}″ per {} ({:.0} dof)",
+        "residuals: rms {:.4}″, max {:.4}″, σ̂ {}″ per {} ({:.0} dof)",
         c.residuals.rms_arcsec,
         c.residuals.max_abs_arcsec,
-        c.residuals.sigma_arcsec.unwrap_or(f64::NAN),
+        crate::table::fixed(c.residuals.sigma_arcsec, 4),
         c.noise_unit().unwrap_or("reading"),
         c.residuals.dof
     );

@@ -211,8 +211,12 @@ pub fn print_summary(c: &Certificate) -> Result<()> {
     if let Some(h) = &sa.harmonic_check {
         let _ = writeln!(
             out,
-            "  harmonic check     A·sin({}θ + B): A = {:.4}″ ± {:.4}″, B = {:.4} ± {:.4} rad",
-            h.order, h.amplitude_arcsec, h.u_amplitude_arcsec, h.phase_rad, h.u_phase_rad
+            "  harmonic check     A·sin({}θ + B): A = {:.4}″ ± {}″, B = {:.4} ± {} rad",
+            h.order,
+            h.amplitude_arcsec,
+            crate::table::fixed(h.u_amplitude_arcsec, 4),
+            h.phase_rad,
+            crate::table::fixed(h.u_phase_rad, 4)
         );
         for s in h.shifts.iter().take(6) {
             let _ = writeln!(

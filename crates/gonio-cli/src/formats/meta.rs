@@ -17,9 +17,13 @@ pub fn load(path: &Path) -> Result<CertificateMeta> {
 /// Parses metadata text; `name` names it in errors.
 ///
 /// # Errors
-/// Syntax, unknown keys, bad dates (located).
+/// Syntax, unknown keys, bad dates (located); a control character in a text, or an
+/// environmental value that is not finite or not physical (a temperature of `nan`), naming the
+/// file and the field ([`CertificateMeta::validate`]).
 pub fn parse(name: &str, text: &str) -> Result<CertificateMeta> {
-    super::parse_toml(name, text)
+    let m: CertificateMeta = super::parse_toml(name, text)?;
+    m.validate().map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    Ok(m)
 }
 
 #[cfg(test)]
@@ -54,6 +58,43 @@ mod tests {
             "2025-03-10"
         );
         assert!(m.standard("polygon").unwrap().certificate.is_some());
+    }
+
+    #[test]
+    fn control_characters_and_nan_are_refused() {
+        let e = parse("m.toml", "[customer]\nname = \"A\\u0001B\"\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "m.toml: customer.name: control character U+0001 at character 2: not allowed in certificate text"
+        );
+        let e = parse("m.toml", "title = \"x\\u001b[31m\"\n").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("m.toml: title: control character U+001B"),
+            "{e}"
+        );
+        let e = parse("m.toml", "[environment]\ntemperature_c = nan\n").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("m.toml: environment.temperature_c: NaN: expected"),
+            "{e}"
+        );
+        let e = parse("m.toml", "[environment]\nhumidity_percent = 120.0\n").unwrap_err();
+        assert!(
+            e.to_string().contains("environment.humidity_percent: 120"),
+            "{e}"
+        );
+        let e = parse(
+            "m.toml",
+            "[[reference_standards]]\nrole = \"polygon\"\ndescription = \"\\f\"\n",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("reference_standards[0].description"),
+            "{e}"
+        );
+        // Tabs and newlines are text.
+        parse("m.toml", "remarks = \"a\\tb\\nc\"\n").unwrap();
     }
 
     #[test]

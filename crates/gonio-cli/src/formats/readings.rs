@@ -57,6 +57,13 @@ fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> {
     let mut max_index = 0i64;
     for (line, f) in &table.rows {
         let shift = table.f64_at(*line, f, c_shift)?;
+        if !(0.0..360.0).contains(&shift) {
+            return Err(table.error_at(
+                *line,
+                c_shift,
+                format!("shift {shift}° is out of range: expected 0 ≤ shift_deg < 360"),
+            ));
+        }
         let face = table.int_at(*line, f, c_face)?;
         let step = table.int_at(*line, f, c_step)?;
         for (c, what, v) in [(c_face, "start_face", face), (c_step, "step", step)] {

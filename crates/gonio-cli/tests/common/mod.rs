@@ -101,6 +101,18 @@ pub fn simulated_lab(
     (lab.join("readings.csv"), heads.join("readings.csv"))
 }
 
+/// The frozen key list `tests/data/json-keys-NAME.txt`: every key path a command's JSON wrote
+/// before (a contract; `#` lines are comments).
+pub fn frozen_keys(name: &str) -> BTreeSet<String> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/json-keys-{name}.txt"));
+    std::fs::read_to_string(&p)
+        .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.is_empty())
+        .map(String::from)
+        .collect()
+}
+
 /// Every key path of a JSON value into `out` (`edges[].slope` for the members of an array's
 /// objects): the shape of an output, for contract tests.
 pub fn key_paths(v: &Value, prefix: &str, out: &mut BTreeSet<String>) {

@@ -79,10 +79,11 @@ pub struct SimPartRecord {
 pub struct BatchSummary {
     /// Parts mounted.
     pub parts: usize,
-    /// Mean time per part, s.
-    pub mean_time_s: f64,
-    /// Mean final eccentricity as measured by the station, µm.
-    pub mean_final_e_um: f64,
+    /// Mean time per part, s, over the parts whose time is known (`null`: none).
+    pub mean_time_s: Option<f64>,
+    /// Mean final eccentricity as measured by the station, µm, over the parts a trusted turn
+    /// measured (`null`: none was).
+    pub mean_final_e_um: Option<f64>,
     /// Mean true final eccentricity, µm.
     pub mean_true_final_e_um: f64,
     /// Mean pushes per part.
@@ -131,17 +132,16 @@ pub struct BatchReport {
 pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
     let n = parts.len().max(1) as f64;
     let mean = |f: &dyn Fn(&SimPartRecord) -> f64| parts.iter().map(f).sum::<f64>() / n;
+    // The mean of the values defined (`None`: none is).
+    let mean_of = |f: &dyn Fn(&SimPartRecord) -> Option<f64>| {
+        let v: Vec<f64> = parts.iter().filter_map(f).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
     let count = |r: PartResult| parts.iter().filter(|p| p.record.result == r).count();
     BatchSummary {
         parts: parts.len(),
-        mean_time_s: mean(&|p| p.record.time_s),
-        mean_final_e_um: mean(&|p| {
-            if p.record.final_e_um.is_finite() {
-                p.record.final_e_um
-            } else {
-                0.0
-            }
-        }),
+        mean_time_s: mean_of(&|p| p.record.time_s),
+        mean_final_e_um: mean_of(&|p| p.record.final_e_um),
         mean_true_final_e_um: mean(&|p| p.true_final_e_um),
         mean_pushes: mean(&|p| p.record.pushes as f64),
         max_pushes: parts.iter().map(|p| p.record.pushes).max().unwrap_or(0),
@@ -153,7 +153,7 @@ pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
         push_inconsistent: count(PartResult::PushInconsistent),
         device_errors: count(PartResult::RejectedDeviceError),
         remeasured_turns: parts.iter().map(|p| p.record.remeasured_turns).sum(),
-        total_time_s: parts.iter().map(|p| p.record.time_s).sum(),
+        total_time_s: parts.iter().filter_map(|p| p.record.time_s).sum(),
     }
 }
 

@@ -19,27 +19,23 @@ fn turn(e: f64) -> TurnRecord {
             })
             .collect(),
         invalid_frames: 195,
-        e_um: e,
-        u_e_um: f64::NAN,
-        theta_max_deg: 12.5,
-        c0_px: 720.25,
-        residual_rms_px: 0.3,
+        e_um: Some(e),
+        u_e_um: None,
+        theta_max_deg: Some(12.5),
+        c0_px: Some(720.25),
+        residual_rms_px: Some(0.3),
         outliers: 1,
-        focus_um: -3.5,
+        focus_um: Some(-3.5),
         quality: None,
     }
 }
 
 fn record(serial: &str, result: PartResult) -> PartRecord {
     let mut r = PartRecord::new(serial, "default", "learned");
-    r.initial_e_um = 120.0;
-    r.final_e_um = if result == PartResult::Accepted {
-        2.5
-    } else {
-        f64::NAN
-    };
+    r.initial_e_um = Some(120.0);
+    r.final_e_um = (result == PartResult::Accepted).then_some(2.5);
     r.result = result;
-    r.time_s = 15.25;
+    r.time_s = Some(15.25);
     r.pushes = 1;
     r.turns = vec![turn(120.0), turn(2.5)];
     r.push_log = vec![PushRecord {
@@ -53,10 +49,10 @@ fn record(serial: &str, result: PartResult) -> PartRecord {
         predicted_move_um: 119.0,
         predicted_e_after_um: 1.0,
         tolerance_um: 3.0,
-        e_after_um: 2.5,
-        deviation_um: 1.5,
+        e_after_um: Some(2.5),
+        deviation_um: Some(1.5),
         consistent: Some(true),
-        duration_s: 7.2,
+        duration_s: Some(7.2),
     }];
     if result == PartResult::RejectedDeviceError {
         r.device_error = Some(DeviceFault {
@@ -132,13 +128,16 @@ pub fn round_trip(loc: &str) {
     assert_eq!(p.turns.len(), 2);
     assert_eq!(p.turns[0].samples, a.turns[0].samples, "samples bit-exact");
     assert_eq!(p.turns[0].valid_frames, 5);
-    assert!(p.turns[0].u_e_um.is_nan(), "NaN comes back as NaN");
-    assert_eq!(p.turns[0].focus_um, -3.5);
+    assert!(
+        p.turns[0].u_e_um.is_none(),
+        "undefined comes back undefined"
+    );
+    assert_eq!(p.turns[0].focus_um, Some(-3.5));
     assert_eq!(p.push_log, a.push_log);
     assert_eq!(p.true_initial_e_um, Some(121.0));
     assert_eq!(p.recipe_hash.len(), 64);
     let q = &all[1];
-    assert!(q.final_e_um.is_nan());
+    assert!(q.final_e_um.is_none());
     assert_eq!(q.device_error, r.device_error);
     assert_eq!(q.result, "rejected_device_error");
     // JSON: NaN as null, the contract's fields present.
@@ -225,7 +224,7 @@ pub fn write_batch(loc: &str, station: &str, n: usize) -> Vec<i64> {
     (0..n)
         .map(|i| {
             let mut r = record(&format!("{station}-{i}"), PartResult::Accepted);
-            r.initial_e_um = 100.0 + i as f64;
+            r.initial_e_um = Some(100.0 + i as f64);
             r.turns[0].e_um = r.initial_e_um;
             store_part(s.as_mut(), station, b, i, &r, &Learned::default()).unwrap()
         })
@@ -241,7 +240,7 @@ pub fn check_batches(loc: &str, batches: usize, n: usize) {
         let (station, i) = p.serial.rsplit_once('-').unwrap();
         assert_eq!(p.station, station, "part {} in the wrong station", p.part);
         assert_eq!(p.batch_index.to_string(), i);
-        assert_eq!(p.initial_e_um, 100.0 + p.batch_index as f64);
+        assert_eq!(p.initial_e_um, Some(100.0 + p.batch_index as f64));
         assert_eq!(p.turns.len(), 2, "part {}", p.part);
         assert_eq!(p.turns[0].e_um, p.initial_e_um, "turn of another part");
         assert_eq!(p.push_log.len(), 1);
