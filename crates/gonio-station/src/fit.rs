@@ -13,8 +13,8 @@
 //!   median absolute deviation) bound the pull of outliers, and samples beyond
 //!   [`FitOptions::outlier_sigma`] robust standard deviations are reported and dropped. The model is
 //!   linear, so no non-linear solver is needed.
-//! - [`FitMethod::Paper`] (seed 004 §3, Eq. 1–2): natural cubic splines through the points around
-//!   the largest and the smallest `c`; their extrema give `P_max`, `P_min`;
+//! - [`FitMethod::Paper`] (Yu et al., 2024, §3, Eq. 1–2): natural cubic splines through the points
+//! around   the largest and the smallest `c`; their extrema give `P_max`, `P_min`;
 //!   `e = (c_max − c_min)/2`, `θ_max` at `P_max`.
 //!
 //! Both work on partial turns and with dropped frames (only the angles of the samples matter).
@@ -33,17 +33,9 @@
 
 use crate::StationError;
 use crate::quality::{self, HalfTurns, QualityLimits, QualityVerdict};
+pub use crate::sample::Sample;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
-
-/// One frame's measurement: the servo angle and the ring's column.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Sample {
-    /// Servo angle at the frame's mid-exposure, degrees.
-    pub theta_deg: f64,
-    /// The ring's column, pixels.
-    pub c_px: f64,
-}
 
 /// Which eccentricity fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -1,5 +1,6 @@
-//! The automatic grating mounting station (seed 004 §2–3): the eccentricity fit, the hardware
-//! traits, and the controller that runs autofocus → measure → align → approach → push → verify.
+//! The automatic grating mounting station (Yu et al., 2024, §2–3): the eccentricity fit, the
+//! hardware traits, and the controller that runs autofocus → measure → align → approach → push →
+//! verify.
 //!
 //! - [`fit`]: e and θ_max from one turn's ring columns, the seed's extreme-point method
 //!   ([`spline`]) and the default robust least-squares sinusoid.
@@ -20,7 +21,7 @@
 //!
 //! ```
 //! use gonio_station::interval::frame_interval_error_um;
-//! // Seed 004 §3: 500 µm at 180°/s and 100 fps → 0.25 µm.
+//! // Yu et al., 2024, §3: 500 µm at 180°/s and 100 fps → 0.25 µm.
 //! assert!((frame_interval_error_um(500.0, 180.0, 100.0) - 0.25).abs() < 0.005);
 //! ```
 #![deny(missing_docs)]
@@ -36,6 +37,7 @@ pub mod quality;
 pub mod recipe;
 pub mod record;
 pub mod replay;
+pub mod sample;
 pub mod spline;
 pub mod strategy;
 pub mod turn;

@@ -35,7 +35,7 @@
 //! assert!(f.quality.reasons().iter().any(|r| r.starts_with("largest_gap")));
 //! ```
 
-use crate::fit::Sample;
+use crate::sample::Sample;
 use serde::{Deserialize, Serialize};
 
 /// The detector's accuracy bound per valid frame, px (issue 9: |c − c_true| ≤ 0.1 px).

@@ -4,9 +4,9 @@
 //! database and an offline replay.
 
 use crate::StationError;
-use crate::fit::Sample;
 use crate::hal::{ApproachSpeed, DeviceErrorKind};
 use crate::quality::QualityVerdict;
+use crate::sample::Sample;
 use serde::{Deserialize, Serialize};
 
 /// How a part ended.

@@ -1,4 +1,4 @@
-//! Edge filling (seed Algorithm 1); lag 1 row.
+//! Edge filling (Yu et al., 2024, Algorithm 1); lag 1 row.
 //!
 //! NMS's four-way quantisation leaves one-pixel gaps in slanted edges. An empty pixel is filled
 //! when two opposite neighbours (W–E, N–S, NW–SE, NE–SW, checked in that order) are both edge
@@ -176,7 +176,7 @@ impl EdgeFill {
         };
         // The words with candidates (a few percent): eight at a time with AVX-512 (the same
         // word operations in vector lanes), else one at a time.
-        if !avx512::words_with_candidates(cb, ub, db, &mut |i| fill_word(i, word(i))) {
+        if !words_with_candidates(cb, ub, db, &mut |i| fill_word(i, word(i))) {
             for i in 0..n {
                 let wd = word(i);
                 if wd.0 != 0 {
@@ -207,92 +207,18 @@ impl EdgeFill {
     }
 }
 
-/// The row scan of [`EdgeFill`] with AVX-512 (F/BW + VBMI2, [`crate::simd::vbmi`]): the
-/// candidate test of eight words at once, the shifts across words by `vpshldq`/`vpshrdq`.
-mod avx512 {
-    /// Calls `f(i)` for every word i of the rows' edge bits (`c` the row, `u`, `d` the rows
-    /// above and below) holding an empty pixel with an opposite pair of edge neighbours, in
-    /// order; `false` (and no call) when the AVX-512 kernels are off.
-    #[allow(unsafe_code)]
-    pub(super) fn words_with_candidates(
-        c: &[u64],
-        u: &[u64],
-        d: &[u64],
-        f: &mut impl FnMut(usize),
-    ) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if crate::simd::vbmi() {
-            // SAFETY: `simd::vbmi` is true only on a CPU with AVX-512 F/BW and VBMI2.
-            unsafe { scan(c, u, d, f) };
-            return true;
-        }
-        let _ = (c, u, d, f);
-        false
-    }
-
-    /// Lanes j of eight 64-bit words with 1 ≤ `start` + j ≤ `n` (word `start` + j − 1 inside a
-    /// row of `n` words).
+/// Calls `f(i)` for every word i of the rows' edge bits (`c` the row, `u`, `d` the rows above
+/// and below) holding an empty pixel with an opposite pair of edge neighbours, in order, with
+/// AVX-512 (F/BW + VBMI2, [`crate::simd::vbmi`]: the candidate test of eight words at once);
+/// `false` (and no call) when the VBMI kernels are off.
+fn words_with_candidates(c: &[u64], u: &[u64], d: &[u64], f: &mut impl FnMut(usize)) -> bool {
     #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn lanes(start: usize, n: usize) -> u8 {
-        let below = 1usize.saturating_sub(start) as u32;
-        let upto = (n + 1).saturating_sub(start).min(8) as u32;
-        (((1u32 << upto) - 1) & !((1u32 << below) - 1)) as u8
+    if let Some(cpu) = crate::simd::Vbmi::get() {
+        crate::simd::vbmi::fill::scan(cpu, c, u, d, f);
+        return true;
     }
-
-    /// [`words_with_candidates`]' kernel.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512 F/BW and VBMI2.
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    #[target_feature(enable = "avx512f,avx512bw,avx512vbmi2,bmi1")]
-    unsafe fn scan(c: &[u64], u: &[u64], d: &[u64], f: &mut impl FnMut(usize)) {
-        use std::arch::x86_64::*;
-        let n = c.len();
-        assert!(u.len() == n && d.len() == n);
-        let mut i = 0;
-        while i < n {
-            // Words i − 1 + j, i + j and i + 1 + j of lane j, zero outside the row.
-            let (mp, mc, mn) = (lanes(i, n), lanes(i + 1, n), lanes(i + 2, n));
-            macro_rules! ld {
-                ($b:expr, $m:expr, $at:expr) => {
-                    // SAFETY: masked loads read only the lanes of their mask, words 0 … n − 1
-                    // (lane j of a load at `at` reads word at − 1 + j).
-                    unsafe {
-                        _mm512_maskz_loadu_epi64(
-                            $m,
-                            $b.as_ptr().wrapping_add($at).wrapping_sub(1).cast(),
-                        )
-                    }
-                };
-            }
-            let (cw, uw, dw) = (ld!(c, mc, i + 1), ld!(u, mc, i + 1), ld!(d, mc, i + 1));
-            let (cp, up, dp) = (ld!(c, mp, i), ld!(u, mp, i), ld!(d, mp, i));
-            let (cn, un, dn) = (ld!(c, mn, i + 2), ld!(u, mn, i + 2), ld!(d, mn, i + 2));
-            // from_left(w, prev) = shld(w, prev, 1); from_right(w, next) = shrd(w, next, 1).
-            let we = _mm512_and_si512(
-                _mm512_shldi_epi64::<1>(cw, cp),
-                _mm512_shrdi_epi64::<1>(cw, cn),
-            );
-            let ns = _mm512_and_si512(uw, dw);
-            let nwse = _mm512_and_si512(
-                _mm512_shldi_epi64::<1>(uw, up),
-                _mm512_shrdi_epi64::<1>(dw, dn),
-            );
-            let nesw = _mm512_and_si512(
-                _mm512_shrdi_epi64::<1>(uw, un),
-                _mm512_shldi_epi64::<1>(dw, dp),
-            );
-            let any = _mm512_or_si512(_mm512_or_si512(we, ns), _mm512_or_si512(nwse, nesw));
-            let mut m = _mm512_mask_test_epi64_mask(mc, _mm512_andnot_si512(cw, any), any);
-            while m != 0 {
-                f(i + m.trailing_zeros() as usize);
-                m &= m - 1;
-            }
-            i += 8;
-        }
-    }
+    let _ = (c, u, d, f);
+    false
 }
 
 impl RowStage for EdgeFill {

@@ -30,19 +30,15 @@
 //! assert_eq!(abs_diff_sums(&[10, 0, 255], &[7, 5, 0]), (3 + 5 + 255, 9 + 25 + 255 * 255));
 //! ```
 
-#![allow(unsafe_code)]
-
-use crate::simd::{Level, level};
+use crate::simd::{Avx2, Vnni};
 
 /// Σ|a − b| and Σ(a − b)² over the common length of two rows, with the fastest path the CPU
 /// has (the level [`crate::simd::level`] chooses).
 #[inline]
 pub fn abs_diff_sums(a: &[u8], b: &[u8]) -> (u64, u64) {
     #[cfg(target_arch = "x86_64")]
-    if level() >= Level::Avx2 {
-        // SAFETY: `level` returns AVX2 or above only when the CPU has AVX2
-        // (`is_x86_feature_detected!` in `simd::detected`).
-        return unsafe { abs_diff_sums_avx2(a, b) };
+    if let Some(cpu) = Avx2::get() {
+        return crate::simd::avx2::abs_diff_sums(cpu, a, b);
     }
     abs_diff_sums_scalar(a, b)
 }
@@ -91,7 +87,7 @@ pub struct RowFocus {
     /// Whether this frame takes the VNNI path: latched at row 0, since the ring
     /// above holds the VNNI path's state only (the SIMD level may change between
     /// frames, never within one).
-    use_vnni: bool,
+    use_vnni: Option<Vnni>,
 }
 
 impl RowFocus {
@@ -103,13 +99,11 @@ impl RowFocus {
     #[inline]
     pub fn push(&mut self, y: usize, row: &[u8], prev: Option<(&[u8], &[u8])>) -> RowStats {
         if y == 0 {
-            self.use_vnni = crate::simd::vnni();
+            self.use_vnni = Vnni::get();
         }
         #[cfg(target_arch = "x86_64")]
-        if self.use_vnni {
-            // SAFETY: `vnni` is true only when the CPU has AVX-512 F/BW and VNNI
-            // (`is_x86_feature_detected!` in `simd::detected` and `simd::vnni`).
-            return unsafe { self.push_vnni(y, row, prev) };
+        if let Some(cpu) = self.use_vnni {
+            return self.push_vnni(cpu, y, row, prev);
         }
         Self::push_direct(row, prev)
     }
@@ -131,17 +125,20 @@ impl RowFocus {
         s
     }
 
-    /// [`RowFocus::push`] by the sum-of-squares identity (see the module docs).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
+    /// [`RowFocus::push`] by the sum-of-squares identity (see the module docs), on a CPU with
+    /// AVX-512 VNNI (`cpu`).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
-    unsafe fn push_vnni(&mut self, y: usize, row: &[u8], prev: Option<(&[u8], &[u8])>) -> RowStats {
+    fn push_vnni(
+        &mut self,
+        cpu: Vnni,
+        y: usize,
+        row: &[u8],
+        prev: Option<(&[u8], &[u8])>,
+    ) -> RowStats {
         // One pass over the rows: row y's totals and, from row 2 on, both pairs' cross sums,
         // the two pairs' Σ|x − y| and Σx(y − 128) added together (only their sums are used).
-        // SAFETY: the caller guarantees the features; `row_sums` checks the lengths.
-        let (t, saturated, sad, dot) = unsafe { avx512::row_sums(row, prev) };
+        let ((sum, sq), saturated, sad, dot) = crate::simd::vnni::row_sums(cpu, row, prev);
+        let t = Totals { sum, sq };
         // Row y − 2's totals sit where row y's go.
         let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
         self.totals[y % 2] = t;
@@ -168,125 +165,6 @@ impl RowFocus {
             abs_sum: sad,
             sq_sum: sq_sum as u64,
         }
-    }
-}
-
-/// The VNNI path's kernel (64 columns a step, the tail by a masked load: zero lanes add
-/// nothing to any sum).
-#[cfg(target_arch = "x86_64")]
-mod avx512 {
-    use super::Totals;
-    use std::arch::x86_64::*;
-
-    /// Steps between flushes of the 32-bit dot-product lanes: a step adds at most
-    /// 4 · 255 · 128 < 2^17 to a lane, so 2^13 steps stay below 2^30.
-    const FLUSH: usize = 1 << 13;
-
-    /// The 64-byte mask of columns i … n − 1 (all 64 when that many remain).
-    #[inline(always)]
-    fn mask(i: usize, n: usize) -> __mmask64 {
-        crate::simd::first_lanes(n - i)
-    }
-
-    /// The sixteen signed 32-bit lanes of `v`, summed as 64-bit.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn lanes_i64(v: __m512i) -> i64 {
-        let lo = _mm512_cvtepi32_epi64(_mm512_castsi512_si256(v));
-        let hi = _mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64::<1>(v));
-        _mm512_reduce_add_epi64(_mm512_add_epi64(lo, hi))
-    }
-
-    /// The row's Σx, Σx² and count of 255s and, with `prev` = (a, b), added together,
-    /// Σ|x − y| and Σx(y − 128) of the two pairs (b[0 .. w − 2], b[2 .. w]) and
-    /// (row[1 .. w − 1], a[1 .. w − 1]) (0 and 0 without `prev`), in one pass over the rows:
-    /// one loop and one set of reductions a row instead of one per sum.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
-    ///
-    /// # Panics
-    /// If `prev` is given and the rows' lengths differ or are below 2.
-    #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
-    pub(super) unsafe fn row_sums(
-        row: &[u8],
-        prev: Option<(&[u8], &[u8])>,
-    ) -> (Totals, u32, u64, i64) {
-        let w = row.len();
-        // The pairs cover w − 2 columns (b from 0 and 2, row and a from 1), none without
-        // `prev` (their loads then read no byte).
-        let (a, b, m) = match prev {
-            Some((a, b)) => {
-                assert!(
-                    w >= 2 && a.len() == w && b.len() == w,
-                    "rows of one width ≥ 2"
-                );
-                (a, b, w - 2)
-            }
-            None => (row, row, 0),
-        };
-        let (pr, pa, pb) = (row.as_ptr(), a.as_ptr(), b.as_ptr());
-        let (zero, flip, full) = (
-            _mm512_setzero_si512(),
-            _mm512_set1_epi8(i8::MIN),
-            _mm512_set1_epi8(-1),
-        );
-        let (mut sum, mut sad, mut sat) = (zero, zero, 0u32);
-        let (mut sq, mut dot) = (0i64, 0i64);
-        let mut i = 0;
-        while i < w {
-            let end = (i + 64 * FLUSH).min(w);
-            let (mut acc, mut dh, mut dv) = (zero, zero, zero);
-            while i < end {
-                // SAFETY: plain loads when columns i … i + 63 of the row and i … i + 65 of
-                // the pairs' reads are inside the rows; masked loads otherwise, each covering
-                // only its own slice's columns (the row's i … w − 1; the pairs' i … m − 1).
-                let (x, hx, hy, vx, vy) = unsafe {
-                    if i + 64 <= m {
-                        (
-                            _mm512_loadu_si512(pr.add(i).cast()),
-                            _mm512_loadu_si512(pb.add(i).cast()),
-                            _mm512_loadu_si512(pb.add(i + 2).cast()),
-                            _mm512_loadu_si512(pr.add(i + 1).cast()),
-                            _mm512_loadu_si512(pa.add(i + 1).cast()),
-                        )
-                    } else {
-                        let (kr, kp) = (mask(i, w), mask(i.min(m), m));
-                        // (`wrapping_add`: with an empty mask the address may lie past
-                        // the row; it is never dereferenced.)
-                        (
-                            _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast()),
-                            _mm512_maskz_loadu_epi8(kp, pb.wrapping_add(i).cast()),
-                            _mm512_maskz_loadu_epi8(kp, pb.wrapping_add(i + 2).cast()),
-                            _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 1).cast()),
-                            _mm512_maskz_loadu_epi8(kp, pa.wrapping_add(i + 1).cast()),
-                        )
-                    }
-                };
-                sat += _mm512_cmpeq_epi8_mask(x, full).count_ones();
-                sum = _mm512_add_epi64(sum, _mm512_sad_epu8(x, zero));
-                acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
-                sad = _mm512_add_epi64(
-                    sad,
-                    _mm512_add_epi64(_mm512_sad_epu8(hx, hy), _mm512_sad_epu8(vx, vy)),
-                );
-                dh = _mm512_dpbusd_epi32(dh, hx, _mm512_xor_si512(hy, flip));
-                dv = _mm512_dpbusd_epi32(dv, vx, _mm512_xor_si512(vy, flip));
-                i += 64;
-            }
-            sq += lanes_i64(acc);
-            dot += lanes_i64(dh) + lanes_i64(dv);
-        }
-        let sum = _mm512_reduce_add_epi64(sum);
-        (
-            Totals {
-                sum,
-                sq: sq + 128 * sum,
-            },
-            sat,
-            _mm512_reduce_add_epi64(sad) as u64,
-            dot,
-        )
     }
 }
 
@@ -327,58 +205,6 @@ pub fn abs_diff_sums_scalar(a: &[u8], b: &[u8]) -> (u64, u64) {
     }
     for (&x, &y) in ar.iter().zip(br) {
         let d = x.abs_diff(y) as u64;
-        s1 += d;
-        s2 += d * d;
-    }
-    (s1, s2)
-}
-
-/// The AVX2 path: `vpsadbw` sums eight absolute differences into a 64-bit lane; the differences
-/// widened to 16 bits and `vpmaddwd` with themselves give sums of two squares in 32-bit lanes
-/// (each lane takes ≤ 4·255² a step: blocks of 4096 steps stay below 2^32).
-///
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn abs_diff_sums_avx2(a: &[u8], b: &[u8]) -> (u64, u64) {
-    use std::arch::x86_64::*;
-    const V: usize = 32;
-    const BLOCK: usize = 4096 * V;
-    let n = a.len().min(b.len());
-    let (mut s1, mut s2) = (0u64, 0u64);
-    let mut i = 0;
-    let zero = _mm256_setzero_si256();
-    let mut acc1 = zero;
-    while i + V <= n {
-        let end = (i + BLOCK).min(n);
-        let mut acc2 = zero;
-        while i + V <= end {
-            // SAFETY: i + 32 ≤ n ≤ both lengths: the 32-byte unaligned loads are in bounds.
-            let (x, y) = unsafe {
-                (
-                    _mm256_loadu_si256(a.as_ptr().add(i).cast()),
-                    _mm256_loadu_si256(b.as_ptr().add(i).cast()),
-                )
-            };
-            acc1 = _mm256_add_epi64(acc1, _mm256_sad_epu8(x, y));
-            let d = _mm256_or_si256(_mm256_subs_epu8(x, y), _mm256_subs_epu8(y, x));
-            let (lo, hi) = (_mm256_unpacklo_epi8(d, zero), _mm256_unpackhi_epi8(d, zero));
-            let sq = _mm256_add_epi32(_mm256_madd_epi16(lo, lo), _mm256_madd_epi16(hi, hi));
-            acc2 = _mm256_add_epi32(acc2, sq);
-            i += V;
-        }
-        let mut t = [0u32; 8];
-        // SAFETY: `t` holds 32 bytes.
-        unsafe { _mm256_storeu_si256(t.as_mut_ptr().cast(), acc2) };
-        s2 += t.iter().map(|&v| v as u64).sum::<u64>();
-    }
-    let mut t = [0u64; 4];
-    // SAFETY: `t` holds 32 bytes.
-    unsafe { _mm256_storeu_si256(t.as_mut_ptr().cast(), acc1) };
-    s1 += t.iter().sum::<u64>();
-    for k in i..n {
-        let d = a[k].abs_diff(b[k]) as u64;
         s1 += d;
         s2 += d * d;
     }
@@ -458,7 +284,7 @@ mod tests {
             rows.push(vec![255; w]);
             rows.push(vec![0; w]);
             #[cfg(target_arch = "x86_64")]
-            let vnni = crate::simd::vnni_detected();
+            let vnni = crate::simd::Vnni::detected();
             let mut by_identity = RowFocus::default();
             for y in 0..rows.len() {
                 let prev = (y >= 2).then(|| (&rows[y - 2][..], &rows[y - 1][..]));
@@ -466,9 +292,8 @@ mod tests {
                 let got = RowFocus::push_direct(&rows[y], prev);
                 assert_eq!(got, want, "direct, width {w}, row {y}");
                 #[cfg(target_arch = "x86_64")]
-                if vnni {
-                    // SAFETY: `vnni_detected` checked the features (AVX-512 F/BW and VNNI).
-                    let got = unsafe { by_identity.push_vnni(y, &rows[y], prev) };
+                if let Some(cpu) = vnni {
+                    let got = by_identity.push_vnni(cpu, y, &rows[y], prev);
                     assert_eq!(got, want, "VNNI identity, width {w}, row {y}");
                 }
             }
@@ -478,19 +303,17 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx2_path_matches_the_scalar_one() {
-        if !std::is_x86_feature_detected!("avx2") {
+        let Some(cpu) = crate::simd::Avx2::detected() else {
             return;
-        }
+        };
         let a: Vec<u8> = (0..5000u32).map(|i| (i * 37 % 251) as u8).collect();
         let b: Vec<u8> = (0..5000u32).map(|i| (i * 91 % 253) as u8).collect();
         for n in [0, 1, 31, 32, 33, 1438, 5000] {
-            // SAFETY: AVX2 checked above.
-            let v = unsafe { abs_diff_sums_avx2(&a[..n], &b[..n]) };
+            let v = crate::simd::avx2::abs_diff_sums(cpu, &a[..n], &b[..n]);
             assert_eq!(v, abs_diff_sums_scalar(&a[..n], &b[..n]), "n = {n}");
         }
         let (a, b) = (vec![255u8; 200_000], vec![0u8; 200_000]);
-        // SAFETY: AVX2 checked above.
-        let v = unsafe { abs_diff_sums_avx2(&a, &b) };
+        let v = crate::simd::avx2::abs_diff_sums(cpu, &a, &b);
         assert_eq!(v, abs_diff_sums_scalar(&a, &b));
     }
 }

@@ -15,37 +15,8 @@
 //! assert_eq!(g.gy[..], [0; 4]);
 //! ```
 
-use crate::rows::{Aligned, RowBuf, RowLag, RowStage, StageObserver};
-
-/// One row of gradients.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct GradRow {
-    /// Horizontal derivative (positive: brighter to the right).
-    pub gx: Aligned<i16>,
-    /// Vertical derivative (positive: brighter below).
-    pub gy: Aligned<i16>,
-    /// |Gx| + |Gy|.
-    pub mag: Aligned<u16>,
-}
-
-impl GradRow {
-    /// A zeroed row of `width` pixels.
-    pub fn new(width: usize) -> Self {
-        GradRow {
-            gx: Aligned::new(width, 0),
-            gy: Aligned::new(width, 0),
-            mag: Aligned::new(width, 0),
-        }
-    }
-}
-
-impl RowBuf for GradRow {
-    fn copy_row(&mut self, o: &GradRow) {
-        self.gx.copy_from_slice(&o.gx);
-        self.gy.copy_from_slice(&o.gy);
-        self.mag.copy_from_slice(&o.mag);
-    }
-}
+pub use crate::row_types::GradRow;
+use crate::rows::{Aligned, RowLag, RowStage, StageObserver};
 
 /// Streaming Sobel operator.
 #[derive(Debug, Clone)]

@@ -1,5 +1,5 @@
 //! Single-pass streaming connected-component labelling with 8-connectivity and per-component
-//! sums (seed Algorithm 2 and the component feature buffer).
+//! sums (Yu et al., 2024, Algorithm 2 and the component feature buffer).
 //!
 //! The algorithm is the product here, so it is hand-written. Each row is cut into runs of edge
 //! pixels; a run takes the label of the previous row's runs it touches (8-connected: overlapping
@@ -55,8 +55,10 @@
 //! assert_eq!(l.candidates()[0].pixels, 3);
 //! ```
 
-use crate::rows::{RowSink, StageObserver};
-use crate::segment::{EdgeRow, FILLED, STRONG, SparseEdgeRow, axial_deviation};
+pub use crate::row_types::EdgePixel;
+use crate::row_types::{EdgeRow, FILLED, STRONG, SparseEdgeRow, axial_deviation};
+use crate::rows::{LastSink, RowSink, StageObserver};
+use crate::simd::Avx512;
 
 /// Applies `op` (`+=` or `-=`) to the counts and integer sums of two [`Component`]s, field by
 /// field (`b`'s onto `a`): the one list of those fields.
@@ -234,40 +236,6 @@ fn row_span(min_row: u32, max_row: u32) -> u32 {
 #[inline(always)]
 fn candidate(strong: u64, min_row: u32, max_row: u32, min_rows: u32) -> bool {
     strong > 0 && row_span(min_row, max_row) >= min_rows
-}
-
-/// One positioned edge pixel as the labeller saw it, with its component.
-///
-/// Laid out as written (16 bytes; `repr(C)`), so that copying a pixel into the edge list with
-/// its row and component set compiles to one 16-byte load and store plus two field stores.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[repr(C)]
-pub struct EdgePixel {
-    /// Row.
-    pub row: u16,
-    /// Column.
-    pub col: u16,
-    /// [`WEAK`](crate::segment::WEAK) or [`STRONG`].
-    pub class: u8,
-    /// Gradient direction (binary angle).
-    pub dir: u8,
-    /// Sub-pixel x offset, 1/32 px.
-    pub sub: i8,
-    /// Gradient magnitude.
-    pub mag: u16,
-    /// The component's `first_index` once resolved (a provisional label before).
-    pub comp: u32,
-}
-
-impl EdgePixel {
-    /// Column with its sub-pixel offset, 1/32 px.
-    pub fn col32(&self) -> i64 {
-        self.col as i64 * 32 + self.sub as i64
-    }
-    /// True for a rising edge (gradient toward +x).
-    pub fn rising(&self) -> bool {
-        self.dir.wrapping_add(64) < 128
-    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -662,10 +630,11 @@ fn write_kept(
     n
 }
 
-/// [`write_kept`], by [`avx512::write_kept`] when `AVX512` (set only in
-/// [`Labeller::push_sparse_avx512`], whose caller checked the CPU's AVX-512 F/BW/VL/DQ).
+/// [`write_kept`], its whole steps of four pixels by [`crate::simd::avx512::label`] on a CPU
+/// with AVX-512 F/BW/VL/DQ (`cpu`).
 #[inline(always)]
-fn write_kept_at<const AVX512: bool>(
+fn write_kept_at(
+    cpu: Option<Avx512>,
     px: &[EdgePixel],
     lab: &[u32],
     row: u16,
@@ -673,67 +642,12 @@ fn write_kept_at<const AVX512: bool>(
     n: usize,
 ) -> usize {
     #[cfg(target_arch = "x86_64")]
-    if AVX512 {
-        // SAFETY: see above: `AVX512` is true only on a CPU with the kernel's features.
-        #[allow(unsafe_code)]
-        return unsafe { avx512::write_kept(px, lab, row, out, n) };
+    if let Some(cpu) = cpu {
+        let (k, n) = crate::simd::avx512::label::write_kept(cpu, px, lab, row, out, n);
+        return write_kept(&px[k..], &lab[k..], row, out, n);
     }
+    let _ = cpu;
     write_kept(px, lab, row, out, n)
-}
-
-/// [`write_kept`] with AVX-512, four pixels a step (written by hand: no loop the compiler
-/// vectorises compresses): the four pixels' 64 bytes loaded without their padding, the row
-/// and the labels blended in, the kept ones packed to the front by `vpcompressq` and all 64
-/// bytes stored (the unkept tail is overwritten by the next step, as the scalar loop
-/// overwrites a filled pixel). The same fields as [`write_kept`]; padding bytes are zero.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-mod avx512 {
-    use super::EdgePixel;
-    use crate::segment::FILLED;
-    use std::arch::x86_64::*;
-
-    /// As [`super::write_kept`].
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512 F, BW, VL and DQ.
-    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
-    pub(super) unsafe fn write_kept(
-        px: &[EdgePixel],
-        lab: &[u32],
-        row: u16,
-        out: &mut [EdgePixel],
-        mut n: usize,
-    ) -> usize {
-        const _: () = assert!(std::mem::size_of::<EdgePixel>() == 16);
-        assert!(lab.len() >= px.len() && out.len() >= n + px.len());
-        // Per pixel: bytes 0–6 (row, col, class, dir, sub), 8–9 (mag), 12–15 (comp).
-        const FIELDS: u64 = 0xF37F_F37F_F37F_F37F;
-        let rows = _mm512_set1_epi16(row as i16);
-        // Dword 3 of pixel j takes label j.
-        let to_comp = _mm512_set_epi32(3, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0);
-        // `sub` is byte 6 of a pixel's first quadword: kept unless it is FILLED.
-        let sub = _mm512_set_epi64(0, 0xFF << 48, 0, 0xFF << 48, 0, 0xFF << 48, 0, 0xFF << 48);
-        let filled = _mm512_set1_epi64(((FILLED as u8 as u64) << 48) as i64);
-        let mut k = 0;
-        while k + 4 <= px.len() {
-            // SAFETY: pixels k … k + 3 and labels k … k + 3 are in their slices (the masked
-            // load reads no padding byte); the store covers out[n .. n + 4], inside `out`
-            // because n ≤ n₀ + k and out.len() ≥ n₀ + px.len() ≥ n₀ + k + 4.
-            unsafe {
-                let v = _mm512_maskz_loadu_epi8(FIELDS, px.as_ptr().add(k).cast());
-                let l = _mm512_castsi128_si512(_mm_loadu_si128(lab.as_ptr().add(k).cast()));
-                let v = _mm512_mask_permutexvar_epi32(v, 0x8888, to_comp, l);
-                let v = _mm512_mask_mov_epi16(v, 0x0101_0101, rows);
-                let kept = _mm512_test_epi64_mask(_mm512_xor_si512(v, filled), sub);
-                let packed = _mm512_maskz_compress_epi64(kept | (kept << 1), v);
-                _mm512_storeu_si512(out.as_mut_ptr().add(n).cast(), packed);
-                n += kept.count_ones() as usize;
-            }
-            k += 4;
-        }
-        super::write_kept(&px[k..], &lab[k..], row, out, n)
-    }
 }
 
 /// "No edge pixel" in the per-column label arrays; components take labels 1 ..= pool.
@@ -1019,30 +933,24 @@ impl Labeller {
     /// columns in `edges.pixels`.
     pub fn push_sparse(&mut self, edges: &SparseEdgeRow) {
         #[cfg(target_arch = "x86_64")]
-        if crate::simd::level() == crate::simd::Level::Avx512 {
-            // SAFETY: the CPU has AVX-512 F/BW/VL/DQ (`simd::level` returns `Avx512` only
-            // when `is_x86_feature_detected!` found them, and AVX2/BMI with them).
-            #[allow(unsafe_code)]
-            unsafe {
-                self.push_sparse_avx512(edges)
-            };
+        if let Some(cpu) = Avx512::get() {
+            // Compiled with AVX-512 enabled: the same code (no intrinsics), with vector
+            // additions for the sums' arrays of four and BMI2 shifts.
+            crate::simd::avx512::label::run(
+                cpu,
+                #[inline(always)]
+                || self.push_sparse_in(Some(cpu), edges),
+            );
             return;
         }
-        self.push_sparse_in::<false>(edges)
+        self.push_sparse_in(None, edges)
     }
 
-    /// [`Labeller::push_sparse`] compiled with AVX-512 enabled: the same code (no
-    /// intrinsics), with vector additions for the sums' arrays of four and BMI2 shifts.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,bmi1,bmi2,lzcnt,popcnt")]
-    fn push_sparse_avx512(&mut self, edges: &SparseEdgeRow) {
-        self.push_sparse_in::<true>(edges)
-    }
-
-    /// [`Labeller::push_sparse`], inlined into each level's compilation (`AVX512`: the CPU
-    /// has AVX-512 F/BW/VL/DQ, and the kept edge pixels are written by [`avx512::write_kept`]).
+    /// [`Labeller::push_sparse`], inlined into each level's compilation (`cpu`: the CPU has
+    /// AVX-512 F/BW/VL/DQ, and the kept edge pixels are written by
+    /// [`crate::simd::avx512::label`]).
     #[inline(always)]
-    fn push_sparse_in<const AVX512: bool>(&mut self, edges: &SparseEdgeRow) {
+    fn push_sparse_in(&mut self, cpu: Option<Avx512>, edges: &SparseEdgeRow) {
         let y = self.row;
         let r = y as i64;
         let rp = RowPowers {
@@ -1146,7 +1054,7 @@ impl Labeller {
         }
         // The cap is checked once per row, below (the list grows by one row at most).
         let n = if keep {
-            write_kept_at::<AVX512>(px, lab, y as u16, out, row_start)
+            write_kept_at(cpu, px, lab, y as u16, out, row_start)
         } else {
             row_start
         };
@@ -1228,6 +1136,14 @@ impl Labeller {
 }
 
 /// The labeller ends the detector's cascade: it takes the filled edge rows.
+/// The labeller ends the detector's cascade ([`crate::rows::Then`]).
+impl LastSink for Labeller {
+    type Sink = Labeller;
+    fn last_sink(&mut self) -> &mut Labeller {
+        self
+    }
+}
+
 impl RowSink for Labeller {
     type Row = SparseEdgeRow;
     fn input(&mut self) -> &mut SparseEdgeRow {

@@ -1,6 +1,6 @@
 //! The streaming baseline detector of the mounting station: from camera rows to the alignment
-//! ring's column c, row by row as the sensor reads out (spec `eccentricity-detector.md`, seed 004
-//! §4).
+//! ring's column c, row by row as the sensor reads out (the baseline detector of Yu et al., 2024;
+//! docs/detector.md).
 //!
 //! One module per stage, each a [`rows::RowStage`] (`push_row` → an output row after a fixed lag,
 //! `flush_row` after the frame's last row), sized at construction, integer arithmetic:
@@ -14,6 +14,12 @@
 //!    the optics, parallel, shared rows, a flat inside), with a score and a margin over the
 //!    runner-up; [`features`]: validity checks and reasons, c, each edge's fitted line;
 //! 5. the focus measure, in the same pass ([`pipeline`], its sums in [`focus`]).
+//!
+//! Below the stages, plain data: [`buffer`] (aligned and padded row buffers), [`row_types`]
+//! (the rows the stages hand on: gradients, edges, edge pixels), [`result`] (the per-frame
+//! result and why a frame is invalid). The crate's only unsafe code is in [`simd`]: the
+//! kernels written with intrinsics, one module per instruction set, each called through a safe
+//! wrapper that takes a proof of the CPU's features.
 //!
 //! [`Detector`] chains them into one cascade ([`rows::Then`]); [`Optics`] derives every parameter
 //! and cuts the window out of a sensor frame; [`source`] brings frames in ([`FrameSource`]: files,
@@ -33,6 +39,7 @@
 #![deny(missing_docs)]
 
 pub mod blur_sobel;
+pub mod buffer;
 pub mod error;
 pub mod features;
 pub mod fill;
@@ -44,6 +51,8 @@ pub mod morphology;
 pub mod optics;
 pub mod pipeline;
 pub mod reference;
+pub mod result;
+pub mod row_types;
 pub mod rows;
 pub mod segment;
 pub mod select;
@@ -51,9 +60,9 @@ pub mod simd;
 pub mod source;
 
 pub use error::VisionError;
-pub use features::{EdgeLine, FrameResult, InvalidReason};
 pub use optics::{MAX_SENSOR_PX, Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
+pub use result::{EdgeLine, FrameResult, InvalidReason};
 pub use source::{
     DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,
     SourceDetector, SourceError, detect_in_order,

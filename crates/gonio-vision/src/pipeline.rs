@@ -33,7 +33,7 @@ use crate::gradient::GradRow;
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::{Optics, Params};
-use crate::rows::{RowSink, StageObserver, Then};
+use crate::rows::{LastSink, RowSink, StageObserver, Then};
 use crate::segment::{FILLED, SegmentParams, Segmenter, SparseEdgeRow};
 
 /// Every stage's output for one frame, whole (filled only when dumps are enabled).
@@ -208,7 +208,7 @@ impl Detector {
 
     /// The last stage of the cascade.
     fn labeller(&mut self) -> &mut Labeller {
-        &mut self.line.next.next.next.next.next
+        self.line.last_sink()
     }
 
     /// Keeps every stage's output of the following frames (for test vectors); allocates.
@@ -340,7 +340,7 @@ impl Detector {
             focus: self.focus_sum as f64 / interior / 4.0,
             mean_gradient: self.grad_sum as f64 / interior / 2.0,
         };
-        let label = &mut self.line.next.next.next.next.next;
+        let label = self.line.last_sink();
         if let Some(d) = self.dump.as_deref_mut() {
             d.components = label.all().to_vec();
         }

@@ -1,10 +1,24 @@
-//! Runtime CPU-feature dispatch: the hot row loops are compiled again with AVX2 and with
-//! AVX-512 (F, BW, VL, DQ) enabled, and the best version the CPU has is chosen at run time.
+//! Runtime CPU-feature dispatch and every kernel written with intrinsics: the crate's only
+//! unsafe code (the workspace denies `unsafe_code`; only this module allows it).
 //!
-//! The loops are plain safe integer Rust that the compiler vectorises; every copy is the same
-//! code, so all paths give the same bits (the tests run each: [`set_level`]). The only unsafe
-//! code is the call into the `#[target_feature]` functions, made after checking the features
-//! with `is_x86_feature_detected!`.
+//! The hot row loops are compiled again with AVX2 and with AVX-512 (F, BW, VL, DQ) enabled, and
+//! the best version the CPU has is chosen at run time (`dispatch`): plain safe integer Rust
+//! that the compiler vectorises, every copy the same code, so all paths give the same bits
+//! (the tests run each: [`set_level`]). The kernels written by hand with intrinsics live in one
+//! module per instruction set:
+//!
+//! - `avx2`: the focus measure's Σ|a − b|, Σ(a − b)² of two rows;
+//! - `avx512` (F/BW/VL/DQ): the fused blur and Sobel, the segmentation's classification and
+//!   directions, the labeller's pixel writes and row scan;
+//! - `vbmi` (AVX-512 VBMI/VBMI2): the morphology's register kernel, the segmentation's pixel
+//!   gather, the edge filling's scan;
+//! - `vnni` (AVX-512 VNNI): the focus sums' dot products.
+//!
+//! Each kernel is an `unsafe fn` with `#[target_feature]` and a `# Safety` section, every
+//! unsafe block in it has a `// SAFETY:` comment, and the stages call it through a safe
+//! wrapper that takes a proof of the CPU's features (`Avx2`, `Avx512`, `Vbmi`, `Vnni`):
+//! zero-sized values only this module makes, after `is_x86_feature_detected!`. A stage thus
+//! holds no unsafe code.
 
 #![allow(unsafe_code)]
 
@@ -96,7 +110,7 @@ unsafe fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,bmi1,bmi2,lzcnt,popcnt")]
-unsafe fn with_avx512<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) unsafe fn with_avx512<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
@@ -203,3 +217,79 @@ pub(crate) fn prefetch(bytes: &[u8]) {
         unsafe { _mm_prefetch::<_MM_HINT_T0>(line.as_ptr().cast()) };
     }
 }
+
+/// Proof that the AVX2 level (or above) is in use on a CPU that has AVX2: made only by
+/// [`Avx2::get`] (the features checked with `is_x86_feature_detected!` in [`detected`], which
+/// bounds every level [`level`] returns), so a kernel that takes one may use the instructions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// The proof, when the level in use is AVX2 or above.
+    #[inline]
+    pub(crate) fn get() -> Option<Avx2> {
+        (level() >= Level::Avx2).then_some(Avx2(()))
+    }
+
+    /// The proof, when the CPU has AVX2, whatever the level in use (for the tests that
+    /// compare the AVX2 path with the others).
+    #[cfg(test)]
+    pub(crate) fn detected() -> Option<Avx2> {
+        (detected() >= Level::Avx2).then_some(Avx2(()))
+    }
+}
+
+/// Proof that the AVX-512 level (F/BW/VL/DQ, with AVX2, BMI1/2, LZCNT, POPCNT) is in use on a
+/// CPU that has it: made only by [`Avx512::get`] (see [`Avx2`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Avx512(());
+
+impl Avx512 {
+    /// The proof, when the level in use is AVX-512.
+    #[inline]
+    pub(crate) fn get() -> Option<Avx512> {
+        (level() == Level::Avx512).then_some(Avx512(()))
+    }
+}
+
+/// Proof that the VBMI kernels are in use ([`vbmi`]: the AVX-512 level on a CPU with AVX-512
+/// VBMI and VBMI2): made only by [`Vbmi::get`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Vbmi(());
+
+impl Vbmi {
+    /// The proof, when the VBMI kernels are in use.
+    #[inline]
+    pub(crate) fn get() -> Option<Vbmi> {
+        vbmi().then_some(Vbmi(()))
+    }
+}
+
+/// Proof that the VNNI path is in use ([`vnni`]: the AVX-512 level on a CPU with AVX-512
+/// VNNI): made only by [`Vnni::get`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Vnni(());
+
+impl Vnni {
+    /// The proof, when the VNNI path is in use.
+    #[inline]
+    pub(crate) fn get() -> Option<Vnni> {
+        vnni().then_some(Vnni(()))
+    }
+
+    /// The proof, when the CPU has AVX-512 F/BW and VNNI, whatever the level in use (for the
+    /// tests that compare the VNNI path with the others).
+    #[cfg(test)]
+    pub(crate) fn detected() -> Option<Vnni> {
+        vnni_detected().then_some(Vnni(()))
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx512;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod vbmi;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod vnni;
