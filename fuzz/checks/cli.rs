@@ -194,12 +194,18 @@ pub fn elcomat(data: &[u8]) {
     };
     if sel & 1 == 0 {
         let t = String::from_utf8_lossy(rest);
-        run(rest, formats::elcomat::parse(NAME, &t));
+        run(
+            rest,
+            gonio_lab::log::parse(NAME, &t).map_err(anyhow::Error::from),
+        );
     } else {
         let Some(t) = text(rest) else { return };
-        if let Some(p) = run(rest, formats::plan::Plan::parse_text(NAME, &t)) {
+        if let Some(p) = run(
+            rest,
+            gonio_lab::plan::Plan::parse_text(NAME, &t).map_err(anyhow::Error::from),
+        ) {
             let r = p.readings();
-            assert!(r.len() as u64 <= formats::plan::MAX_PLANNED_READINGS);
+            assert!(r.len() as u64 <= gonio_lab::plan::MAX_PLANNED_READINGS);
         }
     }
 }

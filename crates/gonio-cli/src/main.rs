@@ -35,6 +35,9 @@ enum Command {
     Selfcal(cmd::selfcal::Args),
     /// Calibrate an encoder from polygon readings and read-head readings in one least squares.
     Joint(cmd::joint::Args),
+    /// Read an instrument through a measuring plan, guiding the operator (autocollimator on a serial line).
+    #[command(subcommand)]
+    Acquire(cmd::acquire::Acquire),
     /// Import an instrument's log (an autocollimator's serial output) as a readings file.
     #[command(subcommand)]
     Import(cmd::import::Import),
@@ -69,6 +72,7 @@ fn main() {
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),
         Command::Selfcal(a) => cmd::selfcal::run(a),
         Command::Joint(a) => cmd::joint::run(a),
+        Command::Acquire(a) => cmd::acquire::run(a),
         Command::Import(i) => cmd::import::run(i),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Report(a) => cmd::report::run(a),

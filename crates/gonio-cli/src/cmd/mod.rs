@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod acquire;
 pub mod budget;
 pub mod certificate;
 pub mod compare;

@@ -1,5 +1,6 @@
 //! `gonio simulate …`: the digital twin's instruments, writing readings and ground truth.
 
+pub mod autocollimator;
 pub mod encoder;
 pub mod frames;
 pub mod selfcal;
@@ -22,6 +23,9 @@ pub enum Simulate {
     ShiftAngle(shift_angle::Args),
     /// One encoder scale read by several heads over full turns (self-calibration readings).
     Selfcal(selfcal::Args),
+    /// An ELCOMAT-type autocollimator and polygon answering the serial protocol on a
+    /// pseudo-terminal (for `gonio acquire shift-angle`).
+    Autocollimator(autocollimator::Args),
 }
 
 /// Runs `gonio simulate …`.
@@ -31,6 +35,7 @@ pub fn run(s: Simulate) -> Result<()> {
         Simulate::Frames(a) => frames::run(a),
         Simulate::ShiftAngle(a) => shift_angle::run(a),
         Simulate::Selfcal(a) => selfcal::run(a),
+        Simulate::Autocollimator(a) => autocollimator::run(a),
     }
 }
 

@@ -1,5 +1,6 @@
 //! The measuring plan of a shift-angle measurement (TOML): which readings an autocollimator log
-//! holds, in which order. See `docs/measuring-plan.md`.
+//! holds, and which position the operator sets next, in which order. Angles in degrees (shifts);
+//! faces and steps 1-based. See `docs/measuring-plan.md`.
 //!
 //! ```toml
 //! faces = 24
@@ -16,13 +17,80 @@
 //! shift_deg = 0
 //! start_faces = "all"
 //! ```
+//!
+//! Errors are [`PlanError`]s naming the file, line and column.
+//!
+//! ```
+//! use gonio_lab::plan::Plan;
+//! let p = Plan::parse_text("p.toml", "faces = 4\nshifts_deg = [0, 10]\nstart_faces = [1]\n").unwrap();
+//! assert_eq!(p.readings().len(), 2 * 4);
+//! let e = Plan::parse_text("p.toml", "faces = 2\nshifts_deg = [0]\n").unwrap_err();
+//! assert!(e.to_string().starts_with("p.toml:1:9: faces = 2"));
+//! ```
 
-use anyhow::{Result, anyhow};
 use gonio_calib::shift_angle::{MAX_FACES, ShiftKey};
 use serde::Deserialize;
 use std::fmt::Write as _;
 use std::path::Path;
 use toml::Spanned;
+
+/// Most repeats of one reading (the readings CSV's limit).
+pub const MAX_REPEAT: i64 = 1_000_000;
+
+/// Most shifts a range `START:STEP:END` may give.
+pub const MAX_SHIFTS: usize = 100_000;
+
+/// A plan that cannot be used, located in its file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{name}:{line}:{column}: {message}")]
+#[non_exhaustive]
+pub struct PlanError {
+    /// The plan's name (its path) as given.
+    pub name: String,
+    /// Line, 1-based.
+    pub line: usize,
+    /// Column (in characters), 1-based.
+    pub column: usize,
+    /// What is wrong.
+    pub message: String,
+}
+
+type Result<T> = std::result::Result<T, PlanError>;
+
+/// A parser's message cut to at most 500 characters (its beginning and end), as the CLI cuts
+/// every error line.
+fn cap(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= 500 {
+        return s.to_string();
+    }
+    let head: String = s.chars().take(300).collect();
+    let tail: String = s.chars().skip(n - 150).collect();
+    format!("{head} … ({n} characters) … {tail}")
+}
+
+/// Parses `START:STEP:END` (inclusive end, at most [`MAX_SHIFTS`] angles) or a single number.
+///
+/// ```
+/// use gonio_lab::plan::shift_range;
+/// assert_eq!(shift_range("0:5:10"), Some(vec![0.0, 5.0, 10.0]));
+/// assert_eq!(shift_range("0:x:1"), None);
+/// ```
+pub fn shift_range(s: &str) -> Option<Vec<f64>> {
+    let p: Vec<f64> = s
+        .split(':')
+        .map(|x| x.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()?;
+    match p.as_slice() {
+        [a] => Some(vec![*a]),
+        [a, st, b] if *st > 0.0 && b >= a => {
+            let count = ((b - a) / st + 1e-9).floor() + 1.0;
+            (count.is_finite() && count <= MAX_SHIFTS as f64)
+                .then(|| (0..count as usize).map(|k| a + k as f64 * st).collect())
+        }
+        _ => None,
+    }
+}
 
 /// Most readings a plan may describe (an hour of readings at 1 kHz is 3.6 million).
 pub const MAX_PLANNED_READINGS: u64 = 10_000_000;
@@ -48,7 +116,8 @@ impl Level {
         ("repeat", Level::Repeat),
     ];
 
-    fn name(self) -> &'static str {
+    /// The loop's name in a plan's `order`.
+    pub fn name(self) -> &'static str {
         Level::ALL
             .iter()
             .find(|(_, l)| *l == self)
@@ -151,7 +220,7 @@ struct RawPlan {
     shift: Vec<RawShift>,
 }
 
-/// Parses `START:STEP:END` (inclusive end) or a single number.
+/// A TOML number (integer or finite float).
 fn number(v: &toml::Value) -> Option<f64> {
     match v {
         toml::Value::Integer(i) => Some(*i as f64),
@@ -174,11 +243,21 @@ impl Plan {
     /// # Errors
     /// As [`Plan::parse`].
     pub fn parse_text(name: &str, text: &str) -> Result<Plan> {
-        let raw: RawPlan = super::parse_toml(name, text)?;
-        let at = |span: std::ops::Range<usize>, msg: String| {
-            let (l, c) = super::line_col(text, span.start);
-            anyhow!("{name}:{l}:{c}: {msg}")
+        let at = |span: std::ops::Range<usize>, message: String| {
+            let (line, column) = gonio_core::text::line_col(text, span.start);
+            PlanError {
+                name: name.to_string(),
+                line,
+                column,
+                message,
+            }
         };
+        let raw: RawPlan = toml::from_str(text).map_err(|e| {
+            at(
+                e.span().unwrap_or(0..0),
+                cap(&e.message().trim_end().replace('\n', " ")),
+            )
+        })?;
         let faces = *raw.faces.get_ref();
         if !(3..=MAX_FACES as i64).contains(&faces) {
             return Err(at(
@@ -216,13 +295,10 @@ impl Plan {
         };
         let repeats_of = |v: &Spanned<i64>| -> Result<u32> {
             let r = *v.get_ref();
-            if !(1..=super::readings::MAX_REPEAT).contains(&r) {
+            if !(1..=MAX_REPEAT).contains(&r) {
                 return Err(at(
                     v.span(),
-                    format!(
-                        "repeats = {r}: expected 1 to {}",
-                        super::readings::MAX_REPEAT
-                    ),
+                    format!("repeats = {r}: expected 1 to {}", MAX_REPEAT),
                 ));
             }
             Ok(r as u32)
@@ -241,7 +317,7 @@ impl Plan {
             None => 1,
         };
         let shifts_deg: Vec<f64> = match raw.shifts_deg.get_ref() {
-            ShiftsValue::Range(s) => super::readings::shift_range(s).ok_or_else(|| {
+            ShiftsValue::Range(s) => shift_range(s).ok_or_else(|| {
                 at(
                     raw.shifts_deg.span(),
                     format!("shifts_deg = {s:?}: expected START:STEP:END (e.g. \"0:1:14\") or a list of degrees"),
@@ -430,6 +506,48 @@ impl Plan {
         }
         keyed.sort_by_key(|(k, _)| *k);
         keyed.into_iter().map(|(_, r)| r).collect()
+    }
+
+    /// The polygon face at the autocollimator for `step` (1-based) of the run started at
+    /// `start_face`: the operator turns the polygon to it.
+    ///
+    /// ```
+    /// use gonio_lab::plan::Plan;
+    /// let p = Plan::parse_text("p", "faces = 24\nshifts_deg = [0]\n").unwrap();
+    /// assert_eq!(p.face_at(1, 7), 7);
+    /// assert_eq!(p.face_at(20, 7), 2);
+    /// ```
+    pub fn face_at(&self, start_face: usize, step: usize) -> usize {
+        (start_face + step + 2 * self.faces - 2) % self.faces + 1
+    }
+
+    /// Whether the readings CSV of this plan has a `repeat` column (a reading is repeated, or
+    /// the plan has closure readings).
+    pub fn has_repeats(&self) -> bool {
+        self.closure || self.shifts.iter().any(|s| s.repeats > 1)
+    }
+
+    /// A fingerprint of what the plan asks for (faces, X sign, every planned reading in order):
+    /// a journal written for one plan is refused for another.
+    pub fn fingerprint(&self) -> u64 {
+        // FNV-1a, 64 bits: stable across builds and platforms.
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bytes: &[u8]| {
+            for &b in bytes {
+                h ^= u64::from(b);
+                h = h.wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        eat(&(self.faces as u64).to_le_bytes());
+        eat(&self.x_sign.to_bits().to_le_bytes());
+        for r in self.readings() {
+            eat(&r.shift_deg.to_bits().to_le_bytes());
+            eat(&(r.start_face as u64).to_le_bytes());
+            eat(&(r.step as u64).to_le_bytes());
+            eat(&u64::from(r.repeat).to_le_bytes());
+            eat(&[u8::from(r.closure)]);
+        }
+        h
     }
 
     /// The plan as TOML (the simulator writes the plan its log follows).

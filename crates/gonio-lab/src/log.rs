@@ -15,9 +15,112 @@
 //! line and column, including a status code other than 003 (absolute) or 103 (relative): the
 //! instrument flags a reading it could not take properly with another code, and such a reading
 //! must not enter a calibration silently.
+//!
+//! [`parse`] reads a whole log ([`LogError`] names every bad line); [`parse_reply`] reads one
+//! answer of the instrument (the driver's view: a reading, a flagged reading, or garbage);
+//! [`write`] writes readings as the instrument sends them.
+//!
+//! ```
+//! use gonio_lab::log::{self, Mode, Reply};
+//! let r = log::parse("log", "4 003 +12.345 -0.210\r4 003 -0.500 +0.004\r").unwrap();
+//! assert_eq!((r[0].x_arcsec, r[0].x_decimals, r[1].line), (12.345, 3, 2));
+//! assert!(matches!(log::parse_reply("4 013 +1.000 +0.000"), Reply::Flagged { .. }));
+//! assert_eq!(log::write(&[(1.25, -0.5)], Mode::Absolute, 3), "4 003 +1.250 -0.500\r");
+//! ```
 
-use anyhow::{Result, anyhow};
 use std::fmt::Write as _;
+
+/// A log with lines that are not readings: each bad line (up to ten) located.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub struct LogError {
+    /// The log's name (its path) as given.
+    pub name: String,
+    /// The first bad lines (at most ten), in order.
+    pub lines: Vec<LineError>,
+    /// How many lines are bad in all.
+    pub bad: usize,
+}
+
+/// One bad line of a log.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct LineError {
+    /// Line, 1-based.
+    pub line: usize,
+    /// Column (in characters), 1-based.
+    pub column: usize,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl std::fmt::Display for LogError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let shown: Vec<String> = self
+            .lines
+            .iter()
+            .map(|l| format!("{}:{}:{}: {}", self.name, l.line, l.column, l.message))
+            .collect();
+        let more = if self.bad > self.lines.len() {
+            format!("; … {} more", self.bad - self.lines.len())
+        } else {
+            String::new()
+        };
+        write!(
+            f,
+            "{}{more} ({} line(s) are not autocollimator readings `4 003 X Y` or `2 103 X Y`)",
+            shown.join("; "),
+            self.bad
+        )
+    }
+}
+
+/// What one answer line of the instrument is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Reply {
+    /// A reading: `4 003 X Y` or `2 103 X Y`.
+    Reading {
+        /// Absolute or relative.
+        mode: Mode,
+        /// X, arcsec.
+        x_arcsec: f64,
+        /// Y, arcsec.
+        y_arcsec: f64,
+        /// Decimals X was sent with.
+        x_decimals: usize,
+        /// Decimals Y was sent with.
+        y_decimals: usize,
+    },
+    /// Four fields with numeric codes other than `4 003` / `2 103`: the instrument flagged the
+    /// reading (it could not take it properly).
+    Flagged {
+        /// The type and status codes as sent (`4 013`).
+        code: String,
+    },
+    /// Not an answer of the protocol (line noise, a half line, another device).
+    Garbage {
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Reads one answer line (without its CR).
+pub fn parse_reply(line: &str) -> Reply {
+    match parse_line(line) {
+        Ok((mode, x, y, x_decimals, y_decimals)) => Reply::Reading {
+            mode,
+            x_arcsec: x,
+            y_arcsec: y,
+            x_decimals,
+            y_decimals,
+        },
+        Err(LineFault {
+            flagged: Some(code),
+            ..
+        }) => Reply::Flagged { code },
+        Err(f) => Reply::Garbage { message: f.message },
+    }
+}
 
 /// Absolute or relative readings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -37,7 +140,16 @@ impl Mode {
         }
     }
 
-    fn codes(self) -> (&'static str, &'static str) {
+    /// The request that asks the instrument for this kind of reading: `a` or `r`, then CR LF.
+    pub fn request(self) -> &'static [u8] {
+        match self {
+            Mode::Absolute => b"a\r\n",
+            Mode::Relative => b"r\r\n",
+        }
+    }
+
+    /// The type and status codes of a good reading: (`4`, `003`) or (`2`, `103`).
+    pub fn codes(self) -> (&'static str, &'static str) {
         match self {
             Mode::Absolute => ("4", "003"),
             Mode::Relative => ("2", "103"),
@@ -135,9 +247,12 @@ fn angle(field: &str) -> Option<(f64, usize)> {
 
 /// Reads a log; every line that is not a reading, blank or a `#` comment is an error, and all of
 /// them (up to ten) are named in one message.
-pub fn parse(name: &str, text: &str) -> Result<Vec<LogReading>> {
+///
+/// # Errors
+/// [`LogError`] when any line is not a reading.
+pub fn parse(name: &str, text: &str) -> Result<Vec<LogReading>, LogError> {
     let mut readings = Vec::new();
-    let mut errors: Vec<String> = Vec::new();
+    let mut errors: Vec<LineError> = Vec::new();
     let mut bad = 0usize;
     for (n, line) in lines(text) {
         let trimmed = line.trim();
@@ -145,57 +260,74 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<LogReading>> {
             continue;
         }
         match parse_line(line) {
-            Ok((mode, x, y, x_decimals)) => readings.push(LogReading {
+            Ok((mode, x, y, x_decimals, _)) => readings.push(LogReading {
                 line: n,
                 mode,
                 x_arcsec: x,
                 y_arcsec: y,
                 x_decimals,
             }),
-            Err((col, msg)) => {
+            Err(f) => {
                 bad += 1;
                 if errors.len() < 10 {
-                    errors.push(format!("{name}:{n}:{col}: {msg}"));
+                    errors.push(LineError {
+                        line: n,
+                        column: f.column,
+                        message: f.message,
+                    });
                 }
             }
         }
     }
     if bad > 0 {
-        let more = if bad > errors.len() {
-            format!("; … {} more", bad - errors.len())
-        } else {
-            String::new()
-        };
-        return Err(anyhow!(
-            "{}{more} ({bad} line(s) are not autocollimator readings `4 003 X Y` or `2 103 X Y`)",
-            errors.join("; ")
-        ));
+        return Err(LogError {
+            name: name.to_string(),
+            lines: errors,
+            bad,
+        });
     }
     Ok(readings)
 }
 
-/// One reading line: (mode, X, Y, decimals of X) or (column, what is wrong).
-fn parse_line(line: &str) -> Result<(Mode, f64, f64, usize), (usize, String)> {
+/// What is wrong with a line: where, what, and the codes when the instrument flagged it.
+struct LineFault {
+    column: usize,
+    message: String,
+    flagged: Option<String>,
+}
+
+impl From<(usize, String)> for LineFault {
+    fn from((column, message): (usize, String)) -> LineFault {
+        LineFault {
+            column,
+            message,
+            flagged: None,
+        }
+    }
+}
+
+/// One reading line: (mode, X, Y, decimals of X, decimals of Y) or what is wrong.
+fn parse_line(line: &str) -> Result<(Mode, f64, f64, usize, usize), LineFault> {
     let f = fields(line);
     if f.len() < 4 {
-        return Err((
+        return Err(LineFault::from((
             f.last().map_or(1, |l| l.0),
             format!(
                 "expected 4 fields `TYPE STATUS X Y` (e.g. `4 003 +12.345 -0.210`), found {}: {:?}",
                 f.len(),
                 line.trim()
             ),
-        ));
+        )));
     }
     if f.len() > 4 {
-        return Err((
+        return Err(LineFault::from((
             f[4].0,
             format!(
                 "expected 4 fields `TYPE STATUS X Y`, found {}: {:?}",
                 f.len(),
                 line.trim()
             ),
-        ));
+        )));
     }
     let mode = match (f[0].1.as_str(), f[1].1.as_str()) {
         ("4", "003") => Mode::Absolute,
@@ -203,36 +335,37 @@ fn parse_line(line: &str) -> Result<(Mode, f64, f64, usize), (usize, String)> {
         (t, s)
             if t.chars().all(|c| c.is_ascii_digit()) && s.chars().all(|c| c.is_ascii_digit()) =>
         {
-            return Err((
-                f[0].0,
-                format!(
+            return Err(LineFault {
+                column: f[0].0,
+                message: format!(
                     "status `{t} {s}`: expected `4 003` (absolute) or `2 103` (relative); another code means the instrument flagged the reading"
                 ),
-            ));
+                flagged: Some(format!("{t} {s}")),
+            });
         }
         _ => {
-            return Err((
+            return Err(LineFault::from((
                 f[0].0,
                 format!(
                     "expected the codes `4 003` or `2 103` first, found {:?}",
                     line.trim()
                 ),
-            ));
+            )));
         }
     };
     let x = angle(&f[2].1).ok_or_else(|| {
-        (
+        LineFault::from((
             f[2].0,
             format!("X: expected an angle in arcseconds, found {:?}", f[2].1),
-        )
+        ))
     })?;
     let y = angle(&f[3].1).ok_or_else(|| {
-        (
+        LineFault::from((
             f[3].0,
             format!("Y: expected an angle in arcseconds, found {:?}", f[3].1),
-        )
+        ))
     })?;
-    Ok((mode, x.0, y.0, x.1))
+    Ok((mode, x.0, y.0, x.1, y.1))
 }
 
 /// Writes readings as the instrument sends them: `4 003 +X.XXX +Y.YYY` (or `2 103 …`), each line

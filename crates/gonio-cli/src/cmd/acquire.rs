@@ -1,0 +1,423 @@
+//! `gonio acquire shift-angle`: read an ELCOMAT-type autocollimator over its serial line while
+//! the operator turns the polygon through the measuring plan.
+//!
+//! Glue only: the driver, the plan, the checks and the journal are `gonio_lab`'s. This module
+//! talks to the operator: a full-screen view when standard input is a terminal
+//! ([`crate::cmd::acquire::screen`]), else the line protocol (`NEXT …` / `READ …`).
+
+mod screen;
+
+use anyhow::{Result, anyhow, bail};
+use gonio_cli::output::Outputs;
+use gonio_cli::{input, note, say};
+use gonio_lab::acquire::{AcquireError, Acquisition, Attempt, Check, CheckKind, Settings};
+use gonio_lab::instrument::{Autocollimator, Transport};
+use gonio_lab::journal::{self, Outcome};
+use gonio_lab::log::Mode;
+use gonio_lab::plan::{ModeRule, Plan, PlannedReading};
+use std::io::{BufRead, IsTerminal};
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// What to acquire.
+#[derive(Debug, clap::Subcommand)]
+pub enum Acquire {
+    /// A shift-angle measurement: polygon readings of an autocollimator at every position of
+    /// a measuring plan → the readings CSV of `gonio shift-angle`.
+    ShiftAngle(Args),
+}
+
+/// Arguments of `gonio acquire shift-angle`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Talks to an ELCOMAT-type autocollimator on a serial port: sends `a` (absolute) or `r` (relative)
+and CR LF, reads `4 003 X Y` or `2 103 X Y` ended by CR (arcseconds). Each position of the plan
+is the mean of --samples answers; a set whose X spreads more than --max-spread-arcsec is read
+again (--rereads times, then the operator decides); an answer with another status code is
+never a reading. Every accepted reading is synced to OUT.journal before the next position is
+asked for; --resume continues there after a quit, a crash or a pulled cable. The CSV (the input
+of `gonio shift-angle`, with a repeat column when the plan repeats) is written when the plan is
+complete; --log keeps what the instrument sent, readable by `gonio import elcomat`.
+
+In a terminal: a full-screen view (Enter or r: read, e: read the last position again, s: skip,
+p: pause, q: quit). Otherwise, lines: gonio prints
+  NEXT shift_deg=S start_face=F step=I repeat=R
+and waits for a line: empty = read, `redo` = read the last position again, `skip`, `quit`
+(saves and exits 0); after a reading it prints
+  READ shift_deg=S start_face=F step=I repeat=R x_arcsec=X spread_arcsec=D
+See docs/measuring-plan.md.
+
+Examples:
+  gonio simulate autocollimator --pty --faces 12 --seed 1 &      # prints the port, e.g. /dev/pts/4
+  gonio acquire shift-angle --plan plan.toml --port /dev/pts/4 --out readings.csv --log raw.log
+  gonio acquire shift-angle --plan plan.toml --port /dev/ttyUSB0 --out readings.csv --resume
+  gonio shift-angle readings.csv --json cal.json")]
+pub struct Args {
+    /// The measuring plan (TOML, see docs/measuring-plan.md).
+    #[arg(long)]
+    pub plan: PathBuf,
+    /// The autocollimator's serial port (`/dev/ttyUSB0`, `/dev/ttyS0`, a pseudo-terminal).
+    #[arg(long)]
+    pub port: String,
+    /// The readings CSV to write when the plan is complete; the journal is OUT.journal.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Baud rate of the serial line.
+    #[arg(long, default_value_t = 9600)]
+    pub baud: u32,
+    /// Readings to ask for: `absolute` (`a`, answered `4 003 …`) or `relative` (`r`, `2 103
+    /// …`). Default: the plan's mode, absolute when it allows either.
+    #[arg(long)]
+    pub mode: Option<String>,
+    /// Answers averaged per position.
+    #[arg(long, default_value_t = 3)]
+    pub samples: usize,
+    /// Largest spread (largest − smallest X) of one position's samples, arcsec. Default: 5σ.
+    #[arg(long)]
+    pub max_spread_arcsec: Option<f64>,
+    /// The autocollimator's standard deviation of one answer, arcsec: the default spread
+    /// limit and the limits of the closure and drift checks (3·√2·σ/√samples).
+    #[arg(long, default_value_t = 0.05)]
+    pub sigma_arcsec: f64,
+    /// Sets read again when their spread is over the limit, before the operator is asked.
+    #[arg(long, default_value_t = 3)]
+    pub rereads: u32,
+    /// Seconds to wait for one answer before the instrument counts as silent.
+    #[arg(long, default_value_t = 2.0)]
+    pub timeout_s: f64,
+    /// Also write what the instrument sent (samples and rejected answers as `#` lines, each
+    /// reading as the mean line `gonio import elcomat` reads) when the plan is complete.
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Continue the acquisition in OUT.journal after its last reading.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// Runs `gonio acquire …`.
+pub fn run(a: Acquire) -> Result<()> {
+    match a {
+        Acquire::ShiftAngle(args) => shift_angle(args),
+    }
+}
+
+/// How the operator ended the session.
+pub(crate) enum End {
+    /// The plan is complete.
+    Complete,
+    /// The operator quit.
+    Quit,
+}
+
+fn settings(args: &Args, plan: &Plan) -> Result<Settings> {
+    let mode = match (args.mode.as_deref(), plan.mode) {
+        (None, ModeRule::Relative) => Mode::Relative,
+        (None, _) => Mode::Absolute,
+        (Some("absolute"), ModeRule::Relative) | (Some("relative"), ModeRule::Absolute) => bail!(
+            "--mode {}: the plan {} says mode = \"{}\"",
+            args.mode.as_deref().unwrap_or_default(),
+            args.plan.display(),
+            if plan.mode == ModeRule::Relative {
+                "relative"
+            } else {
+                "absolute"
+            }
+        ),
+        (Some("absolute"), _) => Mode::Absolute,
+        (Some("relative"), _) => Mode::Relative,
+        (Some(m), _) => bail!("--mode {m:?}: expected absolute or relative"),
+    };
+    if !(1..=1000).contains(&args.samples) {
+        bail!("--samples {}: expected 1 to 1000", args.samples);
+    }
+    if !(args.sigma_arcsec.is_finite() && args.sigma_arcsec > 0.0) {
+        bail!(
+            "--sigma-arcsec {}: expected a positive number",
+            args.sigma_arcsec
+        );
+    }
+    let max_spread = args.max_spread_arcsec.unwrap_or(5.0 * args.sigma_arcsec);
+    if !(max_spread.is_finite() && max_spread >= 0.0) {
+        bail!("--max-spread-arcsec {max_spread}: expected a number ≥ 0");
+    }
+    if !(args.timeout_s.is_finite() && (0.05..=60.0).contains(&args.timeout_s)) {
+        bail!(
+            "--timeout-s {}: expected 0.05 to 60 seconds",
+            args.timeout_s
+        );
+    }
+    Ok(Settings {
+        mode,
+        samples: args.samples,
+        max_spread_arcsec: max_spread,
+        rereads: args.rereads,
+        rejects: 3,
+        sigma_arcsec: args.sigma_arcsec,
+    })
+}
+
+fn shift_angle(args: Args) -> Result<()> {
+    if args.out.as_os_str() == "-" {
+        bail!("--out -: the readings need a file (the journal is kept beside it)");
+    }
+    let plan_text = input::read_text(&args.plan)?;
+    let plan = Plan::parse(&args.plan, &plan_text)?;
+    let settings = settings(&args, &plan)?;
+    // Claim the outputs first: a CSV that cannot be written is refused before the bench starts.
+    let mut out = Outputs::new();
+    let csv_out = out.file("--out", &args.out)?;
+    let log_out = out.optional("--log", args.log.as_deref())?;
+    let journal_path = journal::path_for(&args.out);
+    let timeout = Duration::from_secs_f64(args.timeout_s);
+    let resuming = args.resume && journal_path.exists();
+    // A new journal only once the port is open: a missing port leaves nothing behind.
+    let (mut acq, mut port) = if resuming {
+        let acq = Acquisition::start(plan, settings, &journal_path, true)?;
+        let port = match acq.next() {
+            Some(_) => Some(Autocollimator::open(&args.port, args.baud, timeout)?),
+            None => None,
+        };
+        (acq, port)
+    } else {
+        if !args.resume {
+            // Said before the port is touched.
+            journal::ensure_new(&journal_path)?;
+        }
+        let port = Autocollimator::open(&args.port, args.baud, timeout)?;
+        (
+            Acquisition::start(plan, settings, &journal_path, args.resume)?,
+            Some(port),
+        )
+    };
+    if resuming {
+        note!(
+            "resuming {}: {} of {} positions done",
+            journal_path.display(),
+            acq.done(),
+            acq.planned().len()
+        );
+    }
+    let end = match port.as_mut() {
+        None => End::Complete,
+        Some(port) => {
+            let ended = if std::io::stdin().is_terminal() {
+                screen::run(&mut acq, port, &args)
+            } else {
+                lines(&mut acq, port)
+            };
+            ended.map_err(|e| lost(e, &acq))?
+        }
+    };
+    match end {
+        End::Quit => {
+            note!(
+                "quit with {} of {} positions done; they are in {} (continue with --resume)",
+                acq.done(),
+                acq.planned().len(),
+                acq.journal_path().display()
+            );
+            Ok(())
+        }
+        End::Complete => finish(out, csv_out, log_out, &acq, &args),
+    }
+}
+
+/// An error during the acquisition, with where the readings so far are.
+fn lost(e: anyhow::Error, acq: &Acquisition) -> anyhow::Error {
+    match e.downcast_ref::<AcquireError>() {
+        Some(AcquireError::Instrument(_)) => anyhow!(
+            "{e}; the {} positions done are in {} (continue with --resume)",
+            acq.done(),
+            acq.journal_path().display()
+        ),
+        _ => e,
+    }
+}
+
+fn finish(
+    mut out: Outputs,
+    csv_out: gonio_cli::output::OutId,
+    log_out: Option<gonio_cli::output::OutId>,
+    acq: &Acquisition,
+    args: &Args,
+) -> Result<()> {
+    let rows = acq.rows();
+    let plan = acq.plan();
+    let comment = format!(
+        "# gonio acquire shift-angle --plan {} ({} readings, {} missing)",
+        args.plan.display(),
+        rows.len(),
+        acq.missing()
+    );
+    let csv = gonio_lab::readings::csv(&comment, plan.has_repeats(), &rows);
+    out.write(csv_out, csv.as_bytes())?;
+    if let Some(id) = log_out {
+        let header = format!(
+            "gonio acquire shift-angle --plan {} --port {}: what the autocollimator sent\n\
+             `#>` a sample, `#-` a sample of a set read again, `#!` an answer that is no reading;\n\
+             each position's reading (the mean of its samples) is the line without `#`",
+            args.plan.display(),
+            args.port
+        );
+        out.write(id, acq.raw_log(&header).as_bytes())?;
+    }
+    out.commit()?;
+    note!(
+        "wrote {} readings ({} missing) to {}{}",
+        rows.len(),
+        acq.missing(),
+        args.out.display(),
+        args.log.as_ref().map_or(String::new(), |l| format!(
+            " and the instrument's log to {}",
+            l.display()
+        ))
+    );
+    Ok(())
+}
+
+/// `shift_deg=S start_face=F step=I repeat=R`.
+pub(crate) fn position(p: &PlannedReading) -> String {
+    format!(
+        "shift_deg={} start_face={} step={} repeat={}",
+        p.shift_deg, p.start_face, p.step, p.repeat
+    )
+}
+
+/// The READ line of a journalled position.
+pub(crate) fn read_line(acq: &Acquisition, index: usize) -> Option<String> {
+    let r = acq.record(index)?;
+    let Outcome::Read { x, spread, .. } = &r.outcome else {
+        return None;
+    };
+    let d = x.split_once('.').map_or(0, |(_, d)| d.len());
+    let v = acq.value(index)?;
+    Some(format!(
+        "READ {} x_arcsec={v:.d$} spread_arcsec={spread}",
+        position(&acq.planned()[index])
+    ))
+}
+
+/// A check as a line: `CHECK kind=closure … diff_arcsec=… limit_arcsec=… ok=true`.
+pub(crate) fn check_line(c: &Check) -> String {
+    format!(
+        "CHECK kind={} {} diff_arcsec={:+.4} limit_arcsec={:.4} ok={}",
+        match c.kind {
+            CheckKind::Closure => "closure",
+            CheckKind::Drift => "drift",
+        },
+        position(&c.reading),
+        c.value_arcsec,
+        c.limit_arcsec,
+        c.ok()
+    )
+}
+
+/// Reads one operator line; `None` at the end of input.
+fn operator_line(stdin: &mut impl BufRead) -> Result<Option<String>> {
+    let mut s = String::new();
+    let n = stdin
+        .read_line(&mut s)
+        .map_err(|e| anyhow!("cannot read standard input: {e}"))?;
+    Ok((n > 0).then(|| s.trim().to_string()))
+}
+
+/// The line protocol (standard input not a terminal).
+fn lines<T: Transport>(acq: &mut Acquisition, port: &mut Autocollimator<T>) -> Result<End> {
+    let stdin = std::io::stdin();
+    let mut stdin = stdin.lock();
+    while let Some(i) = acq.next() {
+        say!("NEXT {}", position(&acq.planned()[i]))?;
+        let Some(cmd) = operator_line(&mut stdin)? else {
+            note!("end of standard input: quitting");
+            return Ok(End::Quit);
+        };
+        let target = match cmd.as_str() {
+            "" => i,
+            "redo" => match acq.last() {
+                Some(l) => l,
+                None => {
+                    note!("redo: nothing read yet");
+                    continue;
+                }
+            },
+            "skip" => {
+                acq.skip(i, Vec::new())?;
+                say!("SKIPPED {}", position(&acq.planned()[i]))?;
+                continue;
+            }
+            "quit" => return Ok(End::Quit),
+            other => {
+                note!(
+                    "{:?}: expected an empty line (read), redo, skip or quit",
+                    gonio_core::text::short(other)
+                );
+                continue;
+            }
+        };
+        if let Some(End::Quit) = measure_lines(acq, port, target, &mut stdin)? {
+            return Ok(End::Quit);
+        }
+    }
+    Ok(End::Complete)
+}
+
+/// Measures one position in the line protocol, asking the operator when the checks fail.
+fn measure_lines<T: Transport>(
+    acq: &mut Acquisition,
+    port: &mut Autocollimator<T>,
+    index: usize,
+    stdin: &mut impl BufRead,
+) -> Result<Option<End>> {
+    loop {
+        let attempt = acq.measure(port, index)?;
+        let (ask, record, exchanges) = match attempt {
+            Attempt::Accepted(record) => {
+                acq.commit(record)?;
+                say!("{}", read_line(acq, index).unwrap_or_default())?;
+                for c in acq.checks(index) {
+                    say!("{}", check_line(&c))?;
+                }
+                return Ok(None);
+            }
+            Attempt::SpreadOver {
+                spread_arcsec,
+                record,
+            } => (
+                format!(
+                    "ASK spread_arcsec={spread_arcsec} max_spread_arcsec={}: an empty line reads again, or accept, skip, quit",
+                    acq.settings().max_spread_arcsec
+                ),
+                Some(record.clone()),
+                record.exchanges,
+            ),
+            Attempt::Faulty { reason, exchanges } => (
+                format!(
+                    "ASK fault={:?}: an empty line reads again, or skip, quit",
+                    gonio_core::text::short(&reason)
+                ),
+                None,
+                exchanges,
+            ),
+        };
+        say!("{ask}")?;
+        let Some(answer) = operator_line(stdin)? else {
+            note!("end of standard input: quitting");
+            return Ok(Some(End::Quit));
+        };
+        match answer.as_str() {
+            "accept" if record.is_some() => {
+                let record = record.expect("checked");
+                acq.commit(record)?;
+                say!("{}", read_line(acq, index).unwrap_or_default())?;
+                return Ok(None);
+            }
+            "skip" => {
+                acq.skip(index, exchanges)?;
+                say!("SKIPPED {}", position(&acq.planned()[index]))?;
+                return Ok(None);
+            }
+            "quit" => return Ok(Some(End::Quit)),
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,201 @@
+//! `gonio simulate autocollimator --pty`: a simulated ELCOMAT-type autocollimator and polygon
+//! on a simulated encoder, answering the serial protocol on a pseudo-terminal.
+//!
+//! Glue only: the instrument and the pseudo-terminal are `gonio_lab::simulator`'s.
+
+use anyhow::{Result, anyhow, bail};
+use gonio_cli::formats::encoder as encoder_file;
+use gonio_cli::output::Outputs;
+use gonio_cli::{input, note, say};
+use gonio_lab::plan::Plan;
+use gonio_lab::simulator::{Position, Pty, SimConfig, SimulatedAutocollimator};
+use gonio_sim::EncoderModel;
+use std::io::BufRead;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Arguments of `gonio simulate autocollimator`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Opens a pseudo-terminal and prints its path (the serial port to give `gonio acquire
+shift-angle --port`) as the first line of standard output, then answers `a` (absolute, `4 003 X
+Y`) and `r` (relative, `2 103 X Y`) requests with the simulated polygon's reading, arcseconds,
+CR ended; a --flagged fraction of answers carries status 013 (113) instead. The reading is
+α(θ) + the polygon's pitch sum + the run's setup error + drift + noise, the model of `gonio
+simulate shift-angle`, at the position the operator set: a line `NEXT shift_deg=S start_face=F
+step=I …` (as `gonio acquire` prints it) or `SET …` on standard input sets the bench and is
+answered `SET shift_deg=S start_face=F step=I`; `quit` ends. With --truth and --plan the true α
+at the plan's shifts is written as `gonio simulate shift-angle` writes it (truth.json).
+
+Examples:
+  gonio simulate autocollimator --pty --faces 12 --seed 1 --truth truth.json --plan plan.toml
+  gonio simulate autocollimator --pty --flagged 0.05 --drift-arcsec-per-reading 0.001 --duration-s 600")]
+pub struct Args {
+    /// Answer on a new pseudo-terminal (the only transport).
+    #[arg(long, required = true)]
+    pub pty: bool,
+    /// Encoder model file (from `gonio simulate encoder`); default: the built-in model with
+    /// graduation error from --seed.
+    #[arg(long)]
+    pub encoder: Option<PathBuf>,
+    /// Polygon faces N.
+    #[arg(long, default_value_t = 24)]
+    pub faces: usize,
+    /// Seed of the encoder, polygon, setup errors, noise and flagged answers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Noise of one answer (standard deviation), arcsec.
+    #[arg(long, default_value_t = 0.05)]
+    pub sigma: f64,
+    /// Resolution, arcsec (the answers' decimals follow it).
+    #[arg(long, default_value_t = 0.001)]
+    pub resolution: f64,
+    /// Standard deviation of the polygon's pitch deviations, arcsec.
+    #[arg(long, default_value_t = 0.3)]
+    pub pitch_sigma: f64,
+    /// Standard deviation of each run's setup error, arcsec.
+    #[arg(long, default_value_t = 1.0)]
+    pub setup_sigma: f64,
+    /// Drift of the reading per answer, arcsec.
+    #[arg(long, default_value_t = 0.0)]
+    pub drift_arcsec_per_reading: f64,
+    /// Fraction of answers flagged with a bad status (013 / 113).
+    #[arg(long, default_value_t = 0.02)]
+    pub flagged: f64,
+    /// Write the true α at the shifts of --plan here (JSON, as truth.json of `gonio simulate
+    /// shift-angle`).
+    #[arg(long, requires = "plan")]
+    pub truth: Option<PathBuf>,
+    /// The measuring plan whose shifts --truth covers.
+    #[arg(long)]
+    pub plan: Option<PathBuf>,
+    /// Stop after this many seconds (default: run until quit, the end of a killed session or
+    /// Ctrl-C).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+}
+
+/// `shift_deg=S start_face=F step=I` out of a control line.
+fn parse_position(line: &str) -> Option<Position> {
+    let (mut s, mut f, mut i) = (None, None, None);
+    for kv in line.split_whitespace().skip(1) {
+        match kv.split_once('=') {
+            Some(("shift_deg", v)) => s = v.parse::<f64>().ok().filter(|x| x.is_finite()),
+            Some(("start_face", v)) => f = v.parse::<usize>().ok().filter(|&x| x >= 1),
+            Some(("step", v)) => i = v.parse::<usize>().ok().filter(|&x| x >= 1),
+            _ => {}
+        }
+    }
+    Some(Position {
+        shift_deg: s?,
+        start_face: f?,
+        step: i?,
+    })
+}
+
+/// Runs `gonio simulate autocollimator`.
+pub fn run(args: Args) -> Result<()> {
+    let model = match &args.encoder {
+        Some(p) => encoder_file::load(p)?,
+        None => EncoderModel::default_with_seed(args.seed),
+    };
+    let cfg = SimConfig {
+        faces: args.faces,
+        seed: args.seed,
+        sigma_arcsec: args.sigma,
+        resolution_arcsec: args.resolution,
+        pitch_sigma_arcsec: args.pitch_sigma,
+        setup_sigma_arcsec: args.setup_sigma,
+        drift_arcsec_per_reading: args.drift_arcsec_per_reading,
+        flagged_fraction: args.flagged,
+    };
+    let sim = SimulatedAutocollimator::new(model, cfg)?;
+    if let Some(d) = args.duration_s
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration-s {d}: expected a positive number of seconds");
+    }
+    if let (Some(truth), Some(plan_path)) = (&args.truth, &args.plan) {
+        let plan = Plan::parse(plan_path, &input::read_text(plan_path)?)?;
+        if plan.faces != args.faces {
+            bail!(
+                "--plan {}: faces = {}, the simulated polygon has --faces {}",
+                plan_path.display(),
+                plan.faces,
+                args.faces
+            );
+        }
+        let shifts: Vec<f64> = plan.shifts.iter().map(|s| s.shift_deg).collect();
+        let mut out = Outputs::new();
+        let id = out.file("--truth", truth)?;
+        out.json(
+            id,
+            &serde_json::json!({
+                "faces": args.faces,
+                "seed": args.seed,
+                "encoder_errors": sim.truth(&shifts),
+            }),
+        )?;
+        out.commit()?;
+    }
+    let pty = Pty::open().map_err(|e| anyhow!("cannot open a pseudo-terminal: {e}"))?;
+    say!("{}", pty.path().display())?;
+    note!(
+        "simulated autocollimator on {} ({} faces, seed {}); set the bench with NEXT/SET lines on standard input",
+        pty.path().display(),
+        args.faces,
+        args.seed
+    );
+    let sim = Arc::new(Mutex::new(sim));
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let (sim, stop) = (Arc::clone(&sim), Arc::clone(&stop));
+        // Control lines: the operator turning the polygon. The end of input leaves the bench
+        // where it is.
+        std::thread::spawn(move || {
+            let stdin = std::io::stdin();
+            for line in stdin.lock().lines() {
+                let Ok(line) = line else { break };
+                let line = line.trim();
+                if line == "quit" {
+                    stop.store(true, Ordering::Relaxed);
+                    break;
+                }
+                if line.starts_with("NEXT ") || line.starts_with("SET ") {
+                    match parse_position(line) {
+                        Some(p) => {
+                            sim.lock().unwrap_or_else(|e| e.into_inner()).set(p);
+                            let _ = say!(
+                                "SET shift_deg={} start_face={} step={}",
+                                p.shift_deg,
+                                p.start_face,
+                                p.step
+                            );
+                        }
+                        None => note!(
+                            "{:?}: expected shift_deg=S start_face=F step=I",
+                            gonio_core::text::short(line)
+                        ),
+                    }
+                }
+            }
+        });
+    }
+    if let Some(d) = args.duration_s {
+        let stop = Arc::clone(&stop);
+        let end = Instant::now() + Duration::from_secs_f64(d.min(1e6));
+        std::thread::spawn(move || {
+            while Instant::now() < end && !stop.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            stop.store(true, Ordering::Relaxed);
+        });
+    }
+    let answers = pty
+        .serve(&sim, &stop)
+        .map_err(|e| anyhow!("{}: {e}", pty.path().display()))?;
+    note!("simulated autocollimator: {answers} answers");
+    Ok(())
+}
