@@ -21,11 +21,15 @@ if [ ! -x "$VENV/bin/python" ]; then
     echo "== virtualenv $VENV"
     "$PY" -m venv "$VENV"
 fi
+# The build backend (maturin, without build isolation) is found on PATH.
+export PATH="$PWD/$VENV/bin:$PATH"
 echo "== pip install maturin pytest numpy GTC"
 "$VENV/bin/python" -m pip install -q --disable-pip-version-check "maturin>=1.9.4,<2" pytest numpy GTC
 
-echo "== the CLI the tests compare against (cargo build --release -p gonio)"
-cargo build --release -p gonio
+# Built with gonio-py in one command: the features of the crates both use are then those
+# of the wheel build below, which reuses every artifact but the module itself.
+echo "== the CLI the tests compare against (cargo build --release -p gonio -p gonio-py)"
+cargo build --release -p gonio -p gonio-py
 
 echo "== pip install . (maturin, release)"
 "$VENV/bin/python" -m pip install -q --disable-pip-version-check --no-build-isolation \
@@ -33,4 +37,4 @@ echo "== pip install . (maturin, release)"
 
 echo "== pytest python/tests"
 # pytest exits with 5 when no test ran: that fails this script too.
-GONIO_BIN="$PWD/target/release/gonio" "$VENV/bin/python" -m pytest -p no:cacheprovider -q python/tests
+PYTHONDONTWRITEBYTECODE=1 GONIO_BIN="$PWD/target/release/gonio" "$VENV/bin/python" -m pytest -p no:cacheprovider -q python/tests

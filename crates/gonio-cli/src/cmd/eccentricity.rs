@@ -1,6 +1,6 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use gonio_cli::formats::csv::CsvTable;
 use gonio_cli::formats::{recipe, samples};
 use gonio_cli::output::Outputs;
