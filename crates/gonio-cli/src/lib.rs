@@ -9,4 +9,5 @@
 pub mod formats;
 pub mod input;
 pub mod output;
+pub mod results;
 pub mod term;

@@ -4,17 +4,13 @@ use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::input;
 use gonio_cli::output::Outputs;
+use gonio_cli::results::budget::{self, McJson, Progress};
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
-use gonio_uncertainty::montecarlo::{McConfig, McResult, McTrials, Validation, validate};
-use gonio_uncertainty::{BudgetFile, BudgetResult, UncertaintyError, short};
-use serde::Serialize;
+use gonio_uncertainty::{BudgetResult, short};
 use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::PathBuf;
-
-/// Default upper limit of the adaptive Monte Carlo procedure, in trials.
-const ADAPTIVE_MAX_TRIALS: usize = 10_000_000;
 
 /// Arguments of `gonio budget`.
 #[derive(Debug, clap::Args)]
@@ -55,28 +51,6 @@ pub struct Args {
     pub json: Option<PathBuf>,
 }
 
-/// The Monte Carlo part of the JSON output.
-#[derive(Debug, Serialize)]
-struct McJson {
-    #[serde(flatten)]
-    result: McResult,
-    validation: Validation,
-    /// `GUM` when validated, else `Monte Carlo`.
-    reported: &'static str,
-}
-
-/// The JSON output: the reported budget's fields at the top level, then every budget evaluated.
-#[derive(Debug, Serialize)]
-struct Output<'a> {
-    file: String,
-    budget: &'a str,
-    #[serde(flatten)]
-    result: &'a BudgetResult,
-    budgets: &'a [BudgetResult],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    monte_carlo: Option<McJson>,
-}
-
 /// Runs `gonio budget`.
 pub fn run(args: Args) -> Result<()> {
     let file = args.budget.display().to_string();
@@ -87,118 +61,56 @@ pub fn run(args: Args) -> Result<()> {
             short(&args.format)
         );
     }
-    if let Some(p) = args.coverage
-        && !(p > 0.0 && p < 1.0)
-    {
-        bail!("--coverage: expected a probability strictly between 0 and 1 (e.g. 0.95), found {p}");
-    }
+    budget::check_coverage(args.coverage)?;
     let mut outputs = Outputs::new();
     let json = outputs.optional("--json", args.json.as_deref())?;
     let bytes = input::read_bytes(&args.budget, MAX_FILE_BYTES)?;
-    let parsed = BudgetFile::parse_bytes(&bytes).map_err(|e| anyhow!("{file}:{e}"))?;
-    drop(bytes);
-    // An error found after parsing, at its line and column when it concerns the file.
-    let located = |e: UncertaintyError| match parsed.locate(&e) {
-        Some((line, col)) => anyhow!("{file}:{line}:{col}: {e}"),
-        None => anyhow!("{file}: {e}"),
-    };
-    let set = &parsed.set;
-    let selected = set
-        .select(args.name.as_deref())
-        .map_err(|_| {
-            const LISTED: usize = 10;
-            let mut names: Vec<String> = set
-                .budgets
-                .iter()
-                .take(LISTED)
-                .map(|b| short(&b.name))
-                .collect();
-            if set.budgets.len() > LISTED {
-                names.push(format!("… ({} budgets)", set.budgets.len()));
-            }
-            anyhow!(
-                "--budget: no budget named '{}' in {file}; the file has: {}",
-                short(args.name.as_deref().unwrap_or("")),
-                names.join(", ")
-            )
-        })?
-        .name
-        .clone();
-    let all = set.evaluate_all(args.coverage).map_err(located)?;
-    let shown: HashSet<&str> = set
-        .dependencies(Some(&selected))
-        .map_err(located)?
-        .into_iter()
-        .collect();
-    let result = all
-        .iter()
-        .find(|r| r.name == selected)
-        .ok_or_else(|| anyhow!("{file}: budget '{}' was not evaluated", short(&selected)))?;
-
-    let mc = if args.monte_carlo {
-        let model = set.linear_model(Some(&selected)).map_err(located)?;
-        let limit = model.max_trials().map_err(located)?;
-        let (trials, total) = match args.trials {
-            Some(n) => (McTrials::Fixed(n), n),
-            None => {
-                let max = ADAPTIVE_MAX_TRIALS.min(limit);
-                (McTrials::Adaptive { max_trials: max }, max)
-            }
-        };
-        let cfg = McConfig {
-            coverage: result.coverage,
+    let req = budget::Request {
+        coverage: args.coverage,
+        name: args.name.clone(),
+        monte_carlo: args.monte_carlo.then_some(budget::McRequest {
             seed: args.seed,
+            trials: args.trials,
             ndig: args.ndig,
-            trials,
-        };
-        let bar = progress_bar(total, args.trials.is_none(), model.inputs.len());
-        let r = model
-            .monte_carlo_with_progress(&cfg, |t| bar.set_position(t as u64))
-            .map_err(located);
-        bar.finish_and_clear();
-        let r = r?;
-        let v = validate(result.value, result.u_c, result.expanded, &r, args.ndig);
-        if !(v.d_low.is_finite() && v.d_high.is_finite()) {
-            bail!(
-                "{file}: the GUM–Monte Carlo comparison overflows (y ± U = {:e} ± {:e})",
-                result.value,
-                result.expanded
-            );
-        }
-        Some((
-            McJson {
-                result: r,
-                validation: v,
-                reported: if v.passed { "GUM" } else { "Monte Carlo" },
-            },
-            (args.trials.is_none() && limit < ADAPTIVE_MAX_TRIALS).then_some(limit),
-        ))
-    } else {
-        None
+        }),
     };
+    let mut bar = None;
+    let e = budget::evaluate(&bytes, &file, &req, |p| match p {
+        Progress::Start {
+            total,
+            adaptive,
+            inputs,
+        } => bar = Some(progress_bar(total, adaptive, inputs)),
+        Progress::Trials(t) => {
+            if let Some(b) = &bar {
+                b.set_position(t as u64);
+            }
+        }
+        Progress::Done => {
+            if let Some(b) = bar.take() {
+                b.finish_and_clear();
+            }
+        }
+    })?;
+    drop(bytes);
+    let result = e.result();
+    let shown: HashSet<&str> = e.shown.iter().map(String::as_str).collect();
 
     let mut out = String::new();
-    for r in all.iter().filter(|r| shown.contains(r.name.as_str())) {
+    for r in e.all.iter().filter(|r| shown.contains(r.name.as_str())) {
         match format.as_str() {
             "csv" => csv_table(&mut out, r),
             "markdown" | "md" => markdown_table(&mut out, r),
             _ => text_table(&mut out, r),
         }
     }
-    if let Some((m, capped)) = &mc {
-        mc_summary(&mut out, m, *capped, result, format.as_str());
+    if let Some(m) = &e.monte_carlo {
+        mc_summary(&mut out, m, e.capped, result, format.as_str());
     }
 
-    let output = Output {
-        file: file.clone(),
-        budget: &selected,
-        result,
-        budgets: &all,
-        monte_carlo: mc.map(|(m, _)| m),
-    };
     // Checked before anything is printed: a result that is not finite is an error, not a null.
-    let bytes = gonio_cli::output::json::to_bytes(&output)
-        .map_err(|e| anyhow!("{file}: nothing was written: {e}"))?;
+    let bytes = gonio_cli::output::json::to_bytes(&e.output())
+        .map_err(|err| anyhow!("{file}: nothing was written: {err}"))?;
     gonio_cli::term::out(&out)?;
     if let Some(j) = json {
         outputs.write(j, &bytes)?;

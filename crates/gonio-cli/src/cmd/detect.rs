@@ -6,6 +6,7 @@ use gonio_cli::formats::angles::{self, AngleLog};
 use gonio_cli::formats::csv::CsvTable;
 use gonio_cli::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
 use gonio_cli::output::{OutId, Outputs};
+use gonio_cli::results::detect::Line;
 use gonio_vision::reference::{Image, label};
 use gonio_vision::{
     DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
@@ -85,19 +86,6 @@ pub struct Args {
     /// then detected one at a time on the main thread.
     #[arg(long, conflicts_with = "threads")]
     pub timing: bool,
-}
-
-/// One output line.
-#[derive(Debug, Serialize)]
-struct Line<'a> {
-    frame: usize,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    file: Option<String>,
-    theta_deg: Option<f64>,
-    time_s: Option<f64>,
-    c_um: Option<f64>,
-    #[serde(flatten)]
-    result: &'a FrameResult,
 }
 
 enum Angles {
@@ -254,14 +242,14 @@ where
         let (theta, time) = angles.at(k as usize)?;
         done.valid += d.result.valid as usize;
         done.frames += 1;
-        sink.line(&Line {
-            frame: k as usize,
-            file: file_of(src, k),
-            theta_deg: theta,
-            time_s: time,
-            c_um: d.result.c_px.map(|c| c * um_per_px),
-            result: &d.result,
-        })
+        sink.line(&Line::new(
+            k as usize,
+            file_of(src, k),
+            theta,
+            time,
+            &d.result,
+            um_per_px,
+        ))
     };
     // What a failed frame or source means for the run.
     let failed = |src: &S, e: SourceError<S::Error>, done: &mut Detected| -> Result<()> {

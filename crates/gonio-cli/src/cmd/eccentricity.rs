@@ -1,14 +1,13 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use gonio_cli::formats::csv::CsvTable;
 use gonio_cli::formats::{recipe, samples};
 use gonio_cli::output::Outputs;
+use gonio_cli::results::eccentricity::{Settings, evaluate};
 use gonio_cli::say;
 use gonio_station::Recipe;
-use gonio_station::fit::{FitMethod, FitOptions, fit_judged};
-use gonio_station::quality::{QualityMetrics, QualitySettings};
-use serde::Serialize;
+use gonio_station::fit::FitMethod;
 use std::path::PathBuf;
 
 /// The fit method on the command line.
@@ -60,27 +59,6 @@ pub struct Args {
     pub json: Option<PathBuf>,
 }
 
-#[derive(Debug, Serialize)]
-struct Output {
-    method: &'static str,
-    e_px: f64,
-    e_um: f64,
-    u_e_um: Option<f64>,
-    theta_max_deg: f64,
-    u_theta_max_deg: Option<f64>,
-    c0_px: f64,
-    residual_rms_px: f64,
-    sigma_px: f64,
-    frames_used: usize,
-    outliers: usize,
-    outlier_lines: Vec<u64>,
-    arc_deg: f64,
-    um_per_px: f64,
-    quality_ok: bool,
-    quality_reasons: Vec<String>,
-    quality: Option<QualityMetrics>,
-}
-
 /// Runs `gonio eccentricity`.
 pub fn run(a: Args) -> Result<()> {
     let mut outputs = Outputs::new();
@@ -89,67 +67,13 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => recipe::load(p)?,
         None => Recipe::default(),
     };
-    let um = a.um_per_px.unwrap_or(recipe.um_per_px);
-    if !(um.is_finite() && um > 0.0) {
-        return Err(anyhow!("--um-per-px {um}: expected a finite number > 0"));
-    }
-    let threshold = a.threshold_um.unwrap_or(recipe.threshold_um);
-    if !(threshold.is_finite() && threshold > 0.0) {
-        return Err(anyhow!(
-            "--threshold-um {threshold}: expected a finite number > 0"
-        ));
-    }
+    let settings = Settings::new(recipe, a.um_per_px, a.threshold_um)?;
     let read = samples::from_table(CsvTable::read(&a.samples)?)?;
-    let samples = &read.samples;
-    let t = &read.table;
-    let line_of = |i: usize| read.line_of(i);
     let method = match a.method {
         Method::LeastSquares => FitMethod::LeastSquares,
         Method::Paper => FitMethod::Paper,
     };
-    let frames_taken = a.frames_taken.unwrap_or(samples.len());
-    if frames_taken < samples.len() {
-        return Err(anyhow!(
-            "--frames-taken {frames_taken}: expected at least the {} rows of {}",
-            samples.len(),
-            t.name
-        ));
-    }
-    let quality: &QualitySettings = &recipe.quality;
-    let limits = quality.limits(threshold, um);
-    let opts = FitOptions {
-        method,
-        ..recipe.fit.clone()
-    };
-    let f = fit_judged(samples, frames_taken, &opts, &limits)
-        .map_err(|e| anyhow!("{}: {e}", t.name))?;
-    let out = Output {
-        method: method.name(),
-        e_px: f.e_px,
-        e_um: f.e_px * um,
-        u_e_um: f.u_e_px.map(|u| u * um),
-        theta_max_deg: f.theta_max_deg,
-        u_theta_max_deg: f.u_theta_max_deg,
-        c0_px: f.c0_px,
-        residual_rms_px: f.residual_rms_px,
-        sigma_px: f.sigma_px,
-        frames_used: f.frames_used,
-        outliers: f.outliers.len(),
-        outlier_lines: f.outliers.iter().map(|&i| line_of(i)).collect(),
-        arc_deg: f.arc_deg,
-        um_per_px: um,
-        quality_ok: f.quality.ok,
-        quality_reasons: f.quality.reasons(),
-        quality: f.quality.metrics.clone(),
-    };
-    // A result that overflowed (e.g. --um-per-px 1e308) is an error naming it, not "inf".
-    gonio_cli::output::json::check_finite(&out).map_err(|e| {
-        anyhow!(
-            "{}: {e}; with um_per_px = {um} and e = {} px",
-            t.name,
-            f.e_px
-        )
-    })?;
+    let out = evaluate(&read, &settings, method, a.frames_taken)?;
     let to_stdout = outputs.to_stdout(json);
     if !to_stdout {
         let u = out

@@ -43,7 +43,12 @@ pub fn check_faces(faces: usize) -> Result<()> {
     Ok(())
 }
 
-fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> {
+/// Validates a readings table (from a file, or built from an array); errors name the table's
+/// lines and columns.
+///
+/// # Errors
+/// As [`parse`].
+pub fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> {
     if let Some(n) = faces {
         check_faces(n)?;
     }
