@@ -4,6 +4,7 @@ pub mod encoder;
 pub mod frames;
 pub mod selfcal;
 pub mod shift_angle;
+pub mod station;
 
 use anyhow::Result;
 use gonio_cli::formats::encoder as encoder_file;
@@ -22,6 +23,8 @@ pub enum Simulate {
     ShiftAngle(shift_angle::Args),
     /// One encoder scale read by several heads over full turns (self-calibration readings).
     Selfcal(selfcal::Args),
+    /// The mounting station as its own process: a Modbus TCP PLC and the camera it triggers.
+    Station(station::Args),
 }
 
 /// Runs `gonio simulate …`.
@@ -31,6 +34,7 @@ pub fn run(s: Simulate) -> Result<()> {
         Simulate::Frames(a) => frames::run(a),
         Simulate::ShiftAngle(a) => shift_angle::run(a),
         Simulate::Selfcal(a) => selfcal::run(a),
+        Simulate::Station(a) => station::run(a),
     }
 }
 
