@@ -23,9 +23,9 @@ pub enum StrategyArg {
     Paper,
     /// Least-squares fit, push by e.
     LeastSquares,
-    /// Least squares + push model + learned gain and angle offset (default).
+    /// Least squares + push model + learned gain and angle offset.
     Learned,
-    /// Push under live-baseline feedback.
+    /// Push under live-baseline feedback (the default of `gonio mount`).
     Live,
 }
 

@@ -31,7 +31,11 @@ fn venv_python() -> PathBuf {
                 .args(["install", "--quiet", "pymodbus>=3.10,<4"])
                 .status()
                 .is_ok_and(|s| s.success());
-        assert!(ok, "cannot make the virtualenv with pymodbus in {}", dir.display());
+        assert!(
+            ok,
+            "cannot make the virtualenv with pymodbus in {}",
+            dir.display()
+        );
     }
     assert!(has(&py), "pymodbus is not importable from {}", py.display());
     py

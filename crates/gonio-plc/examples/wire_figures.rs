@@ -111,8 +111,16 @@ fn main() {
     );
     println!("| figure | through the wire | twin in process | z |");
     println!("| --- | --- | --- | --- |");
-    row("pushes", &f(&|r| r.pushes as f64, w), &g(&|r| r.pushes as f64));
-    row("final e / µm (measured)", &f(&|r| r.final_e_um, w), &g(&|r| r.final_e_um));
+    row(
+        "pushes",
+        &f(&|r| r.pushes as f64, w),
+        &g(&|r| r.pushes as f64),
+    );
+    row(
+        "final e / µm (measured)",
+        &f(&|r| r.final_e_um, w),
+        &g(&|r| r.final_e_um),
+    );
     row(
         "true final e / µm",
         &true_final,

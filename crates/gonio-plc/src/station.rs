@@ -137,6 +137,33 @@ where
     }
 }
 
+/// A frame source whose frames carry their trigger count in their first pixels (the simulated
+/// camera's embedded counter, [`crate::sim::stamp_trigger`]): each frame's stamp index becomes
+/// its trigger count, for [`DetectorTriggered`].
+#[derive(Debug)]
+pub struct StampedSource<S>(pub S);
+
+impl<S: FrameSource> FrameSource for StampedSource<S> {
+    type Error = S::Error;
+    fn next_frame(
+        &mut self,
+        pixels: &mut Vec<u8>,
+    ) -> Result<Option<gonio_vision::FrameHeader>, S::Error> {
+        let Some(mut h) = self.0.next_frame(pixels)? else {
+            return Ok(None);
+        };
+        if let Some(k) = crate::sim::read_trigger(pixels) {
+            h.stamp.index = k;
+            // The counter's pixels back to their neighbours' grey, for the detector.
+            let fill = pixels.get(crate::sim::STAMP_PIXELS).copied().unwrap_or(0);
+            for p in pixels.iter_mut().take(crate::sim::STAMP_PIXELS) {
+                *p = fill;
+            }
+        }
+        Ok(Some(h))
+    }
+}
+
 /// Settings of the station besides the register map.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StationOptions {

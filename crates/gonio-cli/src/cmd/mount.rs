@@ -85,8 +85,9 @@ pub struct Args {
     /// Number of parts.
     #[arg(long, default_value_t = 25)]
     pub parts: usize,
-    /// Push strategy.
-    #[arg(long, value_enum, default_value = "learned")]
+    /// Push strategy (default live: through the wire and in the twin it needs fewer pushes,
+    /// ends closer and sooner than learned; BENCHMARKS.md, "Station over Modbus TCP").
+    #[arg(long, value_enum, default_value = "live")]
     pub strategy: StrategyArg,
     /// Frame fidelity of the simulation.
     #[arg(long, value_enum, default_value = "fast")]
@@ -383,7 +384,7 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     let json = outputs.optional("--json", a.json.as_deref())?;
     let to_stdout = outputs.to_stdout(json);
     let camera_id = a.camera.clone().unwrap_or_default();
-    let camera = plc_camera::open(&camera_id, &recipe)?;
+    let camera = plc_camera::open(&camera_id, &recipe, map.timing.frame_timeout_ms)?;
     let link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow::anyhow!("--plc: {e}"))?;
     let opts = StationOptions {
         fps: recipe.measure.fps,
@@ -499,43 +500,133 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
 
 /// The station's camera for `--plc`: a GenICam camera through Aravis (feature `genicam`).
 mod plc_camera {
-    use anyhow::{Result, bail};
+    use anyhow::Result;
     use gonio_station::Recipe;
 
-    /// A camera that is never built: this gonio has no GenICam support.
-    #[derive(Debug)]
-    pub enum NoCamera {}
+    #[cfg(feature = "genicam")]
+    pub use with::open;
+    #[cfg(not(feature = "genicam"))]
+    pub use without::open;
 
-    /// Its error (never made either).
-    #[derive(Debug)]
-    pub struct NoCameraError;
+    #[cfg(feature = "genicam")]
+    mod with {
+        use super::*;
+        use anyhow::anyhow;
+        use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
+        use gonio_plc::station::{DetectorTriggered, StampedSource};
+        use gonio_vision::{FrameHeader, FrameSource, Optics};
 
-    impl std::fmt::Display for NoCameraError {
-        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-            f.write_str("no camera")
+        /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
+        /// on a hardware trigger line).
+        #[derive(Debug)]
+        pub struct ById(AravisSource);
+
+        impl FrameSource for ById {
+            type Error = CameraError;
+            fn next_frame(&mut self, px: &mut Vec<u8>) -> Result<Option<FrameHeader>, CameraError> {
+                let Some(mut h) = self.0.next_frame(px)? else {
+                    return Ok(None);
+                };
+                if let Some(m) = self.0.take_meta(h.stamp.index) {
+                    h.stamp.index = m.frame_id;
+                }
+                Ok(Some(h))
+            }
+        }
+
+        /// The camera: the simulated station's (its frames carry the trigger count) or a real
+        /// one on the PLC's trigger line.
+        pub enum Camera {
+            /// `gonio simulate station`'s camera.
+            Sim(DetectorTriggered<StampedSource<AravisSource>>),
+            /// A camera triggered on line 1.
+            Real(DetectorTriggered<ById>),
+        }
+
+        impl std::fmt::Debug for Camera {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("Camera")
+            }
+        }
+
+        impl gonio_plc::TriggeredCamera for Camera {
+            type Error = gonio_plc::station::DetectorTriggeredError<CameraError>;
+            fn next_frame(
+                &mut self,
+                timeout: std::time::Duration,
+            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, Self::Error> {
+                match self {
+                    Camera::Sim(c) => c.next_frame(timeout),
+                    Camera::Real(c) => c.next_frame(timeout),
+                }
+            }
+        }
+
+        /// Opens camera `id` for the recipe's window and exposure.
+        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64) -> Result<Camera> {
+            let optics = Optics::default();
+            let sim = id == "Aravis-Fake-GONIOSTATION";
+            let config = CameraConfig {
+                window_size: (
+                    optics.window_width_px as u32,
+                    optics.window_height_px as u32,
+                ),
+                exposure_us: Some(recipe.measure.exposure_s * 1e6),
+                // The simulated camera is paced by its PLC's trigger itself.
+                trigger: if sim { Trigger::Free } else { Trigger::Line1 },
+                frame_timeout_ms,
+                ..CameraConfig::default()
+            };
+            let src = AravisSource::open(id, &config).map_err(|e| anyhow!("--camera {id}: {e}"))?;
+            let bad = |e| anyhow!("--camera {id}: {e}");
+            Ok(if sim {
+                Camera::Sim(DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?)
+            } else {
+                Camera::Real(DetectorTriggered::new(ById(src), &optics).map_err(bad)?)
+            })
         }
     }
 
-    impl gonio_station::hal::DeviceError for NoCameraError {
-        fn kind(&self) -> gonio_station::hal::DeviceErrorKind {
-            gonio_station::hal::DeviceErrorKind::Other
-        }
-    }
+    #[cfg(not(feature = "genicam"))]
+    mod without {
+        use super::*;
+        use anyhow::bail;
 
-    impl gonio_plc::TriggeredCamera for NoCamera {
-        type Error = NoCameraError;
-        fn next_frame(
-            &mut self,
-            _timeout: std::time::Duration,
-        ) -> Result<Option<gonio_plc::station::TriggeredFrame>, NoCameraError> {
-            match *self {}
-        }
-    }
+        /// A camera that is never built: this gonio has no GenICam support.
+        #[derive(Debug)]
+        pub enum NoCamera {}
 
-    /// Opens camera `id` for the recipe's window, exposure and trigger.
-    pub fn open(id: &str, _recipe: &Recipe) -> Result<NoCamera> {
-        bail!(
-            "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
-        )
+        /// Its error (never made either).
+        #[derive(Debug)]
+        pub struct NoCameraError;
+
+        impl std::fmt::Display for NoCameraError {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("no camera")
+            }
+        }
+
+        impl gonio_station::hal::DeviceError for NoCameraError {
+            fn kind(&self) -> gonio_station::hal::DeviceErrorKind {
+                gonio_station::hal::DeviceErrorKind::Other
+            }
+        }
+
+        impl gonio_plc::TriggeredCamera for NoCamera {
+            type Error = NoCameraError;
+            fn next_frame(
+                &mut self,
+                _timeout: std::time::Duration,
+            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, NoCameraError> {
+                match *self {}
+            }
+        }
+
+        /// Opens camera `id`: never, without GenICam.
+        pub fn open(id: &str, _recipe: &Recipe, _frame_timeout_ms: u64) -> Result<NoCamera> {
+            bail!(
+                "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
+            )
+        }
     }
 }

@@ -312,3 +312,97 @@ impl TriggeredCamera for SimTriggered {
         }
     }
 }
+
+/// Pixels at the start of every simulated frame that carry its trigger count (4 bytes, most
+/// significant first): the simulated camera's embedded frame counter, as a real camera's chunk
+/// data (`ChunkCounterValue`) carries its trigger counter.
+pub const STAMP_PIXELS: usize = 4;
+
+/// Writes trigger count `k` into the first [`STAMP_PIXELS`] pixels.
+pub fn stamp_trigger(pixels: &mut [u8], k: u64) {
+    if pixels.len() >= STAMP_PIXELS {
+        pixels[..STAMP_PIXELS].copy_from_slice(&(k as u32).to_be_bytes());
+    }
+}
+
+/// Reads the trigger count of [`stamp_trigger`].
+pub fn read_trigger(pixels: &[u8]) -> Option<u64> {
+    (pixels.len() >= STAMP_PIXELS)
+        .then(|| u32::from_be_bytes([pixels[0], pixels[1], pixels[2], pixels[3]]) as u64)
+}
+
+/// The simulated camera's sensor: waits for the PLC's next trigger and renders the grating as
+/// the twin has it at that exposure (angle at mid-exposure, offset, defocus), with the trigger
+/// count stamped into the first pixels. For a GigE Vision fake camera's per-frame callback.
+pub struct SimRenderer {
+    rx: mpsc::Receiver<SimExposure>,
+    renderer: gonio_sim::frames::GratingRenderer,
+    /// Frames rendered.
+    pub rendered: u64,
+}
+
+impl std::fmt::Debug for SimRenderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimRenderer")
+            .field("rendered", &self.rendered)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SimRenderer {
+    /// A renderer of `scene` through the station's optics for the exposures of `rx`.
+    ///
+    /// # Errors
+    /// An invalid scene.
+    pub fn new(
+        rx: mpsc::Receiver<SimExposure>,
+        scene: gonio_sim::frames::GratingScene,
+    ) -> Result<Self, gonio_sim::SimError> {
+        let optics = gonio_vision::Optics::default();
+        Ok(SimRenderer {
+            rx,
+            renderer: gonio_sim::frames::GratingRenderer::new(&optics, scene)?,
+            rendered: 0,
+        })
+    }
+
+    /// The frame size rendered, px.
+    pub fn size(&self) -> (usize, usize) {
+        self.renderer.size()
+    }
+
+    /// Fills `pixels` (`width × height`, row-major Mono8) with the next triggered exposure;
+    /// blocks until the PLC triggers. A frame of another size, or after the station stopped,
+    /// is left mid-grey with trigger count 0.
+    pub fn fill(&mut self, width: usize, height: usize, pixels: &mut [u8]) {
+        let x = loop {
+            match self.rx.recv_timeout(Duration::from_millis(200)) {
+                Ok(x) => break Some(x),
+                Err(mpsc::RecvTimeoutError::Timeout) => continue,
+                Err(mpsc::RecvTimeoutError::Disconnected) => break None,
+            }
+        };
+        let (w, h) = self.renderer.size();
+        let n = (width * height).min(pixels.len());
+        let px = &mut pixels[..n];
+        match x {
+            Some(x) if (w, h) == (width, height) => {
+                let e = x.offset_um[0].hypot(x.offset_um[1]);
+                let psi = -x.offset_um[1].atan2(x.offset_um[0]).to_degrees();
+                if self
+                    .renderer
+                    .render(x.theta_deg, e, psi, x.dz_um, x.seed, px)
+                    .is_err()
+                {
+                    px.fill(128);
+                }
+                stamp_trigger(px, x.frame_id);
+                self.rendered += 1;
+            }
+            _ => {
+                px.fill(128);
+                stamp_trigger(px, 0);
+            }
+        }
+    }
+}

@@ -82,7 +82,7 @@ pub fn run(a: Args) -> Result<()> {
     let frames = server
         .take_frames()
         .ok_or_else(|| anyhow!("the station's frames are taken"))?;
-    let camera = camera::serve(frames, a.camera_addr, a.scene, a.seed)?;
+    let (camera, keep) = camera::serve(frames, a.camera_addr, a.scene, a.seed)?;
     gonio_cli::note!(
         "station PLC on {} (Modbus TCP), camera {}; seed {}; Ctrl-C stops",
         server.addr(),
@@ -109,7 +109,9 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
     }
+    // The PLC first: its frames end, so the camera's callback returns and the camera stops.
     server.stop();
+    drop(keep);
     Ok(())
 }
 
@@ -122,15 +124,52 @@ mod camera {
     use std::net::IpAddr;
     use std::sync::mpsc::Receiver;
 
-    /// Serves the exposures as camera frames; returns what it serves, for the terminal.
+    /// Serves the exposures as a GigE Vision camera on `addr`; returns its id and the camera
+    /// (kept alive by the caller).
+    #[cfg(feature = "genicam")]
+    pub fn serve(
+        frames: Receiver<SimExposure>,
+        addr: IpAddr,
+        scene: SceneArg,
+        _seed: u64,
+    ) -> Result<(String, Box<dyn std::any::Any>)> {
+        use anyhow::anyhow;
+        use gonio_sim::frames::{GratingScene, ScenePreset};
+        let scene = GratingScene::preset(match scene {
+            SceneArg::Clean => ScenePreset::Clean,
+            SceneArg::Realistic => ScenePreset::Realistic,
+            SceneArg::Dense => ScenePreset::Dense,
+        });
+        let mut r =
+            gonio_plc::sim::SimRenderer::new(frames, scene).map_err(|e| anyhow!("--scene: {e}"))?;
+        let config = gonio_camera::FakeConfig {
+            address: addr.to_string(),
+            serial: "GONIOSTATION".into(),
+            fps: 200.0,
+            ..gonio_camera::FakeConfig::default()
+        };
+        let cam = gonio_camera::FakeGvCamera::start(
+            &config,
+            move |info: &gonio_camera::FillInfo, px: &mut [u8]| {
+                r.fill(info.width as usize, info.height as usize, px)
+            },
+        )
+        .map_err(|e| anyhow!("--camera-addr {addr}: {e}"))?;
+        Ok((format!("{} on {addr}", cam.id()), Box::new(cam)))
+    }
+
+    /// Without GenICam nothing takes the frames: the PLC drops them as a camera would.
+    #[cfg(not(feature = "genicam"))]
     pub fn serve(
         frames: Receiver<SimExposure>,
         _addr: IpAddr,
         _scene: SceneArg,
         _seed: u64,
-    ) -> Result<String> {
-        // Without GenICam nothing takes the frames: the PLC drops them as a camera would.
+    ) -> Result<(String, Box<dyn std::any::Any>)> {
         drop(frames);
-        Ok("none (this gonio is built without the genicam feature)".into())
+        Ok((
+            "none (this gonio is built without the genicam feature)".into(),
+            Box::new(()),
+        ))
     }
 }
