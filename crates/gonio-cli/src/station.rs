@@ -23,9 +23,9 @@ pub enum StrategyArg {
     Paper,
     /// Least-squares fit, push by e.
     LeastSquares,
-    /// Least squares + push model + learned gain and angle offset (default).
+    /// Least squares + push model + learned gain and angle offset.
     Learned,
-    /// Push under live-baseline feedback.
+    /// Push under live-baseline feedback (the default of `gonio mount`).
     Live,
 }
 
@@ -307,4 +307,98 @@ pub fn run(
             .map_err(|e| anyhow!("{location}: {e}"))?;
     }
     Ok(report)
+}
+
+/// A batch through a real (or simulated) PLC in the results store: opened before the first
+/// part, each part committed in one transaction as it ends, the batch's status at the end.
+pub struct PlcStore {
+    store: Box<dyn Store>,
+    batch: i64,
+    location: String,
+    station: String,
+    recipe: Recipe,
+    version: String,
+    started_at: String,
+}
+
+impl PlcStore {
+    /// Opens the store at `db` and begins a batch of `parts` parts with `config_json` (what
+    /// was asked for: the PLC, strategy, recipe).
+    ///
+    /// # Errors
+    /// The store cannot be opened or written.
+    pub fn begin(
+        db: &str,
+        station: &str,
+        recipe: &Recipe,
+        config_json: &str,
+        parts: usize,
+    ) -> Result<Self> {
+        let mut st = db::open(db)?;
+        let location = gonio_store::display_location(db);
+        let version = db::software_version();
+        let batch = st
+            .begin_batch(&NewBatch {
+                station,
+                seed: None,
+                config_json,
+                parts_planned: parts,
+                software_version: &version,
+            })
+            .map_err(|e| anyhow!("{location}: {e}"))?;
+        Ok(PlcStore {
+            store: st,
+            batch,
+            location,
+            station: station.to_string(),
+            recipe: recipe.clone(),
+            version,
+            started_at: gonio_store::time::now_utc(),
+        })
+    }
+
+    /// Commits one part (no truth: a real station has none).
+    ///
+    /// # Errors
+    /// The store cannot be written.
+    pub fn commit(
+        &mut self,
+        index: usize,
+        record: &gonio_station::PartRecord,
+        learned: &Learned,
+    ) -> Result<i64> {
+        let ended_at = gonio_store::time::now_utc();
+        let id = self
+            .store
+            .insert_part(&NewPart {
+                batch: self.batch,
+                batch_index: index,
+                station: &self.station,
+                software_version: &self.version,
+                recipe: &self.recipe,
+                started_at: &self.started_at,
+                ended_at: &ended_at,
+                record,
+                learned,
+                truth: None,
+            })
+            .map_err(|e| anyhow!("{}: storing {}: {e}", self.location, record.serial))?;
+        self.started_at = ended_at;
+        Ok(id)
+    }
+
+    /// Ends the batch: complete, or stopped with its reason.
+    ///
+    /// # Errors
+    /// The store cannot be written.
+    pub fn end(&mut self, stopped: Option<&str>) -> Result<()> {
+        let status = if stopped.is_some() {
+            BatchStatus::Stopped
+        } else {
+            BatchStatus::Complete
+        };
+        self.store
+            .end_batch(self.batch, status, stopped)
+            .map_err(|e| anyhow!("{}: {e}", self.location))
+    }
 }

@@ -150,6 +150,8 @@ fn parts_filters_and_formats() {
         &db,
         "--recipe",
         &s(&recipe),
+        "--strategy",
+        "learned",
     ]);
     let all: Value = serde_json::from_str(&ok(&["parts", "--db", &db, "--json"])).unwrap();
     let all = all.as_array().unwrap();

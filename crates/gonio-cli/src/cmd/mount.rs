@@ -30,7 +30,9 @@ pub enum MountSceneArg {
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Runs the sequence autofocus → measure → align → approach → push → verify for every part (Yu et
-al., 2024) and prints a table like their Table 3. Only the simulated station (--sim) is available.
+al., 2024) and prints a table like their Table 3, on the simulated station (--sim) or through a
+station's PLC (--plc modbus://HOST:PORT, docs/plc-interface.md) with its GenICam camera
+(--camera ID): the same controller, quality gates, records and store either way.
 --fidelity frames renders every frame (the realistic scene unless --scene/--scene-file say
 otherwise) and runs it through the station's camera path: the streaming detector, whose invalid
 and ambiguous frames the fit skips.
@@ -59,16 +61,34 @@ Examples:
   gonio mount --sim --seed 7 --db postgres://gonio@/results?host=/run/postgresql --station-name line3-s2
   gonio mount --sim --recipe examples/recipes/r40-standard.toml --strategy live --seed 3
   gonio mount --sim --parts 5 --fidelity frames --scene dense --seed 4
-  gonio mount --sim --parts 20 --fidelity frames --seed 4 --record rec --record-parts 3,17")]
+  gonio mount --sim --parts 20 --fidelity frames --seed 4 --record rec --record-parts 3,17
+  gonio mount --plc modbus://127.0.0.1:1502 --camera gonio-sim --parts 3 --json mount.json
+
+Through --plc a device error (the PLC refused, reset or silent, its watchdog, a drive fault,
+the e-stop, the camera lost, a frame without a latched angle) ends the part
+rejected_device_error naming the device, leaves the station safe (rod retracted where the link
+allows, servo stopped) and stops the batch with exit code 2. In --json a value that was never
+measured (a part that ended before its first turn) is null.")]
 pub struct Args {
     /// Use the simulated station (the digital twin with the default plant).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "plc")]
     pub sim: bool,
+    /// The station's PLC: modbus://HOST:PORT (Modbus TCP, docs/plc-interface.md).
+    #[arg(long, value_name = "modbus://HOST:PORT", requires = "camera")]
+    pub plc: Option<String>,
+    /// The station's camera (a GenICam id, as `gonio camera list` shows it), triggered by the
+    /// PLC.
+    #[arg(long, value_name = "ID", requires = "plc")]
+    pub camera: Option<String>,
+    /// The PLC's register map (TOML; default: examples/plc/modbus-map.toml's values).
+    #[arg(long, value_name = "FILE", requires = "plc")]
+    pub plc_map: Option<PathBuf>,
     /// Number of parts.
     #[arg(long, default_value_t = 25)]
     pub parts: usize,
-    /// Push strategy.
-    #[arg(long, value_enum, default_value = "learned")]
+    /// Push strategy (default live: through the wire and in the twin it needs fewer pushes,
+    /// ends closer and sooner than learned; BENCHMARKS.md, "Station over Modbus TCP").
+    #[arg(long, value_enum, default_value = "live")]
     pub strategy: StrategyArg,
     /// Frame fidelity of the simulation.
     #[arg(long, value_enum, default_value = "fast")]
@@ -87,9 +107,9 @@ pub struct Args {
     /// Recipe (TOML) for the grating type; the defaults are the station of Yu et al., 2024.
     #[arg(long)]
     pub recipe: Option<PathBuf>,
-    /// Seed of the simulation (same seed, same bytes).
-    #[arg(long)]
-    pub seed: u64,
+    /// Seed of the simulation (same seed, same bytes); needed with --sim.
+    #[arg(long, required_unless_present = "plc")]
+    pub seed: Option<u64>,
     /// Write per-part records and the summary as JSON here (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -119,9 +139,15 @@ const MAX_PARTS: usize = 1_000_000;
 
 /// Runs `gonio mount`.
 pub fn run(a: Args) -> Result<()> {
-    if !a.sim {
-        bail!("no station hardware driver is available: use --sim for the simulated station");
+    if let Some(plc) = a.plc.clone() {
+        return run_plc(a, &plc);
     }
+    if !a.sim {
+        bail!("no station given: --sim for the simulated station, or --plc and --camera");
+    }
+    let Some(seed) = a.seed else {
+        bail!("--sim needs --seed");
+    };
     if !(1..=MAX_PARTS).contains(&a.parts) {
         bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
     }
@@ -159,7 +185,7 @@ pub fn run(a: Args) -> Result<()> {
         resume: a.resume,
         station: &a.station_name,
     };
-    let prepared = match station::prepare(&cfg, a.seed, &target)? {
+    let prepared = match station::prepare(&cfg, seed, &target)? {
         station::Start::Run(p) => p,
         station::Start::Complete(note) => {
             gonio_cli::note!("{note}");
@@ -180,7 +206,7 @@ pub fn run(a: Args) -> Result<()> {
             dir: dir.clone(),
             parts: record_parts,
             first_part: prepared.first_part,
-            seed: a.seed,
+            seed,
             recipe: cfg.recipe.clone(),
             strategy: cfg.strategy,
             software_version: crate::db::software_version(),
@@ -198,7 +224,7 @@ pub fn run(a: Args) -> Result<()> {
     let report = station::run(
         *prepared,
         &cfg,
-        a.seed,
+        seed,
         station::Run {
             observer: match observer.as_mut() {
                 Some(r) => r,
@@ -313,4 +339,295 @@ fn print_and_write(
         bail!("the batch {why} (recipe on_device_error = \"stop\"); the records so far are kept");
     }
     Ok(())
+}
+
+/// `HOST:PORT` of a `modbus://HOST:PORT` URL.
+fn plc_address(url: &str) -> Result<String> {
+    let rest = url
+        .strip_prefix("modbus://")
+        .ok_or_else(|| anyhow::anyhow!("--plc {url}: expected modbus://HOST:PORT (Modbus TCP)"))?;
+    let rest = rest.trim_end_matches('/');
+    match rest.rsplit_once(':') {
+        Some((h, p)) if !h.is_empty() && p.parse::<u16>().is_ok() => Ok(rest.to_string()),
+        _ => bail!("--plc {url}: expected modbus://HOST:PORT with a port number"),
+    }
+}
+
+/// `gonio mount --plc`: the controller through the PLC and its triggered camera.
+fn run_plc(a: Args, url: &str) -> Result<()> {
+    use gonio_plc::batch::{PartEnd, PlcPartDone, run_batch};
+    use gonio_plc::station::{PlcStation, StationOptions};
+    if a.record.is_some() || a.resume || a.fidelity != FidelityArg::Fast {
+        bail!("--record, --resume and --fidelity are for --sim; --plc mounts real parts");
+    }
+    if !(1..=MAX_PARTS).contains(&a.parts) {
+        bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
+    }
+    let addr = plc_address(url)?;
+    let map = match &a.plc_map {
+        Some(p) => gonio_cli::input::load(p, |name, text| {
+            gonio_plc::RegisterMap::from_toml(text).map_err(|e| match e {
+                gonio_plc::map::MapError::Syntax {
+                    line,
+                    column,
+                    message,
+                } => anyhow::anyhow!("{name}:{line}:{column}: {message}"),
+                other => anyhow::anyhow!("{name}: {other}"),
+            })
+        })?,
+        None => gonio_plc::RegisterMap::default(),
+    };
+    let recipe = match &a.recipe {
+        Some(p) => recipe::load(p)?,
+        None => Recipe::default(),
+    };
+    let mut outputs = Outputs::new();
+    let json = outputs.optional("--json", a.json.as_deref())?;
+    let to_stdout = outputs.to_stdout(json);
+    let camera_id = a.camera.clone().unwrap_or_default();
+    let camera = plc_camera::open(&camera_id, &recipe, map.timing.frame_timeout_ms)?;
+    let link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow::anyhow!("--plc: {e}"))?;
+    let opts = StationOptions {
+        fps: recipe.measure.fps,
+        exposure_s: recipe.measure.exposure_s,
+        um_per_px: recipe.um_per_px,
+    };
+    let st = PlcStation::new(link, camera, opts).map_err(|e| anyhow::anyhow!("--plc: {e}"))?;
+    let mut store = match a.db.as_deref() {
+        Some(db) => {
+            let config = serde_json::to_string(&serde_json::json!({
+                "plc": url,
+                "camera": camera_id,
+                "parts": a.parts,
+                "strategy": gonio_station::Strategy::from(a.strategy).name(),
+                "recipe": recipe,
+            }))?;
+            Some(station::PlcStore::begin(
+                db,
+                &a.station_name,
+                &recipe,
+                &config,
+                a.parts,
+            )?)
+        }
+        None => None,
+    };
+    let mut ctl = gonio_station::Controller::new(recipe, a.strategy.into());
+    let bar = ProgressBar::new(a.parts as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut store_error = None;
+    let report = run_batch(&st, &mut ctl, a.parts, &mut |d: &PlcPartDone<'_>| {
+        bar.inc(1);
+        bar.set_message(format!("{} {}", d.record.serial, d.record.result.name()));
+        if let Some(s) = store.as_mut()
+            && let Err(e) = s.commit(d.index, d.record, d.learned)
+        {
+            store_error = Some(e);
+            return PartEnd::Stop;
+        }
+        PartEnd::Continue
+    })?;
+    bar.finish_and_clear();
+    if let Some(e) = store_error {
+        return Err(e);
+    }
+    if let Some(s) = store.as_mut() {
+        s.end(report.stopped.as_deref())?;
+    }
+    if !to_stdout {
+        say!(
+            "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
+            "serial",
+            "initial e/µm",
+            "final e/µm",
+            "pushes",
+            "remeasured",
+            "time/s"
+        )?;
+        for p in &report.parts {
+            let r = &p.record;
+            say!(
+                "{:<14} {:>12.1} {:>12.2} {:>7} {:>11} {:>8.1}  {}",
+                r.serial,
+                r.initial_e_um,
+                r.final_e_um,
+                r.pushes,
+                r.remeasured_turns,
+                r.time_s,
+                r.result.name()
+            )?;
+            if let Some(why) = &r.reject_reason {
+                say!("{:<14} why: {why}", "")?;
+            }
+        }
+        let s = &report.summary;
+        say!(
+            "\n{} parts through {}, strategy {}: mean {:.1} s (focus {:.1}, measure {:.1}, push {:.1}), {:.2} pushes (max {}), final e {:.2} µm, {} rejected, {} device errors",
+            s.parts,
+            report.plc,
+            report.strategy,
+            s.mean_time_s,
+            s.mean_focus_s,
+            s.mean_measure_s,
+            s.mean_push_s,
+            s.mean_pushes,
+            s.max_pushes,
+            s.mean_final_e_um,
+            s.rejected,
+            s.device_errors
+        )?;
+        let l = &report.link;
+        say!(
+            "link: {} requests, round trip p50 {:.2} ms, p99 {:.2} ms; {} frames paired with latched angles, {} skipped as stale",
+            l.requests,
+            l.round_trip_p50_ms,
+            l.round_trip_p99_ms,
+            l.frames_paired,
+            l.frames_stale
+        )?;
+    }
+    if let Some(j) = json {
+        outputs.json_with_nulls(j, &report)?;
+    }
+    outputs.commit()?;
+    if let Some(why) = &report.stopped {
+        bail!("the batch {why}; the records so far are kept");
+    }
+    Ok(())
+}
+
+/// The station's camera for `--plc`: a GenICam camera through Aravis (feature `genicam`).
+mod plc_camera {
+    use anyhow::Result;
+    use gonio_station::Recipe;
+
+    #[cfg(feature = "genicam")]
+    pub use with::open;
+    #[cfg(not(feature = "genicam"))]
+    pub use without::open;
+
+    #[cfg(feature = "genicam")]
+    mod with {
+        use super::*;
+        use anyhow::anyhow;
+        use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
+        use gonio_plc::station::{DetectorTriggered, StampedSource};
+        use gonio_vision::{FrameHeader, FrameSource, Optics};
+
+        /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
+        /// on a hardware trigger line).
+        #[derive(Debug)]
+        pub struct ById(AravisSource);
+
+        impl FrameSource for ById {
+            type Error = CameraError;
+            fn next_frame(&mut self, px: &mut Vec<u8>) -> Result<Option<FrameHeader>, CameraError> {
+                let Some(mut h) = self.0.next_frame(px)? else {
+                    return Ok(None);
+                };
+                if let Some(m) = self.0.take_meta(h.stamp.index) {
+                    h.stamp.index = m.frame_id;
+                }
+                Ok(Some(h))
+            }
+        }
+
+        /// The camera: the simulated station's (its frames carry the trigger count) or a real
+        /// one on the PLC's trigger line.
+        pub enum Camera {
+            /// `gonio simulate station`'s camera.
+            Sim(DetectorTriggered<StampedSource<AravisSource>>),
+            /// A camera triggered on line 1.
+            Real(DetectorTriggered<ById>),
+        }
+
+        impl std::fmt::Debug for Camera {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("Camera")
+            }
+        }
+
+        impl gonio_plc::TriggeredCamera for Camera {
+            type Error = gonio_plc::station::DetectorTriggeredError<CameraError>;
+            fn next_frame(
+                &mut self,
+                timeout: std::time::Duration,
+            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, Self::Error> {
+                match self {
+                    Camera::Sim(c) => c.next_frame(timeout),
+                    Camera::Real(c) => c.next_frame(timeout),
+                }
+            }
+        }
+
+        /// Opens camera `id` for the recipe's window and exposure.
+        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64) -> Result<Camera> {
+            let optics = Optics::default();
+            let sim = id == "Aravis-Fake-GONIOSTATION";
+            let config = CameraConfig {
+                window_size: (
+                    optics.window_width_px as u32,
+                    optics.window_height_px as u32,
+                ),
+                exposure_us: Some(recipe.measure.exposure_s * 1e6),
+                // The simulated camera is paced by its PLC's trigger itself.
+                trigger: if sim { Trigger::Free } else { Trigger::Line1 },
+                frame_timeout_ms,
+                ..CameraConfig::default()
+            };
+            let src = AravisSource::open(id, &config).map_err(|e| anyhow!("--camera {id}: {e}"))?;
+            let bad = |e| anyhow!("--camera {id}: {e}");
+            Ok(if sim {
+                Camera::Sim(DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?)
+            } else {
+                Camera::Real(DetectorTriggered::new(ById(src), &optics).map_err(bad)?)
+            })
+        }
+    }
+
+    #[cfg(not(feature = "genicam"))]
+    mod without {
+        use super::*;
+        use anyhow::bail;
+
+        /// A camera that is never built: this gonio has no GenICam support.
+        #[derive(Debug)]
+        pub enum NoCamera {}
+
+        /// Its error (never made either).
+        #[derive(Debug)]
+        pub struct NoCameraError;
+
+        impl std::fmt::Display for NoCameraError {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("no camera")
+            }
+        }
+
+        impl gonio_station::hal::DeviceError for NoCameraError {
+            fn kind(&self) -> gonio_station::hal::DeviceErrorKind {
+                gonio_station::hal::DeviceErrorKind::Other
+            }
+        }
+
+        impl gonio_plc::TriggeredCamera for NoCamera {
+            type Error = NoCameraError;
+            fn next_frame(
+                &mut self,
+                _timeout: std::time::Duration,
+            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, NoCameraError> {
+                match *self {}
+            }
+        }
+
+        /// Opens camera `id`: never, without GenICam.
+        pub fn open(id: &str, _recipe: &Recipe, _frame_timeout_ms: u64) -> Result<NoCamera> {
+            bail!(
+                "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
+            )
+        }
+    }
 }

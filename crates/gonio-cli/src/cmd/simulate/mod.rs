@@ -5,6 +5,7 @@ pub mod encoder;
 pub mod frames;
 pub mod selfcal;
 pub mod shift_angle;
+pub mod station;
 
 use anyhow::Result;
 use gonio_cli::formats::encoder as encoder_file;
@@ -26,6 +27,8 @@ pub enum Simulate {
     /// An ELCOMAT-type autocollimator and polygon answering the serial protocol on a
     /// pseudo-terminal (for `gonio acquire shift-angle`).
     Autocollimator(autocollimator::Args),
+    /// The mounting station as its own process: a Modbus TCP PLC and the camera it triggers.
+    Station(station::Args),
 }
 
 /// Runs `gonio simulate …`.
@@ -36,6 +39,7 @@ pub fn run(s: Simulate) -> Result<()> {
         Simulate::ShiftAngle(a) => shift_angle::run(a),
         Simulate::Selfcal(a) => selfcal::run(a),
         Simulate::Autocollimator(a) => autocollimator::run(a),
+        Simulate::Station(a) => station::run(a),
     }
 }
 

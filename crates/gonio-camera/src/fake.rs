@@ -1,0 +1,256 @@
+//! [`FakeGvCamera`]: a GigE Vision camera served in-process by Aravis's `GvFakeCamera` (the
+//! protocol, discovery, GenICam features and packet pacing are Aravis's), whose pixels come from
+//! the caller: a [`FrameFill`] is called once per frame, on Aravis's streaming thread, with the
+//! frame's id and timestamp, to fill the frame's buffer (`Width` × `Height` bytes, Mono8, as the
+//! client set the window).
+//!
+//! One GigE Vision camera can listen on an address's port 3956 at a time: tests give each
+//! camera its own network namespace (`unshare -n`, `ip link set lo up`).
+//!
+//! ```no_run
+//! use gonio_camera::{FakeConfig, FakeGvCamera, FillInfo};
+//! let cam = FakeGvCamera::start(&FakeConfig::default(), |f: &FillInfo, px: &mut [u8]| {
+//!     // A dark 11 px ring moving one column per frame.
+//!     let c = (f.frame_id % 500) as usize + 100;
+//!     for row in px.chunks_mut(f.width as usize) {
+//!         for (x, p) in row.iter_mut().enumerate() {
+//!             *p = if x.abs_diff(c) <= 5 { 60 } else { 200 };
+//!         }
+//!     }
+//! })
+//! .unwrap();
+//! println!("serving {} on {}", cam.id(), cam.address());
+//! ```
+
+use crate::CameraError;
+use crate::ffi::{self, FillFn, RawFill};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// What a [`FrameFill`] is told about the frame it fills.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FillInfo {
+    /// The frame's id in the camera's counter (the GigE Vision block id on the wire is its low 16
+    /// bits; a client's [`FrameIds`](crate::FrameIds) counts it back on across the wrap).
+    pub frame_id: u64,
+    /// The frame's timestamp, ns (the camera's clock: the host's real-time clock for Aravis's
+    /// fake camera), as the client will receive it.
+    pub timestamp_ns: u64,
+    /// 0 for the first frame this camera serves, then one more per frame served.
+    pub index: u64,
+    /// Width of the frame, px (the client's `Width`).
+    pub width: u32,
+    /// Height of the frame, px (the client's `Height`).
+    pub height: u32,
+    /// True when the client chose Mono8 (the only format the callback is asked to fill; for any
+    /// other the buffer is left as it is).
+    pub mono8: bool,
+    /// The client's `ExposureTime`, µs.
+    pub exposure_us: u32,
+    /// The client's raw gain (`GainRaw`).
+    pub gain_raw: u32,
+}
+
+/// Fills each frame a [`FakeGvCamera`] serves. Called on Aravis's streaming thread, one frame
+/// at a time; `pixels` holds `width × height` bytes (row-major Mono8) or more.
+pub trait FrameFill: Send + 'static {
+    /// Draws the frame `info` into `pixels`.
+    fn fill(&mut self, info: &FillInfo, pixels: &mut [u8]);
+}
+
+impl<F: FnMut(&FillInfo, &mut [u8]) + Send + 'static> FrameFill for F {
+    fn fill(&mut self, info: &FillInfo, pixels: &mut [u8]) {
+        self(info, pixels)
+    }
+}
+
+/// The id and timestamp a served frame got.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServedFrame {
+    /// As in [`FillInfo::index`].
+    pub index: u64,
+    /// As in [`FillInfo::frame_id`].
+    pub frame_id: u64,
+    /// As in [`FillInfo::timestamp_ns`].
+    pub timestamp_ns: u64,
+}
+
+/// How to start a [`FakeGvCamera`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FakeConfig {
+    /// The interface's IPv4 address (or name) to serve on. Default: `127.0.0.1`.
+    pub address: String,
+    /// Serial number (at most 15 characters); the camera's id is `Aravis-Fake-SERIAL`.
+    pub serial: String,
+    /// Frames per second when free running. Default: 100.
+    pub fps: f64,
+    /// The sensor's size, px (`SensorWidth`, `SensorHeight`); default 1920 × 1080, the station's.
+    pub sensor: (u32, u32),
+    /// The fraction of stream packets the camera drops (0 … 1; Aravis's `gvsp-lost-ratio`).
+    pub lost_ratio: f64,
+}
+
+impl Default for FakeConfig {
+    fn default() -> Self {
+        FakeConfig {
+            address: "127.0.0.1".into(),
+            serial: "GONIO01".into(),
+            fps: 100.0,
+            sensor: (1920, 1080),
+            lost_ratio: 0.0,
+        }
+    }
+}
+
+const REG_SENSOR_WIDTH: u32 = 0x11c;
+const REG_SENSOR_HEIGHT: u32 = 0x118;
+const REG_FRAME_PERIOD_US: u32 = 0x138;
+/// `ARV_PIXEL_FORMAT_MONO_8`.
+const MONO8: u32 = 0x0108_0001;
+
+/// A GigE Vision camera serving caller-drawn frames (see the module docs). Stops serving when
+/// dropped.
+pub struct FakeGvCamera {
+    // Dropped in this order: the GigE Vision camera (its thread joined), then the closure.
+    gv: Option<aravis::GvFakeCamera>,
+    fake: Option<aravis::FakeCamera>,
+    _fill: Option<Box<Box<FillFn>>>,
+    served: Arc<AtomicU64>,
+    last: Arc<Mutex<Option<ServedFrame>>>,
+    config: FakeConfig,
+}
+
+impl std::fmt::Debug for FakeGvCamera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FakeGvCamera")
+            .field("config", &self.config)
+            .field("served", &self.frames_served())
+            .finish_non_exhaustive()
+    }
+}
+
+impl FakeGvCamera {
+    /// Starts serving on `config.address` with `fill` drawing every frame.
+    ///
+    /// # Errors
+    /// [`CameraError::FakeCamera`] when the serial or rate is invalid or the camera cannot listen
+    /// (port 3956 taken, no such interface).
+    pub fn start(config: &FakeConfig, fill: impl FrameFill) -> Result<Self, CameraError> {
+        let bad = |message: String| CameraError::FakeCamera {
+            serial: config.serial.clone(),
+            address: config.address.clone(),
+            message,
+        };
+        if config.serial.is_empty() || config.serial.len() > 15 || !config.serial.is_ascii() {
+            return Err(bad("the serial must be 1 to 15 ASCII characters".into()));
+        }
+        if !(config.fps.is_finite() && config.fps > 0.0 && config.fps <= 10_000.0) {
+            return Err(bad(format!(
+                "{} frames/s: expected 0 < fps ≤ 10000",
+                config.fps
+            )));
+        }
+        if !(0.0..=1.0).contains(&config.lost_ratio) {
+            return Err(bad(format!(
+                "lost ratio {}: expected 0 … 1",
+                config.lost_ratio
+            )));
+        }
+        let gv = aravis::GvFakeCamera::new(Some(&config.address), Some(&config.serial));
+        if !gv.is_running() {
+            return Err(bad(
+                "cannot listen (is another GigE Vision camera on port 3956 of this address?)"
+                    .into(),
+            ));
+        }
+        let fake = gv
+            .fake_camera()
+            .ok_or_else(|| bad("Aravis gave no fake camera".into()))?;
+        fake.write_register(REG_SENSOR_WIDTH, config.sensor.0);
+        fake.write_register(REG_SENSOR_HEIGHT, config.sensor.1);
+        fake.write_register(
+            REG_FRAME_PERIOD_US,
+            (1e6 / config.fps).round().max(1.0) as u32,
+        );
+        if config.lost_ratio > 0.0 {
+            gv.set_gvsp_lost_ratio(config.lost_ratio);
+        }
+        let served = Arc::new(AtomicU64::new(0));
+        let last = Arc::new(Mutex::new(None));
+        let (served2, last2) = (served.clone(), last.clone());
+        let mut fill = fill;
+        let f: Box<FillFn> = Box::new(move |raw: &RawFill, px: &mut [u8]| {
+            let index = served2.load(Ordering::Relaxed);
+            let info = FillInfo {
+                frame_id: raw.frame_id,
+                timestamp_ns: raw.timestamp_ns,
+                index,
+                width: raw.width,
+                height: raw.height,
+                mono8: raw.pixel_format == MONO8,
+                exposure_us: raw.exposure_us,
+                gain_raw: raw.gain,
+            };
+            let n = (raw.width as usize * raw.height as usize).min(px.len());
+            if info.mono8 {
+                fill.fill(&info, &mut px[..n]);
+            }
+            *last2.lock().unwrap_or_else(|e| e.into_inner()) = Some(ServedFrame {
+                index,
+                frame_id: raw.frame_id,
+                timestamp_ns: raw.timestamp_ns,
+            });
+            served2.store(index + 1, Ordering::Release);
+        });
+        let holder = ffi::set_fill(&fake, f);
+        Ok(FakeGvCamera {
+            gv: Some(gv),
+            fake: Some(fake),
+            _fill: Some(holder),
+            served,
+            last,
+            config: config.clone(),
+        })
+    }
+
+    /// The camera's id as Aravis lists it (what `gonio detect --camera` takes).
+    pub fn id(&self) -> String {
+        format!("Aravis-Fake-{}", self.config.serial)
+    }
+
+    /// The address it serves on.
+    pub fn address(&self) -> &str {
+        &self.config.address
+    }
+
+    /// Frames served (filled) so far.
+    pub fn frames_served(&self) -> u64 {
+        self.served.load(Ordering::Acquire)
+    }
+
+    /// The id and timestamp of the last frame served.
+    pub fn last_served(&self) -> Option<ServedFrame> {
+        *self.last.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Drops this fraction of the stream's packets from now on (0 … 1).
+    pub fn set_lost_ratio(&self, ratio: f64) {
+        if let Some(gv) = &self.gv {
+            gv.set_gvsp_lost_ratio(ratio.clamp(0.0, 1.0));
+        }
+    }
+
+    /// True while the camera serves.
+    pub fn is_running(&self) -> bool {
+        self.gv.as_ref().is_some_and(|g| g.is_running())
+    }
+}
+
+impl Drop for FakeGvCamera {
+    fn drop(&mut self) {
+        // The GigE Vision camera joins its thread when finalized; only then may the closure go.
+        self.fake.take();
+        self.gv.take();
+        self._fill.take();
+    }
+}

@@ -1,0 +1,73 @@
+//! A client gonio did not write: pymodbus (PyPI, in its own virtualenv under target/) drives
+//! `gonio simulate station` through the registers of docs/plc-interface.md
+//! (examples/plc/pymodbus_check.py): status block, heartbeat, command handshake with the
+//! sequence counter, units and scaling, the camera trigger's latch ring, the watchdog, fault
+//! reset. The station listens on 127.0.0.1 port 0 and is killed when the test ends.
+
+mod common;
+
+use common::{Guard, repo, wait_for_line};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+/// The test's virtualenv with pymodbus (made by .ci/plc.sh, or here when missing).
+fn venv_python() -> PathBuf {
+    let dir = PathBuf::from(repo("target/plc-venv"));
+    let py = dir.join("bin/python");
+    let has = |py: &PathBuf| {
+        Command::new(py)
+            .args(["-c", "import pymodbus"])
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !has(&py) {
+        let ok = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&dir)
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(dir.join("bin/pip"))
+                .args(["install", "--quiet", "pymodbus>=3.10,<4"])
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            ok,
+            "cannot make the virtualenv with pymodbus in {}",
+            dir.display()
+        );
+    }
+    assert!(has(&py), "pymodbus is not importable from {}", py.display());
+    py
+}
+
+#[test]
+fn pymodbus_drives_the_simulated_station_through_the_documented_registers() {
+    let py = venv_python();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gonio"))
+        .args(["simulate", "station", "--plc", "127.0.0.1:0", "--seed", "3"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("gonio runs");
+    let line = wait_for_line(&mut child, "station PLC on ", Duration::from_secs(20));
+    let _guard = Guard(child);
+    let addr = line
+        .split("station PLC on ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .expect("the address is printed");
+    let (host, port) = addr.rsplit_once(':').expect("HOST:PORT");
+    let out = Command::new(&py)
+        .arg(repo("examples/plc/pymodbus_check.py"))
+        .args([host, port])
+        .output()
+        .expect("python runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("all checks passed"),
+        "pymodbus check failed:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
