@@ -54,7 +54,7 @@ fn main() {
     let t0 = std::time::Instant::now();
     let report = run_batch(&station, &mut ctl, parts, &mut |d| {
         eprintln!(
-            "part {} {} e {:.2} µm, {} pushes, {:.1} s",
+            "part {} {} e {:?} µm, {} pushes, {:?} s",
             d.part,
             d.record.result.name(),
             d.record.final_e_um,
@@ -78,11 +78,13 @@ fn main() {
 
     let w = &report.parts;
     let t = &twin.parts;
-    let f = |v: &dyn Fn(&gonio_station::PartRecord) -> f64, w: &[gonio_plc::batch::PlcPart]| {
-        w.iter().map(|p| v(&p.record)).collect::<Vec<f64>>()
+    // The values a figure has on each part (undefined ones, e.g. a rejected part's final e, left out).
+    let f = |v: &dyn Fn(&gonio_station::PartRecord) -> Option<f64>,
+             w: &[gonio_plc::batch::PlcPart]| {
+        w.iter().filter_map(|p| v(&p.record)).collect::<Vec<f64>>()
     };
-    let g = |v: &dyn Fn(&gonio_station::PartRecord) -> f64| {
-        t.iter().map(|p| v(&p.record)).collect::<Vec<f64>>()
+    let g = |v: &dyn Fn(&gonio_station::PartRecord) -> Option<f64>| {
+        t.iter().filter_map(|p| v(&p.record)).collect::<Vec<f64>>()
     };
     let true_final: Vec<f64> = w
         .iter()
@@ -95,7 +97,8 @@ fn main() {
             truth
                 .iter()
                 .find(|x| x.part == p.part)
-                .map(|x| (p.record.final_e_um - x.true_final_e_um).abs())
+                .zip(p.record.final_e_um)
+                .map(|(x, e)| (e - x.true_final_e_um).abs())
         })
         .collect();
     println!(
@@ -113,8 +116,8 @@ fn main() {
     println!("| --- | --- | --- | --- |");
     row(
         "pushes",
-        &f(&|r| r.pushes as f64, w),
-        &g(&|r| r.pushes as f64),
+        &f(&|r| Some(r.pushes as f64), w),
+        &g(&|r| Some(r.pushes as f64)),
     );
     row(
         "final e / µm (measured)",
@@ -130,24 +133,24 @@ fn main() {
         "|measured − true| final e / µm",
         &err,
         &t.iter()
-            .map(|p| (p.record.final_e_um - p.true_final_e_um).abs())
+            .filter_map(|p| p.record.final_e_um.map(|e| (e - p.true_final_e_um).abs()))
             .collect::<Vec<_>>(),
     );
     row("time / s", &f(&|r| r.time_s, w), &g(&|r| r.time_s));
     row(
         "focus / s",
-        &f(&|r| r.phase_times.focus_s, w),
-        &g(&|r| r.phase_times.focus_s),
+        &f(&|r| Some(r.phase_times.focus_s), w),
+        &g(&|r| Some(r.phase_times.focus_s)),
     );
     row(
         "measure / s",
-        &f(&|r| r.phase_times.measure_s, w),
-        &g(&|r| r.phase_times.measure_s),
+        &f(&|r| Some(r.phase_times.measure_s), w),
+        &g(&|r| Some(r.phase_times.measure_s)),
     );
     row(
         "push / s",
-        &f(&|r| r.phase_times.push_s, w),
-        &g(&|r| r.phase_times.push_s),
+        &f(&|r| Some(r.phase_times.push_s), w),
+        &g(&|r| Some(r.phase_times.push_s)),
     );
     let l = &report.link;
     println!(

@@ -45,10 +45,11 @@ pub struct PlcPartDone<'a> {
 pub struct PlcSummary {
     /// Parts mounted.
     pub parts: usize,
-    /// Mean time per part, s.
-    pub mean_time_s: f64,
-    /// Mean final eccentricity as measured, µm.
-    pub mean_final_e_um: f64,
+    /// Mean time per part over the parts that have one, s (`null`: none has).
+    pub mean_time_s: Option<f64>,
+    /// Mean final eccentricity as measured over the parts where it is defined, µm (`null`:
+    /// none is).
+    pub mean_final_e_um: Option<f64>,
     /// Mean pushes per part.
     pub mean_pushes: f64,
     /// Most pushes on one part.
@@ -122,10 +123,15 @@ pub fn summarise(parts: &[PlcPart]) -> PlcSummary {
             .sum::<f64>()
             / n
     };
+    // The mean of the values defined (`None`: none is).
+    let mean_of = |f: &dyn Fn(&PartRecord) -> Option<f64>| {
+        let v: Vec<f64> = parts.iter().filter_map(|p| f(&p.record)).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
     PlcSummary {
         parts: parts.len(),
-        mean_time_s: mean(&|r| r.time_s),
-        mean_final_e_um: mean(&|r| r.final_e_um),
+        mean_time_s: mean_of(&|r| r.time_s),
+        mean_final_e_um: mean_of(&|r| r.final_e_um),
         mean_pushes: mean(&|r| r.pushes as f64),
         max_pushes: parts.iter().map(|p| p.record.pushes).max().unwrap_or(0),
         rejected: parts

@@ -450,13 +450,13 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         for p in &report.parts {
             let r = &p.record;
             say!(
-                "{:<14} {:>12.1} {:>12.2} {:>7} {:>11} {:>8.1}  {}",
+                "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  {}",
                 r.serial,
-                r.initial_e_um,
-                r.final_e_um,
+                fixed(r.initial_e_um, 1),
+                fixed(r.final_e_um, 2),
                 r.pushes,
                 r.remeasured_turns,
-                r.time_s,
+                fixed(r.time_s, 1),
                 r.result.name()
             )?;
             if let Some(why) = &r.reject_reason {
@@ -465,17 +465,17 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         }
         let s = &report.summary;
         say!(
-            "\n{} parts through {}, strategy {}: mean {:.1} s (focus {:.1}, measure {:.1}, push {:.1}), {:.2} pushes (max {}), final e {:.2} µm, {} rejected, {} device errors",
+            "\n{} parts through {}, strategy {}: mean {} s (focus {:.1}, measure {:.1}, push {:.1}), {:.2} pushes (max {}), final e {} µm, {} rejected, {} device errors",
             s.parts,
             report.plc,
             report.strategy,
-            s.mean_time_s,
+            fixed(s.mean_time_s, 1),
             s.mean_focus_s,
             s.mean_measure_s,
             s.mean_push_s,
             s.mean_pushes,
             s.max_pushes,
-            s.mean_final_e_um,
+            fixed(s.mean_final_e_um, 2),
             s.rejected,
             s.device_errors
         )?;
