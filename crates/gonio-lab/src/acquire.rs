@@ -642,7 +642,7 @@ mod tests {
             "faces = 3\nshifts_deg = [0]\nstart_faces = [1]\nrepeats = 2\nclosure = true\n",
         )
         .unwrap();
-        let mut a = Acquisition::start(plan, Settings::default(), &j, true).unwrap();
+        let a = Acquisition::start(plan, Settings::default(), &j, true).unwrap();
         assert_eq!((a.next(), a.done()), (Some(2), 2));
         // Repeat 2 of step 1 (position 1) drifted 1.018″ from repeat 1: over 3·√2·0.05/√3.
         let c = a.checks(1);
