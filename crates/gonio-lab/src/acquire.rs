@@ -535,3 +535,125 @@ impl Acquisition {
         s
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::VecDeque;
+    use std::io::{Read, Write};
+    use std::time::Duration;
+
+    /// An instrument that answers each request with the next scripted line (none: silent).
+    struct Scripted {
+        answers: VecDeque<&'static str>,
+        out: Vec<u8>,
+    }
+
+    impl Read for Scripted {
+        fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+            if self.out.is_empty() {
+                return Err(std::io::ErrorKind::TimedOut.into());
+            }
+            let n = b.len().min(self.out.len());
+            b[..n].copy_from_slice(&self.out[..n]);
+            self.out.drain(..n);
+            Ok(n)
+        }
+    }
+
+    impl Write for Scripted {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            assert!(b == b"a\r\n", "{b:?}");
+            if let Some(a) = self.answers.pop_front() {
+                self.out.extend_from_slice(a.as_bytes());
+                self.out.push(b'\r');
+            }
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Transport for Scripted {}
+
+    fn bench(answers: &[&'static str]) -> Autocollimator<Scripted> {
+        let s = Scripted {
+            answers: answers.iter().copied().collect(),
+            out: Vec::new(),
+        };
+        Autocollimator::new(s, "scripted", Duration::from_millis(50))
+    }
+
+    #[test]
+    fn flagged_answers_are_never_samples_and_a_wide_set_is_read_again() {
+        let plan = Plan::parse_text(
+            "p",
+            "faces = 3\nshifts_deg = [0]\nstart_faces = [1]\nrepeats = 2\nclosure = true\n",
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let j = dir.path().join("j");
+        let mut a = Acquisition::start(plan, Settings::default(), &j, false).unwrap();
+        let mut inst = bench(&[
+            "4 003 +1.000 +0.1",
+            "4 013 +9.000 +0.0",
+            "4 003 +1.002 +0.1",
+            "4 003 +1.004 +0.4",
+            // Spread 0.6″: read again.
+            "4 003 +2.000 0",
+            "4 003 +2.600 0",
+            "4 003 +2.300 0",
+            "4 003 +2.010 0",
+            "4 003 +2.020 0",
+            "4 003 +2.030 0",
+        ]);
+        let Attempt::Accepted(r) = a.measure(&mut inst, 0).unwrap() else {
+            panic!("accepted")
+        };
+        assert_eq!(
+            r.outcome,
+            Outcome::Read {
+                x: "+1.0020".into(),
+                y: "+0.20".into(),
+                spread: "0.004".into()
+            }
+        );
+        assert_eq!(r.exchanges[1].0, ExchangeKind::Rejected);
+        a.commit(r).unwrap();
+        let Attempt::Accepted(r) = a.measure(&mut inst, 1).unwrap() else {
+            panic!("accepted")
+        };
+        assert_eq!(
+            r.exchanges.iter().map(|e| e.0).collect::<Vec<_>>(),
+            [[ExchangeKind::Discarded; 3], [ExchangeKind::Sample; 3]].concat()
+        );
+        assert!(matches!(&r.outcome, Outcome::Read { x, .. } if x == "+2.0200"));
+        a.commit(r).unwrap();
+        // Silence is an error naming the port; nothing journalled is lost.
+        let e = a.measure(&mut inst, 2).unwrap_err().to_string();
+        assert!(
+            e.starts_with("port scripted: the autocollimator did not answer"),
+            "{e}"
+        );
+        drop(a);
+        let plan = Plan::parse_text(
+            "p",
+            "faces = 3\nshifts_deg = [0]\nstart_faces = [1]\nrepeats = 2\nclosure = true\n",
+        )
+        .unwrap();
+        let a = Acquisition::start(plan, Settings::default(), &j, true).unwrap();
+        assert_eq!((a.next(), a.done()), (Some(2), 2));
+        // Repeat 2 of step 1 (position 1) drifted 1.018″ from repeat 1: over 3·√2·0.05/√3.
+        let c = a.checks(1);
+        assert_eq!(c.len(), 1);
+        assert_eq!(c[0].kind, CheckKind::Drift);
+        assert!((c[0].value_arcsec - 1.018).abs() < 1e-9 && !c[0].ok());
+        // Four flagged answers in a row: the operator decides.
+        let mut inst = bench(&["4 013 1 1", "4 013 1 1", "2 103 1 1", "garbage"]);
+        assert!(matches!(
+            a.measure(&mut inst, 2).unwrap(),
+            Attempt::Faulty { ref reason, .. } if reason.contains("garbage")
+        ));
+    }
+}
