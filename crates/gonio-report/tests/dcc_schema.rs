@@ -87,7 +87,7 @@ fn case(rng: &mut ChaCha8Rng, base: &Certificate) -> (Certificate, bool) {
     let mut c = base.clone();
     let mut ok = true;
     // Each kind of damage with a small probability, so that most cases are valid.
-    let mut hit = |rng: &mut ChaCha8Rng| rng.random_bool(0.04);
+    let hit = |rng: &mut ChaCha8Rng| rng.random_bool(0.04);
     for p in &mut c.points {
         p.value_arcsec = match rng.random_range(0..4) {
             0 => rng.random_range(-1e6..1e6),
