@@ -284,34 +284,64 @@ fn every_other_command_writes_strict_json() {
         strict(&out);
     }
     // Calibrations, with the frozen key lists of their certificates.
+    // The same runs as the key lists were taken from (certificate_cli.rs): with the instrument
+    // terms, with a stated σ, and the paper's method.
+    let inst_sa = example("instrument-shift-angle.toml");
+    let inst_sc = example("instrument-selfcal.toml");
     let mut sa_keys = BTreeSet::new();
-    for method in ["least-squares", "paper"] {
-        let out = p(&format!("sa-{method}.json"));
-        ok(&[
+    for (name, method, extra) in [
+        (
+            "sa-ls.json",
+            "least-squares",
+            ["--instrument", inst_sa.as_str()],
+        ),
+        ("sa-sigma.json", "least-squares", ["--sigma", "0.05"]),
+        ("sa-paper.json", "paper", ["--sigma", "0.05"]),
+    ] {
+        let out = p(name);
+        let (o, m) = (s(&out), s(&sa));
+        let args = [
             "shift-angle",
-            &s(&sa),
+            m.as_str(),
             "--method",
             method,
             "--json",
-            &s(&out),
-        ]);
+            o.as_str(),
+            extra[0],
+            extra[1],
+        ];
+        ok(&args);
         sa_keys.extend(keys(&strict(&out)));
     }
     keeps_keys("shift-angle", &sa_keys);
     let sc_out = p("sc.json");
-    ok(&[
-        "selfcal",
-        &s(&sc),
-        "--heads",
-        "selfa12",
-        "--json",
-        &s(&sc_out),
-    ]);
-    keeps_keys("selfcal", &keys(&strict(&sc_out)));
+    let sc_plain = p("sc-plain.json");
+    let mut sc_keys = BTreeSet::new();
+    for (out, extra) in [
+        (&sc_out, vec!["--instrument", inst_sc.as_str()]),
+        (&sc_plain, vec![]),
+    ] {
+        let (o, m) = (s(out), s(&sc));
+        let args = [
+            &[
+                "selfcal",
+                m.as_str(),
+                "--heads",
+                "selfa12",
+                "--json",
+                o.as_str(),
+            ][..],
+            &extra[..],
+        ]
+        .concat();
+        ok(&args);
+        sc_keys.extend(keys(&strict(out)));
+    }
+    keeps_keys("selfcal", &sc_keys);
     let cmp = p("cmp.json");
     ok(&[
         "compare",
-        &s(&p("sa-least-squares.json")),
+        &s(&p("sa-ls.json")),
         &s(&sc_out),
         "--json",
         &s(&cmp),

@@ -62,6 +62,11 @@ pub fn located(name: &str, line: usize, column: usize, message: &str) -> anyhow:
 
 /// A JSON error as `NAME:LINE:COL: message (what was expected)`.
 pub fn json_error(name: &str, e: &serde_json::Error, expected: &str) -> anyhow::Error {
+    if e.line() == 0 {
+        // A value checked after it was read (a certificate's U < 0): the message names the
+        // field; there is no line to give.
+        return anyhow!("{name}: {}", crate::input::cap(&e.to_string()));
+    }
     anyhow!(
         "{name}:{}:{}: {} ({expected})",
         e.line().max(1),

@@ -66,7 +66,10 @@ pub fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> 
             return Err(table.error_at(
                 *line,
                 c_shift,
-                format!("shift {shift}° is out of range: expected 0 ≤ shift_deg < 360"),
+                format!(
+                    "shift {}° is out of range: expected 0 ≤ shift_deg < 360",
+                    f[c_shift].trim()
+                ),
             ));
         }
         let face = table.int_at(*line, f, c_face)?;
