@@ -52,7 +52,7 @@ pub mod source;
 
 pub use error::VisionError;
 pub use features::{EdgeLine, FrameResult, InvalidReason};
-pub use optics::{MAX_SENSOR_PX, Optics, Params, Polarity};
+pub use optics::{MAX_RING_WIDTH_PX, MAX_SENSOR_PX, MAX_WINDOW_PIXELS, Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
 pub use source::{
     DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,
