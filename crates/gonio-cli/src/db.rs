@@ -19,6 +19,30 @@ pub fn open(location: &str) -> Result<Box<dyn Store>> {
     })
 }
 
+/// Opens the existing store at `location` for a command that only reads (`parts`, `serve`
+/// without a station): a SQLite path that does not exist is an error naming it, never a new
+/// empty store.
+pub fn open_existing(location: &str) -> Result<Box<dyn Store>> {
+    gonio_store::open_existing(location).map_err(|e| match e {
+        gonio_store::StoreError::Missing { .. } => anyhow!("--db {e}"),
+        e => anyhow!(
+            "results store {}: {e}",
+            gonio_store::display_location(location)
+        ),
+    })
+}
+
+/// Reserves the results store of a command (`--db`, a SQLite path): none of the command's
+/// outputs may name it ([`gonio_cli::input::reserve`]). A `postgres://` URL names no file.
+pub fn reserve(location: &str) {
+    if !gonio_store::is_postgres(location) {
+        gonio_cli::input::reserve(
+            std::path::Path::new(location),
+            &format!("results store (--db {location})"),
+        );
+    }
+}
+
 /// Stores a calibration certificate whole in the store at `location`, saying so on standard
 /// error; `source` names where it came from (the readings).
 pub fn store_certificate(

@@ -67,6 +67,50 @@ pub fn recorded(id: FileId) -> Option<String> {
         .map(|(_, n)| n.clone())
 }
 
+/// Files the command keeps that no output may name, even before they exist (the results store
+/// and its SQLite companions): the absolute path (its directory resolved) and the name as given.
+static RESERVED: Mutex<Vec<(std::path::PathBuf, String)>> = Mutex::new(Vec::new());
+
+/// `path` with its directory resolved (symbolic links, `.`, `..`), if the directory exists.
+pub fn absolute(path: &Path) -> Option<std::path::PathBuf> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path.file_name()?;
+    std::fs::canonicalize(dir).ok().map(|d| d.join(name))
+}
+
+/// Reserves `path` (named by `what`, e.g. `--db results.sqlite`) for the command: no output may
+/// name it or its `-wal`, `-shm` and `-journal` companions, whether it exists yet or not (the
+/// command may create it). An existing file is also recorded as an input.
+pub fn reserve(path: &Path, what: &str) {
+    record(path);
+    let mut r = RESERVED.lock().unwrap_or_else(|e| e.into_inner());
+    for suffix in ["", "-wal", "-shm", "-journal"] {
+        let mut p = path.as_os_str().to_owned();
+        p.push(suffix);
+        let p = std::path::PathBuf::from(p);
+        record(&p);
+        if let Some(abs) = absolute(&p) {
+            r.push((abs, what.to_string()));
+        }
+    }
+}
+
+/// What reserved `path` (see [`reserve`]), if it is reserved.
+pub fn reserved(path: &Path) -> Option<String> {
+    let r = RESERVED.lock().unwrap_or_else(|e| e.into_inner());
+    if r.is_empty() {
+        return None;
+    }
+    let abs = absolute(path)?;
+    let id = FileId::of(path);
+    r.iter()
+        .find(|(p, _)| *p == abs || (id.is_some() && FileId::of(p) == id))
+        .map(|(_, w)| w.clone())
+}
+
 /// Reads a whole file, or standard input for `-`, as bytes, refusing one of more than `limit`
 /// bytes before reading it (a file by its size, a pipe after `limit` + 1 bytes), and records it
 /// as an input.
@@ -80,6 +124,14 @@ pub fn read_bytes(path: &Path, limit: usize) -> Result<Vec<u8>> {
         |what: String| anyhow!("{name}:1:1: {what}, more than the limit of {limit} bytes");
     let mut data = Vec::new();
     if path.as_os_str() == "-" {
+        // Standard input can be read once: `-` for two inputs would give the second nothing.
+        static STDIN_READ: std::sync::atomic::AtomicBool =
+            std::sync::atomic::AtomicBool::new(false);
+        if STDIN_READ.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            return Err(anyhow!(
+                "-: standard input is given for two inputs; it can be read only once: give the other input as a file"
+            ));
+        }
         std::io::stdin()
             .lock()
             .take(limit as u64 + 1)

@@ -19,7 +19,7 @@ use gonio_vision::Optics;
 use std::cell::RefCell;
 use std::collections::BTreeSet;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 /// What is recorded and where.
@@ -92,12 +92,24 @@ impl Recorder {
     /// # Errors
     /// The directory cannot be created.
     pub fn new(plan: Plan) -> Result<Recorder> {
+        // A directory made now is removed again if the run is interrupted before a part is in
+        // it (SIGINT, SIGTERM): nothing is left behind.
+        let mut first_missing = None;
+        let mut d = plan.dir.as_path();
+        while !d.as_os_str().is_empty() && !d.exists() {
+            first_missing = Some(d.to_path_buf());
+            d = d.parent().unwrap_or(Path::new(""));
+        }
         std::fs::create_dir_all(&plan.dir).with_context(|| {
             format!(
                 "--record {}: cannot create the directory",
                 plan.dir.display()
             )
         })?;
+        if let Some(d) = &first_missing {
+            gonio_cli::output::guard_created_dir(d);
+        }
+        gonio_cli::output::install_signal_cleanup();
         let next = plan.first_part;
         Ok(Recorder(Rc::new(RefCell::new(State {
             plan,
@@ -256,8 +268,12 @@ impl State {
                 .with_context(|| format!("replacing {}", dest.display()))?;
         }
         let tmp = p.tmp.keep();
-        std::fs::rename(&tmp, &dest)
-            .with_context(|| format!("moving the record into {}", dest.display()))?;
+        let moved = std::fs::rename(&tmp, &dest);
+        gonio_cli::output::release_dir(&tmp);
+        if moved.is_err() {
+            let _ = std::fs::remove_dir_all(&tmp);
+        }
+        moved.with_context(|| format!("moving the record into {}", dest.display()))?;
         self.written.push(dest);
         Ok(())
     }
@@ -283,6 +299,10 @@ impl Observer for Recorder {
             .tempdir_in(&s.plan.dir);
         match tmp {
             Ok(tmp) => {
+                gonio_cli::output::guard_temporary_dir(tmp.path());
+                if let Some(old) = s.part.take() {
+                    gonio_cli::output::release_dir(old.tmp.path());
+                }
                 s.part = Some(Part {
                     index,
                     serial: serial.to_string(),

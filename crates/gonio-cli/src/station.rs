@@ -16,6 +16,9 @@ use std::ops::ControlFlow;
 use std::path::Path;
 use std::rc::Rc;
 
+/// Most parts in one batch: one limit for `gonio mount --sim` and `gonio serve --station sim`.
+pub const MAX_PARTS: usize = 1_000_000;
+
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StrategyArg {

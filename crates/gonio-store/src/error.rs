@@ -14,6 +14,14 @@ pub enum StoreError {
         /// What went wrong.
         message: String,
     },
+    /// A store that should exist does not (a command that only reads never creates one).
+    #[error(
+        "no store at {location}: a command that only reads does not create one (check the path; gonio mount --db creates a store)"
+    )]
+    Missing {
+        /// The path.
+        location: String,
+    },
     /// A statement failed.
     #[error("database error during {during}: {message}")]
     Database {

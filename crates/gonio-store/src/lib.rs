@@ -120,6 +120,42 @@ pub trait Store: Send {
     /// As [`Store::parts`].
     fn part_summaries(&mut self, q: &PartQuery) -> Result<Vec<PartSummary>, StoreError>;
 
+    /// The ids of the parts matching `q` (its limit applied), ascending: a large store is
+    /// walked page by page with [`Store::for_each_page`] without holding it in memory.
+    ///
+    /// # Errors
+    /// As [`Store::parts`].
+    fn part_ids(&mut self, q: &PartQuery) -> Result<Vec<i64>, StoreError>;
+
+    /// The parts matching `q`, as [`Store::parts`], handed to `each` at most `page` at a time
+    /// (in id order): memory holds one page, not the store. `each` returning `false` stops.
+    ///
+    /// # Errors
+    /// As [`Store::parts`].
+    fn for_each_page(
+        &mut self,
+        q: &PartQuery,
+        page: usize,
+        each: &mut dyn FnMut(Vec<StoredPart>) -> bool,
+    ) -> Result<(), StoreError> {
+        let ids = self.part_ids(q)?;
+        for chunk in ids.chunks(page.max(1)) {
+            let (Some(&first), Some(&last)) = (chunk.first(), chunk.last()) else {
+                continue;
+            };
+            let parts = self.parts(&PartQuery {
+                after: Some(first - 1),
+                through: Some(last),
+                limit: None,
+                ..q.clone()
+            })?;
+            if !each(parts) {
+                break;
+            }
+        }
+        Ok(())
+    }
+
     /// One part by id.
     ///
     /// # Errors
@@ -162,14 +198,32 @@ pub fn is_postgres(location: &str) -> bool {
     location.starts_with("postgres://") || location.starts_with("postgresql://")
 }
 
-/// Opens a store: a `postgres://` URL, or a SQLite file path (created if missing). Applies the
-/// missing migrations.
+/// Opens a store: a `postgres://` URL, or a SQLite file path (created if missing; an existing
+/// path must be a regular file, not a device, FIFO or directory). Applies the missing
+/// migrations.
 ///
 /// # Errors
-/// [`StoreError::Open`] when the database cannot be opened or reached;
-/// [`StoreError::SchemaTooNew`]; [`StoreError::Database`] when a migration fails.
+/// [`StoreError::Open`] when the database cannot be opened or reached, or the path is not a
+/// regular file; [`StoreError::SchemaTooNew`]; [`StoreError::Database`] when a migration fails.
 pub fn open(location: &str) -> Result<Box<dyn Store>, StoreError> {
     open_with(location, migrate::MIGRATIONS)
+}
+
+/// As [`open`], but a SQLite file must already exist (a command that only reads never creates
+/// a store: a mistyped path is an error, not an empty store).
+///
+/// # Errors
+/// [`StoreError::Missing`] when the SQLite file does not exist; as [`open`].
+pub fn open_existing(location: &str) -> Result<Box<dyn Store>, StoreError> {
+    if !is_postgres(location) {
+        let path = std::path::Path::new(location);
+        if std::fs::metadata(path).is_err() {
+            return Err(StoreError::Missing {
+                location: location.to_string(),
+            });
+        }
+    }
+    open(location)
 }
 
 /// As [`open`] with a list of migrations of the caller's (tests of the migration runner).

@@ -261,6 +261,10 @@ pub struct PartQuery {
     pub batch: Option<i64>,
     /// Only the most recent this many (still in id order).
     pub limit: Option<usize>,
+    /// Only parts with a greater id (paging: the last id of the previous page).
+    pub after: Option<i64>,
+    /// Only parts with this id or a smaller one.
+    pub through: Option<i64>,
 }
 
 /// Counters over parts (the dashboard's).

@@ -152,6 +152,14 @@ fn part_filter(q: &PartQuery) -> Result<(String, Vec<Value>), StoreError> {
         p.push(b.into());
         cond.push(format!("batch_id = ${}", p.len()));
     }
+    if let Some(a) = q.after {
+        p.push(a.into());
+        cond.push(format!("id > ${}", p.len()));
+    }
+    if let Some(t) = q.through {
+        p.push(t.into());
+        cond.push(format!("id <= ${}", p.len()));
+    }
     let w = if cond.is_empty() {
         String::new()
     } else {
@@ -718,6 +726,17 @@ impl Store for SqlStore {
     fn part_summaries(&mut self, q: &PartQuery) -> Result<Vec<PartSummary>, StoreError> {
         let rows = self.query_parts(SUMMARY_COLS, q)?;
         rows.iter().map(|r| summary_row(r)).collect()
+    }
+
+    fn part_ids(&mut self, q: &PartQuery) -> Result<Vec<i64>, StoreError> {
+        let rows = self.query_parts("id", q)?;
+        rows.iter()
+            .map(|r| {
+                r.first()
+                    .and_then(Value::int)
+                    .ok_or_else(|| StoreError::db("part ids", "an id that is not an integer"))
+            })
+            .collect()
     }
 
     fn part(&mut self, id: i64) -> Result<Option<StoredPart>, StoreError> {

@@ -17,6 +17,12 @@ impl Sqlite {
             location: path.display().to_string(),
             message: e.to_string(),
         };
+        if let Some(kind) = not_a_store_file(path) {
+            return Err(StoreError::Open {
+                location: path.display().to_string(),
+                message: format!("is {kind}: a SQLite store is a regular file"),
+            });
+        }
         let conn = rusqlite::Connection::open(path).map_err(open_err)?;
         conn.busy_timeout(Duration::from_secs(30))
             .map_err(open_err)?;
@@ -35,6 +41,41 @@ impl Sqlite {
             .map_err(open_err)?;
         Ok(Sqlite { conn })
     }
+}
+
+/// What an existing `path` is when it is not a regular file (following symbolic links): SQLite
+/// would open a device (`/dev/null`) and leave its journal beside it. `None` for a regular file
+/// or a path that does not exist (yet). An empty path or an in-memory name is refused too.
+fn not_a_store_file(path: &Path) -> Option<&'static str> {
+    let s = path.as_os_str();
+    if s.is_empty() {
+        return Some("an empty path");
+    }
+    if s == ":memory:" || path.to_string_lossy().starts_with("file:") {
+        return Some("an in-memory or URI name, not a file");
+    }
+    let m = std::fs::metadata(path).ok()?;
+    let t = m.file_type();
+    if t.is_file() {
+        return None;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_block_device() || t.is_char_device() {
+            return Some("a device");
+        }
+        if t.is_fifo() {
+            return Some("a FIFO (named pipe)");
+        }
+        if t.is_socket() {
+            return Some("a socket");
+        }
+    }
+    if t.is_dir() {
+        return Some("a directory");
+    }
+    Some("not a regular file")
 }
 
 /// `$1` → `?1`: SQLite numbers `?NNN` parameters exactly as PostgreSQL numbers `$n`.

@@ -75,3 +75,97 @@ fn writers_on_several_connections_share_one_file() {
     }
     common::check_batches(&loc, 4, 10);
 }
+
+#[test]
+fn a_store_is_a_regular_file_and_reading_never_creates_one() {
+    let d = tempfile::tempdir().unwrap();
+    // Devices, directories and names that are no file are refused, and nothing is left beside
+    // them (SQLite would have put its journal next to /dev/null).
+    let dir = d.path().display().to_string();
+    let beside = ["/dev/null-journal", "/dev/null-wal"].map(|p| std::path::Path::new(p).exists());
+    for loc in ["/dev/null", dir.as_str(), "", ":memory:"] {
+        let e = gonio_store::open(loc).err().map(|e| e.to_string());
+        assert!(
+            e.as_deref()
+                .is_some_and(|e| e.contains("a SQLite store is a regular file")),
+            "{loc:?}: {e:?}"
+        );
+    }
+    assert_eq!(
+        ["/dev/null-journal", "/dev/null-wal"].map(|p| std::path::Path::new(p).exists()),
+        beside
+    );
+    // A mistyped path: open_existing names it and creates nothing.
+    let typo = d.path().join("typo.sqlite");
+    let t = typo.display().to_string();
+    match gonio_store::open_existing(&t) {
+        Err(gonio_store::StoreError::Missing { location }) => assert_eq!(location, t),
+        other => panic!("{:?}", other.err()),
+    }
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+    // An existing store opens.
+    drop(gonio_store::open(&t).unwrap());
+    assert!(gonio_store::open_existing(&t).is_ok());
+}
+
+#[test]
+fn a_store_is_read_page_by_page_as_it_is_read_whole() {
+    use gonio_store::PartQuery;
+    let d = tempfile::tempdir().unwrap();
+    let loc = d.path().join("r.sqlite").display().to_string();
+    let a = common::write_batch(&loc, "A", 23);
+    let b = common::write_batch(&loc, "B", 7);
+    let mut s = gonio_store::open(&loc).unwrap();
+    for q in [
+        PartQuery::default(),
+        PartQuery {
+            limit: Some(9),
+            ..PartQuery::default()
+        },
+        PartQuery {
+            station: Some("A".into()),
+            ..PartQuery::default()
+        },
+        PartQuery {
+            after: Some(a[4]),
+            through: Some(b[2]),
+            ..PartQuery::default()
+        },
+    ] {
+        let whole = s.parts(&q).unwrap();
+        for page in [1, 5, 64] {
+            let mut pages = Vec::new();
+            let mut biggest = 0;
+            s.for_each_page(&q, page, &mut |p| {
+                biggest = biggest.max(p.len());
+                pages.extend(p);
+                true
+            })
+            .unwrap();
+            // As JSON: NaN (undefined) fields compare equal there.
+            assert_eq!(
+                serde_json::to_string(&pages).unwrap(),
+                serde_json::to_string(&whole).unwrap(),
+                "{q:?}, pages of {page}"
+            );
+            assert!(biggest <= page);
+        }
+        let ids: Vec<i64> = whole.iter().map(|p| p.part).collect();
+        assert_eq!(s.part_ids(&q).unwrap(), ids);
+    }
+    // after / through are id bounds: (a[4], b[2]] holds a[5..] and b[..=2].
+    let q = PartQuery {
+        after: Some(a[4]),
+        through: Some(b[2]),
+        ..PartQuery::default()
+    };
+    assert_eq!(s.part_ids(&q).unwrap().len(), 23 - 5 + 3);
+    // Stopping early reads no further.
+    let mut seen = 0;
+    s.for_each_page(&PartQuery::default(), 4, &mut |p| {
+        seen += p.len();
+        false
+    })
+    .unwrap();
+    assert_eq!(seen, 4);
+}

@@ -60,7 +60,7 @@ pub mod simd;
 pub mod source;
 
 pub use error::VisionError;
-pub use optics::{MAX_SENSOR_PX, Optics, Params, Polarity};
+pub use optics::{MAX_RING_WIDTH_PX, MAX_SENSOR_PX, MAX_WINDOW_PIXELS, Optics, Params, Polarity};
 pub use pipeline::{Detector, StageImages};
 pub use result::{EdgeLine, FrameResult, InvalidReason};
 pub use source::{

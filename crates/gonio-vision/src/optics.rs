@@ -176,6 +176,14 @@ pub struct Params {
 /// (256 MiB at most; real sensors are smaller).
 pub const MAX_SENSOR_PX: u32 = 16384;
 
+/// Most pixels in the processing window (width × height): the detector keeps several planes of
+/// the window per frame (about 20 bytes a pixel), so this bounds a frame's memory to ≈ 330 MB
+/// (16 Mpx, e.g. 4096 × 4096; the station's window is 1440 × 540 = 0.8 Mpx).
+pub const MAX_WINDOW_PIXELS: u64 = 1 << 24;
+
+/// Widest ring once imaged, px: the morphology's structuring elements grow with it.
+pub const MAX_RING_WIDTH_PX: f64 = 512.0;
+
 fn bad(name: &'static str, found: impl ToString, expected: &str) -> VisionError {
     VisionError::Optics {
         name,
@@ -306,6 +314,17 @@ impl Optics {
                 return Err(bad(name, v, "at most 16384 px"));
             }
         }
+        let area = u64::from(self.window_width_px) * u64::from(self.window_height_px);
+        if area > MAX_WINDOW_PIXELS {
+            return Err(bad(
+                "window_width_px",
+                format!(
+                    "{} (× window_height_px {} = {area} px)",
+                    self.window_width_px, self.window_height_px
+                ),
+                &format!("a window of at most {MAX_WINDOW_PIXELS} pixels (e.g. 4096 × 4096)"),
+            ));
+        }
         for (name, v) in [
             ("min_edge_fraction", self.min_edge_fraction),
             ("max_saturated_fraction", self.max_saturated_fraction),
@@ -329,11 +348,11 @@ impl Optics {
         let width = self.window_width_px as usize;
         let height = self.window_height_px as usize;
         let d = (self.ring_width_um / um_per_px).round();
-        if !(2.0..=(width.min(height) as f64 / 4.0)).contains(&d) {
+        if !(2.0..=(width.min(height) as f64 / 4.0).min(MAX_RING_WIDTH_PX)).contains(&d) {
             return Err(bad(
                 "ring_width_um",
                 self.ring_width_um,
-                "a ring 2 px … a quarter of the window wide once imaged",
+                "a ring 2 px … a quarter of the window (and at most 512 px) wide once imaged",
             ));
         }
         let d = d as usize;
@@ -394,5 +413,40 @@ impl Optics {
             min_focus: self.min_focus,
             invert: self.polarity == Polarity::Bright,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_or_ring_that_needs_gigabytes_is_refused_before_any_frame() {
+        let big = Optics {
+            sensor_width_px: 16384,
+            sensor_height_px: 16384,
+            window_width_px: 16384,
+            window_height_px: 16384,
+            ..Optics::default()
+        };
+        let e = big.params().unwrap_err().to_string();
+        assert!(
+            e.contains("window_width_px") && e.contains("16777216"),
+            "{e}"
+        );
+        // The largest window allowed is accepted.
+        let ok = Optics {
+            window_width_px: 4096,
+            window_height_px: 4096,
+            ..big.clone()
+        };
+        assert!(ok.params().is_ok(), "{:?}", ok.params().err());
+        // A ring 1000 px wide once imaged, in a window that would hold it.
+        let wide = Optics {
+            ring_width_um: 1000.0 * ok.pixel_pitch_um / ok.magnification,
+            ..ok
+        };
+        let e = wide.params().unwrap_err().to_string();
+        assert!(e.contains("ring_width_um") && e.contains("512"), "{e}");
     }
 }

@@ -3,6 +3,8 @@
 use crate::live::Hub;
 use crate::{WebError, assets, pages};
 use axum::Router;
+use axum::body::{Body, Bytes};
+use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
@@ -49,7 +51,12 @@ impl Pool {
 pub(crate) struct AppState {
     pub(crate) pool: Arc<Pool>,
     pub(crate) hub: Arc<Hub>,
+    /// Arrays of parts streamed at once (each holds a store connection and a page).
+    pub(crate) streams: Arc<tokio::sync::Semaphore>,
 }
+
+/// Arrays of parts streamed at once; more requests wait their turn.
+const MAX_STREAMS: usize = 8;
 
 /// A JSON error response.
 pub(crate) fn error(status: StatusCode, message: impl std::fmt::Display) -> Response {
@@ -96,6 +103,10 @@ pub(crate) struct PartsParams {
     serial: Option<String>,
     batch: Option<i64>,
     limit: Option<usize>,
+    /// Only parts with a greater id (paging: the last id already read).
+    after: Option<i64>,
+    /// Only parts with this id or a smaller one.
+    through: Option<i64>,
     /// `summary`: table rows without turns and pushes.
     view: Option<String>,
 }
@@ -115,25 +126,111 @@ impl PartsParams {
             serial: self.serial.clone().filter(|s| !s.is_empty()),
             batch: self.batch,
             limit: self.limit,
+            after: self.after,
+            through: self.through,
             ..PartQuery::default()
         })
     }
 }
 
-async fn api_parts(State(st): State<AppState>, Query(p): Query<PartsParams>) -> Response {
+/// The query string's parameters, or a JSON 400 naming what is wrong with them.
+fn params(p: Result<Query<PartsParams>, QueryRejection>) -> Result<PartsParams, Box<Response>> {
+    p.map(|Query(p)| p).map_err(|e| {
+        Box::new(error(
+            StatusCode::BAD_REQUEST,
+            format!("query string: {}", e.body_text()),
+        ))
+    })
+}
+
+/// Parts a streamed array reads from the store at a time.
+const PAGE_PARTS: usize = 64;
+
+/// Streams a JSON array of the parts matching `q` (`fetch` reads one page: the matching parts
+/// with ids in a range), a page at a time: memory holds a page per request, never the store.
+/// The query is checked (and the ids listed) before the status is sent, so a bad filter is a
+/// JSON 400; a store error later ends the body early (the array is then not closed).
+async fn stream_array<T: serde::Serialize + 'static>(
+    st: &AppState,
+    q: PartQuery,
+    fetch: fn(&mut dyn Store, &PartQuery) -> Result<Vec<T>, StoreError>,
+) -> Response {
+    let Ok(permit) = st.streams.clone().acquire_owned().await else {
+        return error(StatusCode::SERVICE_UNAVAILABLE, "shutting down");
+    };
+    let ids = match blocking(&st.pool, {
+        let q = q.clone();
+        move |s| s.part_ids(&q)
+    })
+    .await
+    {
+        Ok(ids) => ids,
+        Err(r) => return r,
+    };
+    let (tx, rx) = tokio::sync::mpsc::channel::<Result<Bytes, std::io::Error>>(2);
+    let pool = st.pool.clone();
+    tokio::task::spawn_blocking(move || {
+        let _permit = permit;
+        if tx.blocking_send(Ok(Bytes::from_static(b"["))).is_err() {
+            return;
+        }
+        let mut first = true;
+        for chunk in ids.chunks(PAGE_PARTS) {
+            let (Some(&lo), Some(&hi)) = (chunk.first(), chunk.last()) else {
+                continue;
+            };
+            let page_q = PartQuery {
+                after: Some(lo - 1),
+                through: Some(hi),
+                limit: None,
+                ..q.clone()
+            };
+            let page = match pool.with(|s| fetch(s, &page_q)) {
+                Ok(p) => p,
+                Err(e) => {
+                    let _ = tx.blocking_send(Err(std::io::Error::other(e.to_string())));
+                    return;
+                }
+            };
+            let mut buf = Vec::new();
+            for item in &page {
+                if !first {
+                    buf.push(b',');
+                }
+                first = false;
+                if let Err(e) = serde_json::to_writer(&mut buf, item) {
+                    let _ = tx.blocking_send(Err(std::io::Error::other(e.to_string())));
+                    return;
+                }
+            }
+            if tx.blocking_send(Ok(Bytes::from(buf))).is_err() {
+                return; // the client went away
+            }
+        }
+        let _ = tx.blocking_send(Ok(Bytes::from_static(b"]")));
+    });
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        Body::from_stream(tokio_stream::wrappers::ReceiverStream::new(rx)),
+    )
+        .into_response()
+}
+
+async fn api_parts(
+    State(st): State<AppState>,
+    p: Result<Query<PartsParams>, QueryRejection>,
+) -> Response {
+    let p = match params(p) {
+        Ok(p) => p,
+        Err(r) => return *r,
+    };
     let q = match p.query() {
         Ok(q) => q,
         Err(r) => return *r,
     };
     match p.view.as_deref() {
-        None | Some("") | Some("full") => match blocking(&st.pool, move |s| s.parts(&q)).await {
-            Ok(v) => json_response(&v),
-            Err(r) => r,
-        },
-        Some("summary") => match blocking(&st.pool, move |s| s.part_summaries(&q)).await {
-            Ok(v) => json_response(&v),
-            Err(r) => r,
-        },
+        None | Some("") | Some("full") => stream_array(&st, q, |s, q| s.parts(q)).await,
+        Some("summary") => stream_array(&st, q, |s, q| s.part_summaries(q)).await,
         Some(other) => error(
             StatusCode::BAD_REQUEST,
             format!("view = {other:?}: expected full or summary"),
@@ -175,7 +272,14 @@ pub(crate) fn paper_figures() -> serde_json::Value {
     })
 }
 
-async fn api_stats(State(st): State<AppState>, Query(p): Query<PartsParams>) -> Response {
+async fn api_stats(
+    State(st): State<AppState>,
+    p: Result<Query<PartsParams>, QueryRejection>,
+) -> Response {
+    let p = match params(p) {
+        Ok(p) => p,
+        Err(r) => return *r,
+    };
     let q = match p.query() {
         Ok(q) => q,
         Err(r) => return *r,
@@ -239,6 +343,16 @@ async fn not_found() -> Response {
     error(StatusCode::NOT_FOUND, "no such page")
 }
 
+async fn method_not_allowed() -> Response {
+    let mut r = error(
+        StatusCode::METHOD_NOT_ALLOWED,
+        "the dashboard is read-only: only GET is served",
+    );
+    r.headers_mut()
+        .insert(header::ALLOW, header::HeaderValue::from_static("GET, HEAD"));
+    r
+}
+
 /// The dashboard's routes over the store at `store_location` (a SQLite path or a `postgres://`
 /// URL), with the live view fed by `hub`. Only `GET` routes: the dashboard changes nothing.
 ///
@@ -250,7 +364,11 @@ pub fn router(store_location: &str, hub: Arc<Hub>) -> Result<Router, WebError> {
         location: store_location.to_string(),
         idle: Mutex::new(vec![first]),
     });
-    let state = AppState { pool, hub };
+    let state = AppState {
+        pool,
+        hub,
+        streams: Arc::new(tokio::sync::Semaphore::new(MAX_STREAMS)),
+    };
     Ok(Router::new()
         .route("/", get(|| async { Html(assets::LIVE_HTML) }))
         .route("/history", get(|| async { Html(assets::HISTORY_HTML) }))
@@ -267,5 +385,6 @@ pub fn router(store_location: &str, hub: Arc<Hub>) -> Result<Router, WebError> {
         .route("/api/status", get(api_status))
         .route("/api/events", get(api_events))
         .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
         .with_state(state))
 }

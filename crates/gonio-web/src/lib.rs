@@ -5,13 +5,16 @@
 //!
 //! - `GET /` live view, `/history`, `/parts/{id}`, `/calibrations`, `/calibrations/{id}`;
 //! - `GET /api/parts` (the same array as `gonio parts --json`, with the same filters as query
-//!   parameters: `since`, `verdict`, `serial`, `batch`, `limit`; `view=summary` for table rows),
+//!   parameters: `since`, `verdict`, `serial`, `batch`, `limit`, and `after` / `through` (part
+//!   ids) for paging; `view=summary` for table rows), streamed a page of parts at a time (at
+//!   most 8 such arrays at once: a request holds a page in memory, never the store),
 //!   `/api/parts/{id}`, `/api/stats`, `/api/calibrations`, `/api/calibrations/{id}`,
 //!   `/api/live` (the live view's state), `/api/status` (the station's frame timing),
 //!   `/api/events` (server-sent events).
 //!
 //! Everything is read-only (only `GET`), and every asset is built into the binary: no CDN, no
-//! network. The station publishes through [`live::LiveObserver`]; the web layer never calls
+//! network. Errors are JSON (`{"error": "…"}`), bad query strings included. How connections
+//! are limited, hosts checked, and TLS and a bearer token served: [`server`]. The station publishes through [`live::LiveObserver`]; the web layer never calls
 //! the station.
 //!
 //! ```no_run
@@ -28,11 +31,13 @@ mod api;
 mod assets;
 pub mod live;
 mod pages;
+pub mod server;
 
 use std::sync::Arc;
 use thiserror::Error;
 
 pub use api::router;
+pub use server::{BearerToken, ServeOptions, Tls};
 
 /// An error of the dashboard.
 #[derive(Debug, Error)]
@@ -47,10 +52,22 @@ pub enum WebError {
         /// Why.
         message: String,
     },
+    /// A TLS certificate or key that cannot be used.
+    #[error("TLS: {message}")]
+    Tls {
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A bearer token that cannot be used.
+    #[error("token: {message}")]
+    Token {
+        /// What is wrong with it (never the token).
+        message: String,
+    },
 }
 
-/// Serves the dashboard on `listener` until Ctrl-C (or SIGTERM); `ready` is called with the
-/// bound address first.
+/// Serves the dashboard on `listener` with `options` (limits, names, TLS, token: see
+/// [`server`]) until Ctrl-C (or SIGTERM).
 ///
 /// # Errors
 /// [`WebError::Store`] when the store cannot be opened; [`WebError::Serve`].
@@ -58,14 +75,10 @@ pub async fn serve(
     listener: tokio::net::TcpListener,
     store_location: &str,
     hub: Arc<live::Hub>,
+    options: ServeOptions,
 ) -> Result<(), WebError> {
     let app = router(store_location, hub)?;
-    axum::serve(listener, app)
-        .with_graceful_shutdown(shutdown())
-        .await
-        .map_err(|e| WebError::Serve {
-            message: e.to_string(),
-        })
+    server::run(listener, app, options, shutdown()).await
 }
 
 /// As [`serve`] on a listener bound by the caller (`std`), on a runtime of its own: for a
@@ -77,6 +90,7 @@ pub fn serve_blocking(
     listener: std::net::TcpListener,
     store_location: &str,
     hub: Arc<live::Hub>,
+    options: ServeOptions,
 ) -> Result<(), WebError> {
     let serve_err = |e: std::io::Error| WebError::Serve {
         message: e.to_string(),
@@ -89,7 +103,7 @@ pub fn serve_blocking(
     rt.block_on(async move {
         listener.set_nonblocking(true).map_err(serve_err)?;
         let listener = tokio::net::TcpListener::from_std(listener).map_err(serve_err)?;
-        serve(listener, store_location, hub).await
+        serve(listener, store_location, hub, options).await
     })
 }
 

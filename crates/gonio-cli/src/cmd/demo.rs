@@ -41,7 +41,8 @@ const INSTRUMENT_SELFCAL: &str = include_str!("../../../../examples/instrument-s
    heads in one least squares: the polygon alone misses order 24, the joint estimate recovers it
    (and order 84, which the heads miss); only order 168 stays invisible.
 It then writes the certificates, the comparison, the batch and one HTML report with every plot
-into --out (gonio-demo/report.html by default) and prints the report's path.
+into --out (gonio-demo/report.html by default; a directory that holds files only with --force)
+and prints the report's path.
 
 Example:
   gonio demo --seed 3 --out demo3")]
@@ -55,6 +56,9 @@ pub struct Args {
     /// Directory for the report, the certificates, the comparison and the batch.
     #[arg(long, default_value = "gonio-demo")]
     pub out: PathBuf,
+    /// Write into --out even when it holds files (those of an earlier demo are replaced).
+    #[arg(long)]
+    pub force: bool,
 }
 
 struct Score {
@@ -95,6 +99,16 @@ fn score(cal: &Calibration, truth: &ShiftAngleTruth, keep: impl Fn(f64) -> bool)
 
 /// Runs `gonio demo`.
 pub fn run(args: Args) -> Result<()> {
+    // Before any work: a directory with files in it is only written into with --force.
+    if !args.force
+        && let Ok(mut d) = std::fs::read_dir(&args.out)
+        && d.next().is_some()
+    {
+        anyhow::bail!(
+            "--out {}: the directory is not empty: choose a new directory, or give --force to replace the demo's files in it",
+            args.out.display()
+        );
+    }
     say!(
         "gonio demo: the built-in simulated lab and station (seed {})",
         args.seed
@@ -224,8 +238,8 @@ fn write_report(
         c.clone().with_meta(m)
     };
     let mut out = Outputs::new();
-    // The demo's directory is its own: every run replaces the files it writes.
-    out.dir("--out", &args.out, true)?;
+    // A directory with files in it only with --force (checked before the work, again here).
+    out.dir("--out", &args.out, args.force)?;
     let certs: Vec<Certificate> = certs.iter().map(|c| with_meta(c)).collect();
     let names = ["shift-angle.json", "selfcal.json", "joint.json"];
     let mut inputs = Vec::new();

@@ -77,9 +77,9 @@ pub struct Args {
     /// The frame to dump (0-based).
     #[arg(long, default_value_t = 0, requires = "dump_stages")]
     pub frame: usize,
-    /// Worker threads detecting frames in parallel (default: all cores); the output stays in
-    /// frame order.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    /// Worker threads detecting frames in parallel (default: all cores; 1 to 256); the output
+    /// stays in frame order.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=256))]
     pub threads: Option<u16>,
     /// Also time the detector alone: its CPU time per frame (median, 99th percentile, maximum;
     /// reading the frames and writing the lines not counted) on standard error. The frames are

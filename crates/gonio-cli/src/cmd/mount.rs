@@ -134,8 +134,8 @@ pub struct Args {
     pub record_parts: Option<String>,
 }
 
-/// Most parts in one batch.
-const MAX_PARTS: usize = 1_000_000;
+/// Most parts in one batch (the one limit of `mount` and `serve --station`).
+use crate::station::MAX_PARTS;
 
 /// Runs `gonio mount`.
 pub fn run(a: Args) -> Result<()> {

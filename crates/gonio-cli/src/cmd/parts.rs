@@ -134,6 +134,9 @@ fn table(rows: &[PartSummary]) -> String {
     s
 }
 
+/// Parts read from the store at a time for `--json`.
+const PAGE_PARTS: usize = 64;
+
 /// Runs `gonio parts`.
 pub fn run(a: Args) -> Result<()> {
     let since = match &a.since {
@@ -148,15 +151,50 @@ pub fn run(a: Args) -> Result<()> {
         limit: a.limit,
         ..PartQuery::default()
     };
-    let mut store = db::open(&a.db)?;
+    let mut store = db::open_existing(&a.db)?;
     let location = gonio_store::display_location(&a.db);
     let err = |e: gonio_store::StoreError| anyhow!("{location}: {e}");
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("-"));
     let mut outs = Outputs::new();
     let id = outs.file("--out", &out)?;
     if a.json {
-        let parts = store.parts(&q).map_err(err)?;
-        outs.json(id, &parts)?;
+        // Streamed a page of parts at a time: memory holds a page, never the whole store. The
+        // bytes are those of the whole array written at once (pretty, two spaces).
+        let shown = out.display().to_string();
+        let mut failed: Option<anyhow::Error> = None;
+        let mut n = 0usize;
+        outs.write(id, b"[")?;
+        store
+            .for_each_page(&q, PAGE_PARTS, &mut |page| {
+                for p in &page {
+                    let r = gonio_cli::output::json::to_bytes(p)
+                        .map_err(|e| {
+                            anyhow!("{shown}: nothing was written: [{n}] (part {}): {e}", p.part)
+                        })
+                        .and_then(|b| {
+                            let mut text = Vec::with_capacity(b.len() + 64);
+                            text.extend_from_slice(if n == 0 { &b"\n"[..] } else { &b",\n"[..] });
+                            for line in b.trim_ascii_end().split(|&c| c == b'\n') {
+                                text.extend_from_slice(b"  ");
+                                text.extend_from_slice(line);
+                                text.push(b'\n');
+                            }
+                            text.pop();
+                            outs.write(id, &text)
+                        });
+                    if let Err(e) = r {
+                        failed = Some(e);
+                        return false;
+                    }
+                    n += 1;
+                }
+                true
+            })
+            .map_err(err)?;
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        outs.write(id, if n == 0 { &b"]\n"[..] } else { &b"\n]\n"[..] })?;
         outs.commit()
     } else if a.csv {
         let rows = store.part_summaries(&q).map_err(err)?;

@@ -14,7 +14,8 @@ use std::path::PathBuf;
 /// Arguments of `gonio selfcal`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
-Input (one rotation position a row, NS rows equally spaced over one turn, header required):
+Input (one rotation position a row, NS rows equally spaced over one turn, header required; at
+most 64 MiB):
   position_deg,head_2,…,head_M      head h minus head 1, arcsec (default)
   position_deg,head_1,…,head_M      raw head readings, degrees (--raw)
   an optional `turn` column (1, 2, …) holds repeated turns; u then comes from their spread.
@@ -86,6 +87,11 @@ fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
         .collect()
 }
 
+/// Largest readings file: 64 MiB (10 turns of 36,000 positions with 12 heads are ≈ 50 MB).
+/// Reading, parsing and solving keep about 8 bytes of memory per byte of it (≈ 0.5 GB at the
+/// limit); checked before anything is read.
+const MAX_READINGS_BYTES: usize = 64 << 20;
+
 /// Runs `gonio selfcal`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
@@ -103,7 +109,11 @@ pub fn run(args: Args) -> Result<()> {
         s => bail!("--noise-model {s:?}: expected readings or differences"),
     };
     let reference_heads = parse_reference(&args.reference, heads.len())?;
-    let table = CsvTable::read(&args.readings)?;
+    let table = {
+        let bytes = gonio_cli::input::read_bytes(&args.readings, MAX_READINGS_BYTES)?;
+        let name = args.readings.display().to_string();
+        CsvTable::parse(&name, &gonio_cli::input::decode(&name, &bytes)?)?
+    };
     let rt = read_turns(&table, &heads, args.raw)?;
     let opts = SelfcalOptions {
         method,

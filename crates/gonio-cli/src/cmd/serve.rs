@@ -35,7 +35,12 @@ JSON API:
   GET /api/stats, /api/calibrations, /api/calibrations/{id}, /api/live, /api/status
 
 The dashboard only reads: nothing in it changes the station or the store. It listens on
-127.0.0.1 (this machine only) unless --allow-remote is given with another address.
+127.0.0.1 (this machine only) over plain HTTP unless --allow-remote is given with another
+address; off loopback it is served only over TLS (--tls-cert, --tls-key) and every request must
+carry `Authorization: Bearer TOKEN` with the token of --token-file (401 without it): without
+all three it refuses to start. Every request's Host must name the address it came in on,
+`localhost` on loopback, or a --host-name (DNS rebinding); a client has 10 s to send a
+request's headers, and at most 256 connections are open at once.
 
 With --station sim, the simulated station mounts --parts parts (seed --seed) in step with the
 wall clock (--speed times real time), committing each part to --db as it finishes, exactly as
@@ -45,18 +50,35 @@ Examples:
   gonio serve --db results.sqlite
   gonio serve --db results.sqlite --station sim --parts 25 --seed 7
   gonio serve --db results.sqlite --station sim --parts 100 --seed 7 --speed 4 --addr 127.0.0.1:9000
-  gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8080 --allow-remote")]
+  gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8443 --allow-remote \\
+      --tls-cert station.crt --tls-key station.key --token-file dashboard.token --host-name station.lab
+  curl --cacert station.crt -H \"Authorization: Bearer $(cat dashboard.token)\" https://station.lab:8443/api/stats")]
 pub struct Args {
-    /// The results store: a SQLite file (created if missing) or a postgres:// URL.
+    /// The results store: a SQLite file (it must exist, unless --station runs and fills it)
+    /// or a postgres:// URL.
     #[arg(long, value_name = "PATH|postgres://…")]
     pub db: String,
     /// Address to listen on (port 0: any free port, printed at start).
     #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
     pub addr: String,
     /// Allow listening on an address other than loopback (the dashboard is then reachable
-    /// from the network, without authentication).
+    /// from the network; it needs --tls-cert, --tls-key and --token-file).
     #[arg(long)]
     pub allow_remote: bool,
+    /// Serve over TLS with this certificate chain (PEM, the server's certificate first).
+    #[arg(long, value_name = "PEM", requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// The private key of --tls-cert (PEM).
+    #[arg(long, value_name = "PEM", requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// Require `Authorization: Bearer TOKEN` on every request, TOKEN being this file's text
+    /// (at least 16 visible ASCII characters; a final newline is dropped).
+    #[arg(long, value_name = "FILE")]
+    pub token_file: Option<PathBuf>,
+    /// A host name the dashboard is reached by (besides its address, and `localhost` on
+    /// loopback); requests naming another host are refused (421). Repeatable.
+    #[arg(long, value_name = "NAME")]
+    pub host_name: Vec<String>,
     /// Run this station and show it live.
     #[arg(long, value_enum)]
     pub station: Option<StationArg>,
@@ -86,39 +108,103 @@ pub struct Args {
     pub resume: bool,
 }
 
-/// Binds `addr`: loopback, or another address only with `allow_remote` (and a warning).
-fn bind(addr: &str, allow_remote: bool) -> Result<TcpListener> {
+/// The address to listen on: loopback, or another address only with `allow_remote` and TLS
+/// and a token (`missing`: the flags of those that are missing, if any).
+fn address(addr: &str, allow_remote: bool, missing: &[&str]) -> Result<SocketAddr> {
     let sa: SocketAddr = addr.parse().with_context(|| {
         format!("--addr {addr}: expected HOST:PORT with an IP address, e.g. 127.0.0.1:8080")
     })?;
-    if !sa.ip().is_loopback() {
+    if !sa.ip().to_canonical().is_loopback() {
         if !allow_remote {
             bail!(
-                "--addr {addr}: not a loopback address; the dashboard has no authentication, so listening on the network needs --allow-remote"
+                "--addr {addr}: not a loopback address; listening on the network needs --allow-remote (with --tls-cert, --tls-key and --token-file)"
             );
         }
-        gonio_cli::note!(
-            "warning: listening on {sa}: the dashboard (read-only, no authentication) is reachable from the network"
+        if !missing.is_empty() {
+            bail!(
+                "--addr {addr} --allow-remote: off loopback the dashboard is served only over TLS with a bearer token; missing {}",
+                missing.join(", ")
+            );
+        }
+    }
+    Ok(sa)
+}
+
+/// The serving options of the flags: TLS and the token read from their files.
+fn serve_options(a: &Args) -> Result<gonio_web::ServeOptions> {
+    let mut o = gonio_web::ServeOptions::default();
+    if let (Some(c), Some(k)) = (&a.tls_cert, &a.tls_key) {
+        let read = |p: &PathBuf, flag: &str| {
+            std::fs::read(p).with_context(|| format!("{flag} {}", p.display()))
+        };
+        let (cert, key) = (read(c, "--tls-cert")?, read(k, "--tls-key")?);
+        o.tls =
+            Some(gonio_web::Tls::from_pem(&cert, &key).with_context(|| {
+                format!("--tls-cert {} --tls-key {}", c.display(), k.display())
+            })?);
+    }
+    if let Some(f) = &a.token_file {
+        let text =
+            std::fs::read_to_string(f).with_context(|| format!("--token-file {}", f.display()))?;
+        o.token = Some(
+            gonio_web::BearerToken::new(&text)
+                .with_context(|| format!("--token-file {}", f.display()))?,
         );
     }
-    TcpListener::bind(sa).with_context(|| format!("--addr {addr}: cannot listen"))
+    for n in &a.host_name {
+        if n.is_empty()
+            || n.parse::<std::net::IpAddr>().is_ok()
+            || !n
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'.')
+        {
+            bail!("--host-name {n:?}: expected a DNS name (letters, digits, - and .)");
+        }
+    }
+    o.host_names = a.host_name.clone();
+    Ok(o)
 }
+
+/// Slowest and fastest pace of the simulated station under the dashboard (simulated seconds
+/// per wall-clock second): slower would wait for ages between frames, faster is `mount --sim`.
+const MIN_SPEED: f64 = 1e-3;
+/// See [`MIN_SPEED`].
+const MAX_SPEED: f64 = 1e6;
 
 /// Runs `gonio serve`.
 pub fn run(a: Args) -> Result<()> {
-    if !(a.speed.is_finite() && a.speed > 0.0) {
-        bail!("--speed {}: expected a positive number", a.speed);
+    if !(MIN_SPEED..=MAX_SPEED).contains(&a.speed) {
+        bail!(
+            "--speed {}: expected {MIN_SPEED} to {MAX_SPEED} simulated seconds per second",
+            a.speed
+        );
     }
-    if a.parts == 0 {
-        bail!("--parts 0: expected at least 1");
+    if !(1..=station::MAX_PARTS).contains(&a.parts) {
+        bail!("--parts {}: expected 1 to {}", a.parts, station::MAX_PARTS);
     }
     let recipe = match &a.recipe {
         Some(p) => load_recipe(p)?,
         None => Recipe::default(),
     };
-    // Open (and migrate) the store before anything listens: a bad --db fails here.
-    drop(crate::db::open(&a.db)?);
-    let listener = bind(&a.addr, a.allow_remote)?;
+    let mut missing = Vec::new();
+    if a.tls_cert.is_none() {
+        missing.extend(["--tls-cert", "--tls-key"]);
+    }
+    if a.token_file.is_none() {
+        missing.push("--token-file");
+    }
+    let options = serve_options(&a)?;
+    let sa = address(&a.addr, a.allow_remote, &missing)?;
+    // Open (and migrate) the store before anything listens: a bad --db fails here. Without a
+    // station the dashboard only reads: it never creates a store.
+    drop(if a.station.is_some() {
+        crate::db::open(&a.db)?
+    } else {
+        crate::db::open_existing(&a.db)?
+    });
+    let addr = &a.addr;
+    let listener =
+        TcpListener::bind(sa).with_context(|| format!("--addr {addr}: cannot listen"))?;
     let bound = listener.local_addr()?;
     let hub = Hub::new(a.station.is_some());
     let station = match a.station {
@@ -144,14 +230,24 @@ pub fn run(a: Args) -> Result<()> {
         None => None,
     };
     gonio_cli::note!(
-        "gonio dashboard on http://{bound}/ (read-only{}); Ctrl-C stops",
+        "gonio dashboard on {}://{bound}/ (read-only{}{}); Ctrl-C stops",
+        if options.tls.is_some() {
+            "https"
+        } else {
+            "http"
+        },
+        if options.token.is_some() {
+            ", bearer token required"
+        } else {
+            ""
+        },
         if a.station.is_some() {
             ", simulated station running"
         } else {
             ""
         }
     );
-    let served = gonio_web::serve_blocking(listener, &a.db, hub);
+    let served = gonio_web::serve_blocking(listener, &a.db, hub, options);
     drop(station);
     served.map_err(|e| anyhow::anyhow!("dashboard: {e}"))
 }

@@ -117,6 +117,11 @@ pub fn decode_grey8(
     max_h: usize,
 ) -> Result<(usize, usize, Vec<u8>)> {
     use image::DynamicImage as D;
+    if tiff_has_pages_after_the_first(bytes) {
+        bail!(
+            "{name}: a TIFF of several pages: gonio reads one frame per file and would drop the others; split it into one file a page (e.g. `tiffsplit {name} page-`)"
+        );
+    }
     let reader = || -> Result<image::ImageReader<std::io::Cursor<&[u8]>>> {
         let mut r = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
@@ -148,6 +153,41 @@ pub fn decode_grey8(
         ),
     };
     Ok((w, h, data))
+}
+
+/// Whether `bytes` is a TIFF (classic or BigTIFF, either byte order) whose first image file
+/// directory links to another (a second page). Not a TIFF, or a truncated one: `false` (the
+/// decoder then says what is wrong).
+pub fn tiff_has_pages_after_the_first(bytes: &[u8]) -> bool {
+    let le = match bytes.get(..2) {
+        Some(b"II") => true,
+        Some(b"MM") => false,
+        _ => return false,
+    };
+    let uint = |at: usize, n: usize| -> Option<u64> {
+        let b = bytes.get(at..at.checked_add(n)?)?;
+        Some(if le {
+            b.iter().rev().fold(0u64, |a, &x| a << 8 | u64::from(x))
+        } else {
+            b.iter().fold(0u64, |a, &x| a << 8 | u64::from(x))
+        })
+    };
+    let next = match uint(2, 2) {
+        // Classic TIFF: 4-byte offsets, 2-byte entry count, 12-byte entries.
+        Some(42) => (|| {
+            let ifd = usize::try_from(uint(4, 4)?).ok()?;
+            let n = usize::try_from(uint(ifd, 2)?).ok()?;
+            uint(ifd.checked_add(2)?.checked_add(n.checked_mul(12)?)?, 4)
+        })(),
+        // BigTIFF: 8-byte offsets, 8-byte entry count, 20-byte entries.
+        Some(43) => (|| {
+            let ifd = usize::try_from(uint(8, 8)?).ok()?;
+            let n = usize::try_from(uint(ifd, 8)?).ok()?;
+            uint(ifd.checked_add(8)?.checked_add(n.checked_mul(20)?)?, 8)
+        })(),
+        _ => None,
+    };
+    next.is_some_and(|o| o != 0)
 }
 
 /// Reads one frame file (at most the optics' sensor size) and records it as an input.

@@ -235,6 +235,24 @@ pub fn locate(e: SelfcalError, table: &CsvTable, lines: &[Vec<u64>]) -> anyhow::
             .copied()
             .unwrap_or(table.header_line)
     };
+    // Turns of unequal length: say so (not a spacing "found 0°, expected 0°" at their first row).
+    let len = |t: usize| lines.get(t.wrapping_sub(1)).map_or(0, Vec::len);
+    if let SelfcalError::Spacing { turn, .. } = e
+        && turn > 1
+        && len(turn) != len(1)
+    {
+        return anyhow!(
+            "{}:{}: turn {turn} has {} rows, turn 1 has {}: every turn reads the same positions (one full turn in equal steps), so every turn needs as many rows",
+            table.name,
+            lines
+                .get(turn - 1)
+                .and_then(|l| l.first())
+                .copied()
+                .unwrap_or(table.header_line),
+            len(turn),
+            len(1)
+        );
+    }
     match e {
         SelfcalError::Spacing {
             turn,

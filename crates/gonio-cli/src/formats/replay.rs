@@ -113,12 +113,44 @@ pub fn read_part(dir: &Path) -> Result<PartFile> {
     Ok(f)
 }
 
+/// The file `name` of a part record in `dir`: a plain relative path that stays inside `dir`
+/// (no absolute path, no `..`, no symbolic link leading out), so a record never makes replay
+/// read a file elsewhere.
+///
+/// # Errors
+/// `name` leaves the record's directory, naming the field's value.
+pub fn inside(dir: &Path, name: &str) -> Result<PathBuf> {
+    use std::path::Component;
+    let rel = Path::new(name);
+    if name.is_empty()
+        || !rel
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        bail!(
+            "{}: file {name:?}: expected a file name inside the record's directory (no absolute path, no ..)",
+            dir.join("part.json").display()
+        );
+    }
+    let p = dir.join(rel);
+    if let (Ok(base), Ok(real)) = (std::fs::canonicalize(dir), std::fs::canonicalize(&p))
+        && !real.starts_with(&base)
+    {
+        bail!(
+            "{}: file {name:?} leads outside the record's directory (to {}): refused",
+            dir.join("part.json").display(),
+            real.display()
+        );
+    }
+    Ok(p)
+}
+
 /// Reads a turn's data file.
 ///
 /// # Errors
 /// A one-line error naming the file, line and column.
 pub fn read_turn(dir: &Path, t: &TurnFiles) -> Result<RecordedTurn> {
-    let p = dir.join(&t.data);
+    let p = inside(dir, &t.data)?;
     let text = read_text(&p)?;
     let r: RecordedTurn = serde_json::from_str(&text).map_err(|e| {
         json_error(
@@ -221,7 +253,7 @@ pub fn open_raw(
     t: &TurnFiles,
     rec: &RecordedTurn,
 ) -> Result<RecordedFrames<std::io::BufReader<std::fs::File>>> {
-    let p = dir.join(&t.raw);
+    let p = inside(dir, &t.raw)?;
     let f = std::fs::File::open(&p).with_context(|| format!("{}: cannot open", p.display()))?;
     let len = f.metadata().map(|m| m.len()).unwrap_or(0);
     let want = (t.frames * part.width * part.height) as u64;

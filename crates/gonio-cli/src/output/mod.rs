@@ -7,6 +7,8 @@
 //! - it is one of the command's inputs (same device and inode, whatever the name: `shift-angle
 //!   in.csv --json in.csv`, a hard link, `./in.csv`); checked again when the set is committed, for
 //!   inputs read later;
+//! - it is the command's results store (`--db X --json X`) or one of its SQLite companions,
+//!   whether the store exists yet or not ([`crate::input::reserve`]);
 //! - it is not a regular file: a directory, a device (`/dev/null`), a FIFO or a socket — writing
 //!   one whole by rename would replace the node itself. Write to standard output with `-` and
 //!   redirect it instead;
@@ -38,10 +40,71 @@ fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     PENDING.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Installs (once) the handler that removes pending temporary files on SIGINT, SIGTERM and SIGHUP
-/// and then exits with status 128 + the signal. A set being committed finishes its renames first
+/// A directory to clean up on SIGINT, SIGTERM and SIGHUP.
+#[derive(Debug, PartialEq, Eq)]
+enum Dir {
+    /// A temporary directory: removed with its content.
+    Temporary(PathBuf),
+    /// A directory the command created: removed if empty.
+    Created(PathBuf),
+}
+
+/// Directories not yet kept (removed on a signal, after the temporary files, innermost first).
+static PENDING_DIRS: Mutex<Vec<Dir>> = Mutex::new(Vec::new());
+
+fn pending_dirs() -> std::sync::MutexGuard<'static, Vec<Dir>> {
+    PENDING_DIRS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Registers the temporary directory `dir` (a part's record being written): if the process is
+/// interrupted (SIGINT, SIGTERM, SIGHUP) before [`release_dir`], it is removed with its content.
+pub fn guard_temporary_dir(dir: &Path) {
+    install_signal_cleanup();
+    pending_dirs().push(Dir::Temporary(dir.to_path_buf()));
+}
+
+/// Registers the directory `dir` that the command has just created: if the process is
+/// interrupted before [`release_dir`], it is removed if it is empty.
+pub fn guard_created_dir(dir: &Path) {
+    install_signal_cleanup();
+    pending_dirs().push(Dir::Created(dir.to_path_buf()));
+}
+
+/// The directory `dir` is kept (or already removed): a signal no longer removes it.
+pub fn release_dir(dir: &Path) {
+    pending_dirs().retain(|d| match d {
+        Dir::Temporary(p) | Dir::Created(p) => p != dir,
+    });
+}
+
+/// Removes what an interrupted command leaves: the temporary files, then the temporary
+/// directories and the empty created ones, the latest first. Holds the locks until the process
+/// exits (called by the signal thread only).
+fn clean_up_interrupted() {
+    let mut p = pending();
+    for f in p.drain(..) {
+        let _ = std::fs::remove_file(f);
+    }
+    let mut dirs = pending_dirs();
+    for d in dirs.drain(..).rev() {
+        match d {
+            Dir::Temporary(p) => {
+                let _ = std::fs::remove_dir_all(p);
+            }
+            Dir::Created(p) => {
+                let _ = std::fs::remove_dir(p);
+            }
+        }
+    }
+    // Locks held on purpose: nothing renames or creates after this.
+    std::mem::forget(dirs);
+    std::mem::forget(p);
+}
+
+/// Installs (once) the handler that removes pending temporary files and directories on SIGINT,
+/// SIGTERM and SIGHUP and then exits with status 128 + the signal. A set being committed finishes its renames first
 /// (the handler waits for the same lock), so a signal never leaves half a set in place.
-fn install_signal_cleanup() {
+pub fn install_signal_cleanup() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         #[cfg(unix)]
@@ -51,10 +114,7 @@ fn install_signal_cleanup() {
             {
                 std::thread::spawn(move || {
                     if let Some(sig) = signals.forever().next() {
-                        let mut p = pending();
-                        for f in p.drain(..) {
-                            let _ = std::fs::remove_file(f);
-                        }
+                        clean_up_interrupted();
                         std::process::exit(128 + sig);
                     }
                 });
@@ -188,6 +248,11 @@ fn parent_of(path: &Path) -> PathBuf {
 /// input of the command.
 fn check_destination(flag: &str, path: &Path) -> Result<Option<FileId>> {
     let shown = path.display();
+    if let Some(what) = crate::input::reserved(path) {
+        bail!(
+            "{flag} {shown}: is the command's {what}: writing it would destroy the store; choose another output file"
+        );
+    }
     let Ok(m) = std::fs::symlink_metadata(path) else {
         return Ok(None);
     };
@@ -346,6 +411,7 @@ impl Outputs {
                         os_message(&e)
                     )
                 })?;
+                guard_created_dir(&first_missing);
                 self.created.push(first_missing);
             }
         }
@@ -525,7 +591,9 @@ impl Outputs {
         }
         drop(p);
         self.items.clear();
-        self.created.clear();
+        for d in self.created.drain(..) {
+            release_dir(&d);
+        }
         Ok(())
     }
 }
@@ -545,6 +613,7 @@ impl Drop for Outputs {
         drop(p);
         for d in self.created.iter().rev() {
             let _ = std::fs::remove_dir(d);
+            release_dir(d);
         }
     }
 }

@@ -166,7 +166,7 @@ pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -
 }
 
 /// `GET path` on `host:port` over plain HTTP/1.1: (status, body). Reads the body by its
-/// `Content-Length`.
+/// `Content-Length`, or its chunks when it is streamed.
 pub fn http_get(addr: &str, path: &str) -> (u16, String) {
     let s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
     s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
@@ -184,21 +184,43 @@ pub fn http_get(addr: &str, path: &str) -> (u16, String) {
         .and_then(|c| c.parse().ok())
         .unwrap_or_else(|| panic!("GET {path}: {status_line:?}"));
     let mut length = 0usize;
+    let mut chunked = false;
     loop {
         let mut h = String::new();
         r.read_line(&mut h).unwrap();
         if h.trim().is_empty() {
             break;
         }
-        if let Some((k, v)) = h.split_once(':')
-            && k.eq_ignore_ascii_case("content-length")
-        {
-            length = v.trim().parse().unwrap();
+        if let Some((k, v)) = h.split_once(':') {
+            if k.eq_ignore_ascii_case("content-length") {
+                length = v.trim().parse().unwrap();
+            }
+            if k.eq_ignore_ascii_case("transfer-encoding") && v.trim() == "chunked" {
+                chunked = true;
+            }
         }
     }
-    let mut body = vec![0; length];
-    r.read_exact(&mut body)
-        .unwrap_or_else(|e| panic!("GET {path}: body of {length} bytes: {e}"));
+    let mut body = Vec::new();
+    if chunked {
+        // A streamed body (`/api/parts`): chunks of a hexadecimal size line, data, CRLF.
+        loop {
+            let mut size = String::new();
+            r.read_line(&mut size).unwrap();
+            let n = usize::from_str_radix(size.trim(), 16)
+                .unwrap_or_else(|_| panic!("GET {path}: chunk size {size:?}"));
+            let mut chunk = vec![0; n + 2];
+            r.read_exact(&mut chunk)
+                .unwrap_or_else(|e| panic!("GET {path}: chunk of {n} bytes: {e}"));
+            if n == 0 {
+                break;
+            }
+            body.extend_from_slice(&chunk[..n]);
+        }
+    } else {
+        body.resize(length, 0);
+        r.read_exact(&mut body)
+            .unwrap_or_else(|e| panic!("GET {path}: body of {length} bytes: {e}"));
+    }
     (status, String::from_utf8_lossy(&body).into_owned())
 }
 

@@ -251,6 +251,13 @@ fn validate(scene: &GratingScene) -> Result<(), SimError> {
         ("ring_gaps", sc.ring_gaps.len()),
         ("saturated_patches", sc.saturated_patches.len()),
         ("roundness", sc.roundness.len()),
+        (
+            "track_borders.count (lines in all groups)",
+            sc.track_borders
+                .iter()
+                .map(|b| b.count as usize)
+                .fold(0usize, usize::saturating_add),
+        ),
     ] {
         if n > MAX_FEATURES {
             return Err(SimError::parameter(
@@ -315,6 +322,63 @@ fn validate(scene: &GratingScene) -> Result<(), SimError> {
     Ok(())
 }
 
+/// Most pixel visits the scene's features may cost a frame, per pixel of the window: dust
+/// specks, scratches, saturated patches and track-border lines each visit the pixels they cover
+/// (at ≈ 1 ns a visit, 64 a pixel is ≈ 50 ms a frame of the station's 1440 × 540 window).
+pub const MAX_FEATURE_VISITS_PER_PIXEL: f64 = 64.0;
+
+/// Checks that the scene's features cost at most [`MAX_FEATURE_VISITS_PER_PIXEL`] pixel visits
+/// per window pixel and frame (an estimate from their counts and sizes, before any frame), so
+/// that a scene at the stated limits of its counts and sizes cannot take seconds a frame.
+fn check_cost(sc: &GratingScene, w: usize, h: usize) -> Result<(), SimError> {
+    let (wf, hf) = (w as f64, h as f64);
+    let area = wf * hf;
+    let speck = {
+        let r = sc.dust_radius_px[1].max(sc.dust_radius_px[0]);
+        let side = 2.0 * (2.2 * r + 4.0) + 1.0;
+        (side * side).min(area)
+    };
+    let dust = (sc.dust_per_frame as f64 + sc.dust_on_ring_per_frame as f64) * speck;
+    let scratches: f64 = sc
+        .scratches
+        .iter()
+        .map(|k| hf * (k.width_px + 8.0).min(wf))
+        .sum();
+    let patches: f64 = sc
+        .saturated_patches
+        .iter()
+        .map(|p| (std::f64::consts::PI * (p.radius_px + 4.0).powi(2)).min(area))
+        .sum();
+    let lines: f64 = sc
+        .track_borders
+        .iter()
+        .map(|b| f64::from(b.count) * hf * (b.width_px + 8.0).min(wf))
+        .sum();
+    let total = dust + scratches + patches + lines;
+    let budget = MAX_FEATURE_VISITS_PER_PIXEL * area;
+    if total > budget {
+        let (name, part) = [
+            ("dust_per_frame", dust),
+            ("scratches", scratches),
+            ("saturated_patches", patches),
+            ("track_borders", lines),
+        ]
+        .into_iter()
+        .fold(("", f64::MIN), |a, b| if b.1 > a.1 { b } else { a });
+        return Err(SimError::parameter(
+            name,
+            format!(
+                "{:.0} pixel visits a frame ({:.0} by all features)",
+                part, total
+            ),
+            &format!(
+                "features costing at most {MAX_FEATURE_VISITS_PER_PIXEL} pixel visits per window pixel ({budget:.0} for {w} × {h}): fewer or smaller dust specks, scratches, patches or lines"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// One concentric dark line or band: radius (µm), half width (µm), depth (grey).
 #[derive(Debug, Clone, Copy)]
 struct Circle {
@@ -333,6 +397,7 @@ impl GratingRenderer {
             .params()
             .map_err(|e| SimError::parameter("optics", e, "valid optics"))?;
         validate(&scene)?;
+        check_cost(&scene, p.width, p.height)?;
         let n = (2.0 * CDF_RANGE * CDF_STEPS) as usize + 2;
         let cdf = (0..n)
             .map(|i| norm_cdf(i as f64 / CDF_STEPS - CDF_RANGE) as f32)
@@ -357,6 +422,7 @@ impl GratingRenderer {
     /// [`SimError::Parameter`] for invalid scene values.
     pub fn with_scene(&self, scene: GratingScene) -> Result<Self, SimError> {
         validate(&scene)?;
+        check_cost(&scene, self.p.width, self.p.height)?;
         Ok(GratingRenderer {
             optics: self.optics.clone(),
             p: self.p.clone(),

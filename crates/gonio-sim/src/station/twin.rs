@@ -352,7 +352,10 @@ impl Twin {
             0.05 * p.focus_peak + p.focus_peak * (-0.5 * w * w).exp()
         } * (1.0 + 0.01 * Normal::new(0.0, 1.0).unwrap().sample(&mut self.rng));
         let sigma = p.noise_px * (1.0 + w * w).sqrt();
-        let noise = Normal::new(0.0, sigma).unwrap().sample(&mut self.rng);
+        // A defocus so far out that σ overflows: the frame is out of focus anyway (its reason
+        // below); its column gets no noise rather than an infinite one (and no panic).
+        let z: f64 = rand_distr::StandardNormal.sample(&mut self.rng);
+        let noise = if sigma.is_finite() { sigma * z } else { 0.0 };
         let reason = if x.ring_lost {
             Some(InvalidReason::NoRing)
         } else if w.abs() > 3.0 || self.faults.focus_dead {
