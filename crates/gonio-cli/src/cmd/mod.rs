@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod budget;
+pub mod camera;
 pub mod certificate;
 pub mod compare;
 pub mod demo;
