@@ -29,7 +29,8 @@ pub struct IdStep {
     /// The frame's slot: 0 for the first id, then one per frame of the camera (received or
     /// missing; a block id 0 skipped at the wrap takes none).
     pub slot: u64,
-    /// True when the id repeats the previous one (the frame is not counted).
+    /// True when the id repeats the previous one or is older than it (a frame delivered late,
+    /// after a newer one, already counted as missing): the frame is not counted again.
     pub repeated: bool,
 }
 
@@ -70,7 +71,8 @@ impl FrameIds {
             (wire, wire - last)
         } else {
             let diff = wire.wrapping_sub(last) & 0xffff;
-            if diff == 0 {
+            // Half the id space or more ahead is behind: a late frame.
+            if diff == 0 || diff >= 0x8000 {
                 return IdStep {
                     frame_id: last,
                     missing: 0,
@@ -138,6 +140,20 @@ mod tests {
         assert!(ids.next(3).repeated);
         let s = ids.next(4);
         assert_eq!((s.missing, s.slot, s.frame_id), (0, 9, 65_536 + 4));
+    }
+
+    #[test]
+    fn a_late_frame_is_not_a_wrap() {
+        let mut ids = FrameIds::new();
+        ids.next(65_460);
+        ids.next(65_462);
+        let s = ids.next(65_461);
+        assert!(s.repeated);
+        let s = ids.next(65_463);
+        assert_eq!((s.missing, s.slot), (0, 3));
+        // Across the wrap too.
+        ids.next(2);
+        assert!(ids.next(65_535).repeated);
     }
 
     #[test]

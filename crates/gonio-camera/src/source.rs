@@ -490,6 +490,7 @@ impl FrameSource for AravisSource {
             let ts = buffer.timestamp();
             let step = self.ids.next(wire);
             if step.repeated {
+                // Repeated, or late after a newer frame (already counted as missing).
                 self.stream.push_buffer(buffer);
                 continue;
             }

@@ -61,6 +61,9 @@ enum Command {
     Parts(cmd::parts::Args),
     /// The station's dashboard in the browser: live view, history, calibrations, JSON API.
     Serve(cmd::serve::Args),
+    /// GenICam cameras through Aravis (built with --features genicam).
+    #[command(subcommand)]
+    Camera(cmd::camera::Camera),
     /// Re-run a recorded part's detection and fit (gonio mount --record) and compare with its record.
     Replay(cmd::replay::Args),
 }
@@ -104,6 +107,7 @@ fn main() {
         Command::Parts(a) => cmd::parts::run(a),
         Command::Serve(a) => cmd::serve::run(a),
         Command::Replay(a) => cmd::replay::run(a),
+        Command::Camera(c) => cmd::camera::run(c),
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ", echoed input capped.

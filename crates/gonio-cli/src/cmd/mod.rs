@@ -2,6 +2,7 @@
 
 pub mod acquire;
 pub mod budget;
+pub mod camera;
 pub mod certificate;
 pub mod compare;
 pub mod demo;

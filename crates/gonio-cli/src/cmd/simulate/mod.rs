@@ -1,6 +1,7 @@
 //! `gonio simulate …`: the digital twin's instruments, writing readings and ground truth.
 
 pub mod autocollimator;
+pub mod camera;
 pub mod encoder;
 pub mod frames;
 pub mod selfcal;
@@ -20,6 +21,8 @@ pub enum Simulate {
     Encoder(encoder::Args),
     /// Rendered camera frames of a rotating, eccentric grating (PNG) with ground truth.
     Frames(frames::Args),
+    /// A GigE Vision camera showing a turning, eccentric grating (built with --features genicam).
+    Camera(camera::Args),
     /// Polygon + autocollimator readings at shifted start angles.
     ShiftAngle(shift_angle::Args),
     /// One encoder scale read by several heads over full turns (self-calibration readings).
@@ -36,6 +39,7 @@ pub fn run(s: Simulate) -> Result<()> {
     match s {
         Simulate::Encoder(a) => encoder::run(a),
         Simulate::Frames(a) => frames::run(a),
+        Simulate::Camera(a) => camera::run(a),
         Simulate::ShiftAngle(a) => shift_angle::run(a),
         Simulate::Selfcal(a) => selfcal::run(a),
         Simulate::Autocollimator(a) => autocollimator::run(a),

@@ -1,0 +1,254 @@
+//! `gonio simulate camera`: a GigE Vision camera (Aravis's fake camera, in-process) showing the
+//! renderer's frames of a turning, eccentric grating.
+
+use super::frames::SceneArg;
+use anyhow::{Result, bail};
+use std::path::PathBuf;
+
+/// Arguments of `gonio simulate camera`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Serves a GigE Vision camera (id Aravis-Fake-SERIAL, port 3956 of --addr) whose frames are the
+renderer's (as `gonio simulate frames` draws them) of a grating turning at --speed-deg-s with
+the given eccentricity. One turn is rendered before serving starts (360·fps/speed frames, which
+must be a whole number; the same seed gives the same bytes) and served over and over, so the
+camera keeps up at 100 frames/s on one core: serving a frame is one copy. The client's window
+(Width × Height) gets the rendered window (the optics', default 1440×540) from its top-left
+corner; set the client to the same window (`gonio detect --camera` does, from the same optics).
+Frames are served free running at --fps; the k-th frame served is rendered at
+θ = start + k·speed/fps. Ctrl-C (or --duration-s) stops, and the frames served, the fill time
+per frame and the CPU time per frame are printed on standard error.
+
+Needs a build with `--features genicam`. One GigE Vision camera per address: run it in its own
+network namespace to keep it apart from others (docs/camera.md).
+
+Examples:
+  gonio simulate camera --eccentricity-um 40 --seed 1
+  gonio simulate camera --serial LINE2 --scene dense --fps 100 --speed-deg-s 180 --duration-s 60
+  gonio detect --camera Aravis-Fake-GONIO01 --frames 200 --speed-deg-s 180 --fps 100")]
+pub struct Args {
+    /// The interface address to serve on (loopback only in tests).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub addr: String,
+    /// The camera's serial number (its id is Aravis-Fake-SERIAL).
+    #[arg(long, default_value = "GONIO01")]
+    pub serial: String,
+    /// The scene.
+    #[arg(long, value_enum, default_value = "realistic")]
+    pub scene: SceneArg,
+    /// Eccentricity of the grating on the shaft, µm.
+    #[arg(long, default_value_t = 100.0)]
+    pub eccentricity_um: f64,
+    /// Eccentricity angle in the grating's frame, degrees.
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
+    pub ecc_angle_deg: f64,
+    /// Table speed, degrees per second.
+    #[arg(long, default_value_t = 180.0)]
+    pub speed_deg_s: f64,
+    /// Frame rate, frames per second.
+    #[arg(long, default_value_t = 100.0)]
+    pub fps: f64,
+    /// θ of the first frame served, degrees.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub start_deg: f64,
+    /// Optics TOML (as for `gonio detect --optics`).
+    #[arg(long, value_name = "OPTICS.toml")]
+    pub optics: Option<PathBuf>,
+    /// Seed of the rendered turn's noise and dust.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Drop this fraction of the stream's packets (0 … 1), as a bad link would.
+    #[arg(long, default_value_t = 0.0)]
+    pub lost_ratio: f64,
+}
+
+/// Most bytes of one pre-rendered turn.
+const MAX_TURN_BYTES: f64 = 1.5e9;
+
+/// Runs `gonio simulate camera`.
+pub fn run(a: Args) -> Result<()> {
+    for (flag, v) in [
+        ("--eccentricity-um", a.eccentricity_um),
+        ("--ecc-angle-deg", a.ecc_angle_deg),
+        ("--start-deg", a.start_deg),
+    ] {
+        if !v.is_finite() || v.abs() > 1e6 {
+            bail!("{flag} {v}: expected a finite number of at most 1e6 in magnitude");
+        }
+    }
+    if !(a.fps.is_finite() && a.fps > 0.0 && a.fps <= 10_000.0) {
+        bail!("--fps {}: expected 0 < fps ≤ 10000", a.fps);
+    }
+    if !(a.speed_deg_s.is_finite() && a.speed_deg_s > 0.0) {
+        bail!("--speed-deg-s {}: expected a speed > 0", a.speed_deg_s);
+    }
+    let per_turn = 360.0 * a.fps / a.speed_deg_s;
+    if (per_turn - per_turn.round()).abs() > 1e-6 || per_turn.round() < 1.0 {
+        bail!(
+            "--fps {} --speed-deg-s {}: a turn must be a whole number of frames (360·fps/speed = {per_turn})",
+            a.fps,
+            a.speed_deg_s
+        );
+    }
+    if let Some(d) = a.duration_s
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration-s {d}: expected a duration > 0");
+    }
+    if !(0.0..=1.0).contains(&a.lost_ratio) {
+        bail!("--lost-ratio {}: expected 0 … 1", a.lost_ratio);
+    }
+    serve(a, per_turn.round() as u64)
+}
+
+#[cfg(not(feature = "genicam"))]
+fn serve(_: Args, _: u64) -> Result<()> {
+    Err(gonio_camera::CameraError::NotBuilt.into())
+}
+
+#[cfg(feature = "genicam")]
+fn serve(a: Args, per_turn: u64) -> Result<()> {
+    use gonio_camera::{FakeConfig, FakeGvCamera, FillInfo};
+    use gonio_cli::formats::frames::load_optics;
+    use gonio_sim::frames::{GratingScene, RenderedFrames, SceneChoice, ScenePreset, Turn};
+    use gonio_vision::FrameSource;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::{Arc, Mutex};
+    use std::time::{Duration, Instant};
+
+    let optics = load_optics(a.optics.as_deref())?;
+    let (w, h) = (
+        optics.window_width_px as usize,
+        optics.window_height_px as usize,
+    );
+    if per_turn as f64 * (w * h) as f64 > MAX_TURN_BYTES {
+        bail!(
+            "one turn is {per_turn} frames of {w}×{h}: more than {:.1} GB to pre-render; raise \
+             --speed-deg-s or lower --fps",
+            MAX_TURN_BYTES / 1e9
+        );
+    }
+    let choice = match a.scene {
+        SceneArg::Clean => SceneChoice::Scene(Box::new(GratingScene::preset(ScenePreset::Clean))),
+        SceneArg::Realistic => {
+            SceneChoice::Scene(Box::new(GratingScene::preset(ScenePreset::Realistic)))
+        }
+        SceneArg::Dense => SceneChoice::Scene(Box::new(GratingScene::preset(ScenePreset::Dense))),
+        SceneArg::Random => SceneChoice::Random(Box::default()),
+    };
+    let turn = Turn {
+        start_deg: a.start_deg,
+        speed_deg_s: a.speed_deg_s,
+        fps: a.fps,
+        eccentricity_um: a.eccentricity_um,
+        ecc_angle_deg: a.ecc_angle_deg,
+        ..Turn::default()
+    };
+    let t0 = Instant::now();
+    let mut src = RenderedFrames::new(&optics, choice, turn, per_turn, a.seed)?;
+    let mut frames = Vec::with_capacity(per_turn as usize);
+    let mut buf = Vec::new();
+    while let Some(_hdr) = src.next_frame(&mut buf)? {
+        frames.push(std::mem::take(&mut buf));
+    }
+    let rendered_s = t0.elapsed().as_secs_f64();
+    let frames = Arc::new(frames);
+    // Fill time per frame (thread CPU, s), kept for the summary.
+    let fill_s = Arc::new(Mutex::new(Vec::<f64>::new()));
+    let (turn_frames, fill_log) = (frames.clone(), fill_s.clone());
+    let fill = move |f: &FillInfo, px: &mut [u8]| {
+        let c0 = thread_cpu_s();
+        let frame = &turn_frames[(f.index % turn_frames.len() as u64) as usize];
+        let (cw, ch) = (f.width as usize, f.height as usize);
+        if cw == w && ch == h {
+            px[..w * h].copy_from_slice(frame);
+        } else {
+            // Another window: the rendered one from its top-left corner, mid-grey elsewhere.
+            px.fill(128);
+            for (y, row) in px.chunks_mut(cw).take(ch.min(h)).enumerate() {
+                let n = cw.min(w);
+                row[..n].copy_from_slice(&frame[y * w..y * w + n]);
+            }
+        }
+        if let Ok(mut l) = fill_log.lock()
+            && l.len() < 1_000_000
+        {
+            l.push(thread_cpu_s() - c0);
+        }
+    };
+    let config = FakeConfig {
+        address: a.addr.clone(),
+        serial: a.serial.clone(),
+        fps: a.fps,
+        sensor: (optics.sensor_width_px, optics.sensor_height_px),
+        lost_ratio: a.lost_ratio,
+    };
+    let cam = FakeGvCamera::start(&config, fill)?;
+    gonio_cli::note!(
+        "serving {} on {} port 3956: one turn of {per_turn} frames of {w}×{h} ({:?} scene, \
+         e = {} µm) rendered in {rendered_s:.1} s; {} frames/s at {} °/s; Ctrl-C stops",
+        cam.id(),
+        a.addr,
+        a.scene,
+        a.eccentricity_um,
+        a.fps,
+        a.speed_deg_s
+    );
+    let stop = Arc::new(AtomicBool::new(false));
+    #[cfg(unix)]
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, stop.clone())?;
+    }
+    let started = Instant::now();
+    let cpu0 = process_cpu_s();
+    let served0 = cam.frames_served();
+    while !stop.load(Ordering::Relaxed)
+        && a.duration_s
+            .is_none_or(|d| started.elapsed().as_secs_f64() < d)
+    {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let dt = started.elapsed().as_secs_f64();
+    let cpu = process_cpu_s() - cpu0;
+    let served = cam.frames_served() - served0;
+    drop(cam);
+    let mut fills = fill_s.lock().map(|l| l.clone()).unwrap_or_default();
+    fills.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        if fills.is_empty() {
+            0.0
+        } else {
+            fills[((p * fills.len() as f64).ceil() as usize).clamp(1, fills.len()) - 1] * 1e3
+        }
+    };
+    gonio_cli::note!(
+        "served {served} frames in {dt:.1} s ({:.1} frames/s); fill {:.3} ms median, {:.3} ms \
+         99th percentile; CPU of the whole process {:.3} ms per frame served",
+        served as f64 / dt.max(1e-9),
+        q(0.5),
+        q(0.99),
+        if served > 0 {
+            cpu * 1e3 / served as f64
+        } else {
+            0.0
+        }
+    );
+    Ok(())
+}
+
+/// The calling thread's CPU time, s.
+#[cfg(feature = "genicam")]
+fn thread_cpu_s() -> f64 {
+    let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
+
+/// The process's CPU time (every thread), s.
+#[cfg(feature = "genicam")]
+fn process_cpu_s() -> f64 {
+    let t = rustix::time::clock_gettime(rustix::time::ClockId::ProcessCPUTime);
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
