@@ -4,6 +4,11 @@
 //! frame's id and timestamp, to fill the frame's buffer (`Width` × `Height` bytes, Mono8, as the
 //! client set the window).
 //!
+//! The first frame after each `AcquisitionStart` goes out without its pixels (Aravis's fake
+//! camera sizes a frame's packets from the buffer's previous fill, and a fill callback can only
+//! set that size during its own fill): a client sees it as an incomplete frame. Every later
+//! frame is whole.
+//!
 //! One GigE Vision camera can listen on an address's port 3956 at a time: tests give each
 //! camera its own network namespace (`unshare -n`, `ip link set lo up`).
 //!
@@ -30,8 +35,9 @@ use std::sync::{Arc, Mutex};
 /// What a [`FrameFill`] is told about the frame it fills.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FillInfo {
-    /// The frame's id in the camera's counter (the GigE Vision block id on the wire is its low 16
-    /// bits; a client's [`FrameIds`](crate::FrameIds) counts it back on across the wrap).
+    /// The frame's GigE Vision block id as sent: 16 bits, 1 … 65 535, 0 skipped at the wrap (a
+    /// client's [`FrameIds`](crate::FrameIds) counts it on across the wrap; its low 16 bits are
+    /// this id).
     pub frame_id: u64,
     /// The frame's timestamp, ns (the camera's clock: the host's real-time clock for Aravis's
     /// fake camera), as the client will receive it.
@@ -155,6 +161,12 @@ impl FakeGvCamera {
                 "lost ratio {}: expected 0 … 1",
                 config.lost_ratio
             )));
+        }
+        if !ffi::custom_fill_supported() {
+            return Err(bad(
+                "this libaravis keeps its buffers in an unexpected layout: frames cannot be drawn"
+                    .into(),
+            ));
         }
         let gv = aravis::GvFakeCamera::new(Some(&config.address), Some(&config.serial));
         if !gv.is_running() {

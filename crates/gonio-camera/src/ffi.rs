@@ -91,6 +91,71 @@ pub(crate) struct RawFill {
 /// The closure behind a fake camera's fill pattern.
 pub(crate) type FillFn = dyn FnMut(&RawFill, &mut [u8]) + Send;
 
+/// Where libaravis keeps a buffer's `received_size` (the bytes the GigE Vision fake camera
+/// sends), as a byte offset into the buffer's private data; found once by [`probe_layout`].
+static RECEIVED_SIZE_OFFSET: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
+
+/// Byte offset of the private-data pointer in an `ArvBuffer` (`struct _ArvBuffer { GObject
+/// parent; ArvBufferPrivate *priv; }`): after the `GObject`.
+const PRIV_AT: usize = std::mem::size_of::<aravis::glib::gobject_ffi::GObject>();
+
+/// The private data of `buffer` and how far it lies before the instance, when it has the
+/// layout we rely on (GLib puts a type's private data right before its instance).
+///
+/// # Safety
+/// `buffer` is a live `ArvBuffer`.
+unsafe fn buffer_priv(buffer: *mut aravis_sys::ArvBuffer) -> Option<(*mut u8, usize)> {
+    // SAFETY: the instance is at least a GObject followed by one pointer (the caller's live
+    // buffer); the read is unaligned-safe.
+    let p =
+        unsafe { std::ptr::read_unaligned((buffer as *const u8).add(PRIV_AT) as *const *mut u8) };
+    let dist = (buffer as usize).checked_sub(p as usize)?;
+    (p as usize != 0 && (16..=512).contains(&dist)).then_some((p, dist))
+}
+
+/// Finds where a buffer's `received_size` lives: the GigE Vision fake camera sends only that many
+/// bytes of a frame, and the fill callback (which Aravis's own pattern uses to set it) has no
+/// public way to set it. A buffer is filled once by Aravis's own pattern for a 123 × 77 Mono8
+/// frame, and the one word of its private data that then holds 9471 is the field. `None` when
+/// the layout is not the expected one (then no custom fill is possible).
+fn probe_layout() -> Option<usize> {
+    *RECEIVED_SIZE_OFFSET.get_or_init(|| {
+        const W: u32 = 123;
+        const H: u32 = 77;
+        let fake = aravis::FakeCamera::new("PROBE");
+        fake.write_register(0x100, W); // Width
+        fake.write_register(0x104, H); // Height
+        let buffer = aravis::Buffer::new_allocate(20_000);
+        let raw: *mut aravis_sys::ArvBuffer = buffer.to_glib_none().0;
+        // SAFETY: `raw` is the live buffer held by `buffer`; we read only inside the span between
+        // its private data and its instance (one allocation, checked by `buffer_priv`).
+        unsafe {
+            let (p, dist) = buffer_priv(raw)?;
+            let words = |p: *mut u8| -> Vec<usize> {
+                (0..dist / 8)
+                    .map(|k| std::ptr::read_unaligned(p.add(8 * k) as *const usize))
+                    .collect()
+            };
+            // The first field is the allocated size: the layout is the one expected.
+            if words(p).first() != Some(&20_000) {
+                return None;
+            }
+            let before = words(p);
+            fake.fill_buffer(&buffer);
+            let after = words(p);
+            let hits: Vec<usize> = (0..after.len())
+                .filter(|&k| after[k] == (W * H) as usize && before[k] != after[k])
+                .collect();
+            (hits.len() == 1).then(|| 8 * hits[0])
+        }
+    })
+}
+
+/// True when a fill callback can set what the fake camera sends (see [`probe_layout`]).
+pub(crate) fn custom_fill_supported() -> bool {
+    probe_layout().is_some()
+}
+
 /// The C callback: calls the closure behind `data` on the buffer's bytes.
 unsafe extern "C" fn fill_trampoline(
     buffer: *mut aravis_sys::ArvBuffer,
@@ -106,20 +171,37 @@ unsafe extern "C" fn fill_trampoline(
     // fake camera's thread (the only caller, under Aravis's fill mutex) has been joined.
     let f = unsafe { &mut *(data as *mut Box<FillFn>) };
     // SAFETY: `buffer` is the live buffer Aravis is filling; the getters only read it.
-    let (frame_id, timestamp_ns, width, height, bytes) = unsafe {
-        let mut size = 0usize;
-        let p = aravis_sys::arv_buffer_get_data(buffer, &mut size);
+    let (frame_id, timestamp_ns, width, height, data) = unsafe {
         (
             aravis_sys::arv_buffer_get_frame_id(buffer),
             aravis_sys::arv_buffer_get_timestamp(buffer),
             aravis_sys::arv_buffer_get_image_width(buffer),
             aravis_sys::arv_buffer_get_image_height(buffer),
-            if p.is_null() {
-                &mut [][..]
-            } else {
-                std::slice::from_raw_parts_mut(p, size)
-            },
+            aravis_sys::arv_buffer_get_data(buffer, std::ptr::null_mut()),
         )
+    };
+    let n = width.max(0) as usize * height.max(0) as usize;
+    // The buffer's data reports the bytes received so far (none yet): the frame's extent is its
+    // Width × Height (Mono8), within the allocation, which is the private data's first word.
+    let bytes: &mut [u8] = match (probe_layout(), data.is_null()) {
+        (Some(off), false) => {
+            // SAFETY: the layout was checked by `probe_layout` on this library; `buffer` is live
+            // and its private data spans at least `off + 8` bytes before the instance
+            // (`buffer_priv`); `data` holds `allocated` bytes, of which we take at most that many;
+            // Aravis's fill thread (us) is the only one touching them now.
+            unsafe {
+                match buffer_priv(buffer) {
+                    Some((p, dist)) if off + 8 <= dist => {
+                        let allocated = std::ptr::read_unaligned(p as *const usize);
+                        let n = n.min(allocated);
+                        std::ptr::write_unaligned(p.add(off) as *mut usize, n);
+                        std::slice::from_raw_parts_mut(data, n)
+                    }
+                    _ => &mut [],
+                }
+            }
+        }
+        _ => &mut [],
     };
     let info = RawFill {
         frame_id,

@@ -37,6 +37,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+/// Most [`FrameMeta`] kept for [`AravisSource::take_meta`] (the oldest go first).
+const MAX_META: usize = 4096;
+
 /// A camera streaming into the detector (see the module docs).
 pub struct AravisSource {
     name: String,
@@ -59,6 +62,9 @@ pub struct AravisSource {
     ended: bool,
     stop: Option<Arc<AtomicBool>>,
     acquiring: bool,
+    /// The camera stopped answering: its objects are not torn down on drop (that would wait for
+    /// the control channel's retries).
+    gone: bool,
 }
 
 impl std::fmt::Debug for AravisSource {
@@ -125,6 +131,7 @@ impl AravisSource {
             ended: false,
             stop: None,
             acquiring: false,
+            gone: false,
         };
         let (x, y, w, h) = src
             .camera
@@ -366,7 +373,8 @@ impl AravisSource {
         s
     }
 
-    /// Takes the [`FrameMeta`] of the frame whose stamp has this index (its slot).
+    /// Takes the [`FrameMeta`] of the frame whose stamp has this index (its slot); the last 4096
+    /// frames' are kept.
     pub fn take_meta(&self, index: u64) -> Option<FrameMeta> {
         self.meta
             .lock()
@@ -415,6 +423,12 @@ impl AravisSource {
 impl Drop for AravisSource {
     fn drop(&mut self) {
         self.stop();
+        if self.gone {
+            // Tearing a lost camera's device down waits for its control channel to time out
+            // (seconds): leave the objects to the process's end instead (one lost camera each).
+            std::mem::forget(self.stream.clone());
+            std::mem::forget(self.camera.clone());
+        }
     }
 }
 
@@ -460,6 +474,7 @@ impl FrameSource for AravisSource {
                     // The camera is likely gone: no stop command (its heartbeat lapses instead),
                     // which would wait for the control channel's retries.
                     self.acquiring = false;
+                    self.gone = true;
                     return Err(CameraError::Timeout {
                         camera: self.name.clone(),
                         waited_ms: waited,
@@ -512,10 +527,14 @@ impl FrameSource for AravisSource {
             }
             self.copy_pixels(ffi::buffer_bytes(&buffer), pixels);
             self.stream.push_buffer(buffer);
-            self.meta
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .insert(step.slot, meta);
+            {
+                let mut m = self.meta.lock().unwrap_or_else(|e| e.into_inner());
+                m.insert(step.slot, meta);
+                // Nobody takes them (the station's camera): keep the last ones only.
+                while m.len() > MAX_META {
+                    m.pop_first();
+                }
+            }
             let start_s = a0 + (ts as f64 - t0 as f64) * 1e-9;
             return Ok(Some(FrameHeader {
                 width: self.window.width as usize,

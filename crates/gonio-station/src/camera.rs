@@ -3,6 +3,11 @@
 //! frame to a push: `FrameSource` → the optics' window → `Detector` → [`CameraFrame`] with a
 //! typed reason.
 //!
+//! A real GenICam camera is `DetectorCamera<gonio_camera::AravisSource>` (crate `gonio-camera`,
+//! feature `genicam`): its frames' `start_s` is the camera's timestamp mapped to the host's
+//! monotonic clock, `exposure_s` the camera's `ExposureTime`, incomplete frames are left out,
+//! and its errors map to [`DeviceErrorKind`] naming the camera (docs/camera.md).
+//!
 //! ```
 //! use gonio_station::camera::DetectorCamera;
 //! use gonio_station::hal::{Camera, DeviceError, DeviceErrorKind};
