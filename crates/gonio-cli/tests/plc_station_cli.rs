@@ -3,6 +3,7 @@
 //! `gonio mount --plc … --camera …`. Each test runs in its own network namespace
 //! (`unshare -n`, loopback up): a GigE camera listens on port 3956 and only one can per
 //! namespace. Needs the `genicam` feature.
+#![cfg_attr(not(feature = "genicam"), allow(unused_imports, dead_code))]
 
 mod common;
 
