@@ -425,6 +425,18 @@ impl<C: TriggeredCamera> Inner<C> {
                     kind: DeviceErrorKind::Timeout,
                 });
             };
+            if f.frame_id == 0 && pairing == Pairing::Latched {
+                // Not a trigger's frame (trigger counts start at 1): a frame the camera took
+                // before the trigger ran.
+                self.counts.stale += 1;
+                if t0.elapsed() > 4 * timeout {
+                    return Err(PlcError::Camera {
+                        message: "no triggered frame (only frames numbered 0)".into(),
+                        kind: DeviceErrorKind::Timeout,
+                    });
+                }
+                continue;
+            }
             let mid = f.timestamp_s.map(|t| t + half);
             let mut tries = 0;
             let (t_mid, theta) = loop {

@@ -568,10 +568,7 @@ mod plc_camera {
             let optics = Optics::default();
             let sim = id == "Aravis-Fake-GONIOSTATION";
             let config = CameraConfig {
-                window_size: (
-                    optics.window_width_px as u32,
-                    optics.window_height_px as u32,
-                ),
+                window_size: (optics.window_width_px, optics.window_height_px),
                 exposure_us: Some(recipe.measure.exposure_s * 1e6),
                 // The simulated camera is paced by its PLC's trigger itself.
                 trigger: if sim { Trigger::Free } else { Trigger::Line1 },

@@ -339,6 +339,8 @@ pub struct SimRenderer {
     renderer: gonio_sim::frames::GratingRenderer,
     /// Frames rendered.
     pub rendered: u64,
+    /// Triggers dropped because the renderer was behind.
+    pub dropped: u64,
 }
 
 impl std::fmt::Debug for SimRenderer {
@@ -363,6 +365,7 @@ impl SimRenderer {
             rx,
             renderer: gonio_sim::frames::GratingRenderer::new(&optics, scene)?,
             rendered: 0,
+            dropped: 0,
         })
     }
 
@@ -377,7 +380,15 @@ impl SimRenderer {
     pub fn fill(&mut self, width: usize, height: usize, pixels: &mut [u8]) {
         let x = loop {
             match self.rx.recv_timeout(Duration::from_millis(200)) {
-                Ok(x) => break Some(x),
+                Ok(mut x) => {
+                    // A renderer that cannot keep up serves the newest trigger (the others are
+                    // dropped, as a camera drops frames it cannot send).
+                    while let Ok(newer) = self.rx.try_recv() {
+                        x = newer;
+                        self.dropped += 1;
+                    }
+                    break Some(x);
+                }
                 Err(mpsc::RecvTimeoutError::Timeout) => continue,
                 Err(mpsc::RecvTimeoutError::Disconnected) => break None,
             }

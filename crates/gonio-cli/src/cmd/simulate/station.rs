@@ -140,6 +140,7 @@ mod camera {
             SceneArg::Realistic => ScenePreset::Realistic,
             SceneArg::Dense => ScenePreset::Dense,
         });
+        let mut warned = false;
         let mut r =
             gonio_plc::sim::SimRenderer::new(frames, scene).map_err(|e| anyhow!("--scene: {e}"))?;
         let config = gonio_camera::FakeConfig {
@@ -151,7 +152,16 @@ mod camera {
         let cam = gonio_camera::FakeGvCamera::start(
             &config,
             move |info: &gonio_camera::FillInfo, px: &mut [u8]| {
-                r.fill(info.width as usize, info.height as usize, px)
+                let (w, h) = (info.width as usize, info.height as usize);
+                if !warned && (w, h) != r.size() {
+                    warned = true;
+                    gonio_cli::note!(
+                        "camera: the client asks {w}×{h} px; the station renders {}×{} (frames left grey)",
+                        r.size().0,
+                        r.size().1
+                    );
+                }
+                r.fill(w, h, px)
             },
         )
         .map_err(|e| anyhow!("--camera-addr {addr}: {e}"))?;
