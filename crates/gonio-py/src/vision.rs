@@ -73,7 +73,7 @@ fn line_json(
 ///
 ///     import numpy as np
 ///     from PIL import Image
-///     frame = np.asarray(Image.open("frames/frame_0000.png").convert("L"))
+///     frame = np.asarray(Image.open("frames/frame_00000.png").convert("L"))
 ///     r = gonio.detect(frame)
 ///     print(r["valid"], r["c_px"], r["score"])
 #[pyfunction]
