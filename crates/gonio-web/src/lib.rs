@@ -28,6 +28,7 @@ mod api;
 mod assets;
 pub mod live;
 mod pages;
+mod state;
 
 use std::sync::Arc;
 use thiserror::Error;
