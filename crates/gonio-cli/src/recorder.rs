@@ -24,7 +24,7 @@ use std::rc::Rc;
 
 /// What is recorded and where.
 #[derive(Debug, Clone)]
-pub struct Plan {
+pub struct Recording {
     /// The record directory.
     pub dir: PathBuf,
     /// 1-based part numbers to record (`None`: every part).
@@ -54,7 +54,7 @@ struct Part {
 }
 
 struct State {
-    plan: Plan,
+    plan: Recording,
     next: usize,
     measuring: bool,
     part: Option<Part>,
@@ -91,7 +91,7 @@ impl Recorder {
     ///
     /// # Errors
     /// The directory cannot be created.
-    pub fn new(plan: Plan) -> Result<Recorder> {
+    pub fn new(plan: Recording) -> Result<Recorder> {
         // A directory made now is removed again if the run is interrupted before a part is in
         // it (SIGINT, SIGTERM): nothing is left behind.
         let mut first_missing = None;

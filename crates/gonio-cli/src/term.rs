@@ -25,10 +25,7 @@ fn handle(r: std::io::Result<()>) -> Result<()> {
             CLOSED.store(true, Ordering::Relaxed);
             Ok(())
         }
-        Err(e) => Err(anyhow!(
-            "cannot write standard output: {}",
-            crate::output::os_message(&e)
-        )),
+        Err(e) => Err(anyhow!("cannot write standard output: {}", os_message(&e))),
     }
 }
 
@@ -68,6 +65,15 @@ pub fn note(text: &str) {
     let mut e = std::io::stderr().lock();
     let _ = e.write_all(text.as_bytes());
     let _ = e.write_all(b"\n");
+}
+
+/// An operating-system error without the temporary file's name (`No space left on device (os
+/// error 28)`).
+pub fn os_message(e: &std::io::Error) -> String {
+    match e.raw_os_error() {
+        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
+        None => e.kind().to_string(),
+    }
 }
 
 /// `println!` through [`out`]: `say!("{x} frames")?`.

@@ -519,7 +519,7 @@ fn sigterm_mid_simulation_leaves_the_old_set_and_no_temp_file() {
 fn a_closed_pipe_ends_quietly_and_a_full_disk_is_an_error() {
     let budget = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../examples/budgets/seed-table3.toml"
+        "/../../examples/budgets/hsieh2022-shift-angle.toml"
     );
     let mut child = bin()
         .args(["budget", budget])

@@ -1,7 +1,7 @@
 //! Fourier series of a periodic angle error, in the amplitude–phase form the papers use.
 //!
-//! A term of order k is `A·sin(k·θ + φ)` (seed 000 writes its fit as `A·sin(2θ + B)`), which
-//! equals `a·cos kθ + b·sin kθ` with `a = A·sin φ` and `b = A·cos φ`.
+//! A term of order k is `A·sin(k·θ + φ)` (Hsieh et al., 2022 write their fit as `A·sin(2θ + B)`),
+//! which equals `a·cos kθ + b·sin kθ` with `a = A·sin φ` and `b = A·cos φ`.
 
 use crate::Radians;
 use serde::{Deserialize, Serialize};

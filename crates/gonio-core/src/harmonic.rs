@@ -10,8 +10,8 @@
 //! The free coefficients are found by linear least squares (QR of the design matrix, no normal
 //! equations); held coefficients are subtracted from `y` first. The covariance is
 //! `σ²·(XᵀX)⁻¹` with σ either given or estimated from the residuals, `σ̂² = RSS/(n − p)`.
-//! Written here rather than taken from a crate because the held-coefficient form (seed 000 §3.1
-//! keeps A and B fixed and refits only U) is not offered by the general solvers.
+//! Written here rather than taken from a crate because the held-coefficient form (Hsieh et al.,
+//! 2022, §3.1 keeps A and B fixed and refits only U) is not offered by the general solvers.
 //!
 //! ```
 //! use gonio_core::{HarmonicFitSpec, Harmonic, Radians};
@@ -343,7 +343,7 @@ mod tests {
 
     #[test]
     fn held_coefficients_refit_only_the_offset() {
-        // Seed 000 §3.1: keep A and B from S = 0, refit U at S = 5°.
+        // Hsieh et al., 2022, §3.1: keep A and B from S = 0, refit U at S = 5°.
         let h = Harmonic {
             order: 2,
             amplitude: 1.0314,

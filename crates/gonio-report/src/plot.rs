@@ -229,9 +229,19 @@ fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     id: &str,
     size: u32,
 ) -> Result<(), ReportError> {
+    legend_at(chart, id, size, SeriesLabelPosition::UpperRight)
+}
+
+/// The legend box of `chart` at `position`, its text `size` px, drawn.
+fn legend_at<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    id: &str,
+    size: u32,
+    position: SeriesLabelPosition,
+) -> Result<(), ReportError> {
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(position)
         .background_style(WHITE.mix(0.85))
         .border_style(GREY)
         .label_font(note(size, BLACK))
@@ -281,6 +291,49 @@ fn arcsec(v: f64) -> String {
     format!("{v:.4}″")
 }
 
+/// Where a legend of `labels` (text `TICK` px) goes above a curve over a whole turn so that it
+/// covers none of its points `(θ / °, top value)`: the upper corner (right, else left) that
+/// needs the least room above the curve, and the top of the y range `y1` raised to make that
+/// room when the data reach into the legend's corner (`y0 … y1`: the range of the data with
+/// its margin). A standard figure ([`SIZE`], [`FRAME`]); the legend's size is estimated from
+/// its lines and their longest label (plotters: 5 px from the corner, ≈ 21.5 px a line,
+/// ≈ 8.6 px a character of the tick font and 40 px for the marker and padding).
+fn legend_room(
+    points: &[(f64, f64)],
+    labels: &[String],
+    (y0, y1): (f64, f64),
+) -> (SeriesLabelPosition, f64) {
+    let plot_w = f64::from(SIZE.0 - FRAME.margin - FRAME.margin_right - FRAME.y_area);
+    let plot_h = f64::from(SIZE.1 - 2 * FRAME.margin - FRAME.x_area);
+    let chars = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0);
+    // The legend's extent from the plot's corner, with a gap of 6 px around it.
+    let width_px = 5.0 + 40.0 + 8.6 * chars as f64 + 6.0;
+    let height_px = 5.0 + 11.0 + 21.5 * labels.len() as f64 + 6.0;
+    let width_deg = 360.0 * width_px / plot_w;
+    let f = (height_px / plot_h).min(0.9);
+    // The top of the y range that puts the highest point under the legend's corner below it.
+    let need = |inside: &dyn Fn(f64) -> bool| {
+        let top = points
+            .iter()
+            .filter(|p| inside(p.0))
+            .map(|p| p.1)
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        if top.is_finite() {
+            y1.max((top - f * y0) / (1.0 - f))
+        } else {
+            y1
+        }
+    };
+    let right = need(&|x| x >= 360.0 - width_deg);
+    let left = need(&|x| x <= width_deg);
+    if left < right {
+        (SeriesLabelPosition::UpperLeft, left)
+    } else {
+        (SeriesLabelPosition::UpperRight, right)
+    }
+}
+
 /// α(θ) with the ±U band and the measured points coloured by shift.
 ///
 /// # Errors
@@ -303,6 +356,41 @@ pub fn alpha(cert: &Certificate) -> Result<Figure, ReportError> {
         .map(|s| s.shifts_deg.clone())
         .unwrap_or_default();
     let k = pts.iter().find_map(|p| p.k);
+    let band_label = match (k, cert.points.iter().find_map(|p| p.p)) {
+        (Some(k), Some(p)) => format!("±U (k = {k:.2}, p = {:.0} %)", p * 100.0),
+        _ => "±U".to_string(),
+    };
+    let show_shifts = !shifts.is_empty() && pts.len() <= 4000;
+    let many = shifts.len() > PALETTE.len();
+    let shift_label = |si: usize| {
+        if !many || si == 0 {
+            Some(format!("measured, S = {}°", shifts[si]))
+        } else if si == 1 {
+            Some(format!(
+                "measured, S = {}° … {}°",
+                shifts[1],
+                shifts[shifts.len() - 1]
+            ))
+        } else {
+            None
+        }
+    };
+    // The legend's lines, and room for it above the curve.
+    let mut labels: Vec<String> = has_u.then(|| band_label.clone()).into_iter().collect();
+    labels.push("α(θ)".into());
+    if show_shifts {
+        labels.extend((0..shifts.len()).filter_map(shift_label));
+    }
+    let tops: Vec<(f64, f64)> = pts
+        .iter()
+        .map(|p| {
+            (
+                p.angle_deg,
+                p.value_arcsec + p.expanded_arcsec.unwrap_or(0.0),
+            )
+        })
+        .collect();
+    let (corner, y1) = legend_room(&tops, &labels, (y0, y1));
     let svg = render("alpha", SIZE, |root| {
         let mut chart = cartesian(root, "alpha", FRAME, None, 0f64..360f64, y0..y1)?;
         turn_mesh(
@@ -325,14 +413,10 @@ pub fn alpha(cert: &Certificate) -> Result<Figure, ReportError> {
                 .filter_map(|p| p.expanded_arcsec.map(|u| (p.angle_deg, p.value_arcsec - u)))
                 .collect();
             band.extend(lower);
-            let label = match (k, cert.points.iter().find_map(|p| p.p)) {
-                (Some(k), Some(p)) => format!("±U (k = {k:.2}, p = {:.0} %)", p * 100.0),
-                _ => "±U".to_string(),
-            };
             chart
                 .draw_series(std::iter::once(Polygon::new(band, SKY.mix(0.35).filled())))
                 .map_err(err("alpha"))?
-                .label(label)
+                .label(band_label.clone())
                 .legend(|(x, y)| {
                     Rectangle::new([(x, y - 6), (x + 18, y + 6)], SKY.mix(0.35).filled())
                 });
@@ -346,8 +430,7 @@ pub fn alpha(cert: &Certificate) -> Result<Figure, ReportError> {
             .map_err(err("alpha"))?
             .label("α(θ)")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLUE.stroke_width(2)));
-        if !shifts.is_empty() && pts.len() <= 4000 {
-            let many = shifts.len() > PALETTE.len();
+        if show_shifts {
             for (si, s) in shifts.iter().enumerate() {
                 let color = if many {
                     if si == 0 { BLACK } else { VERMILION }
@@ -361,25 +444,14 @@ pub fn alpha(cert: &Certificate) -> Result<Figure, ReportError> {
                             .map(|p| Circle::new((p.angle_deg, p.value_arcsec), 3, color.filled())),
                     )
                     .map_err(err("alpha"))?;
-                let label = if !many || si == 0 {
-                    Some(format!("measured, S = {s}°"))
-                } else if si == 1 {
-                    Some(format!(
-                        "measured, S = {}° … {}°",
-                        shifts[1],
-                        shifts[shifts.len() - 1]
-                    ))
-                } else {
-                    None
-                };
-                if let Some(l) = label {
+                if let Some(l) = shift_label(si) {
                     series
                         .label(l)
                         .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
                 }
             }
         }
-        legend(&mut chart, "alpha", TICK)?;
+        legend_at(&mut chart, "alpha", TICK, corner)?;
         Ok(())
     })?;
     let caption = if has_u {
@@ -1355,6 +1427,45 @@ mod tests {
         let min = keep.iter().map(|&i| v[i]).fold(f64::MAX, f64::min);
         assert!(max > 0.9999 && min < -0.9999);
         assert!(keep.windows(2).all(|w| w[0] < w[1]));
+    }
+
+    #[test]
+    fn the_alpha_legend_sits_above_the_curve() {
+        let labels: Vec<String> = ["±U (k = 1.98, p = 95 %)", "α(θ)", "measured, S = 0°"]
+            .map(String::from)
+            .into();
+        let plot_h = f64::from(SIZE.1 - 2 * FRAME.margin - FRAME.x_area);
+        let legend_px = 5.0 + 11.0 + 21.5 * labels.len() as f64;
+        // The demo's shape: a peak at 110°, a trough at 200°, a second peak at 290°.
+        let curve =
+            |t: f64| 1.5 * (t - 20.0).to_radians().sin() + 0.5 * (2.0 * t).to_radians().sin();
+        let pts: Vec<(f64, f64)> = (0..360)
+            .map(|i| (f64::from(i), curve(f64::from(i))))
+            .collect();
+        let (y0, y1) = range(pts.iter().map(|p| p.1), 0.08);
+        let (corner, top) = legend_room(&pts, &labels, (y0, y1));
+        assert!(top >= y1);
+        // Every point under the legend's corner is below its bottom edge.
+        let right = matches!(corner, SeriesLabelPosition::UpperRight);
+        let under = |x: f64| if right { x >= 250.0 } else { x <= 110.0 };
+        for &(x, v) in pts.iter().filter(|p| under(p.0)) {
+            let below_px = (top - v) / (top - y0) * plot_h;
+            assert!(
+                below_px >= legend_px,
+                "θ {x}: {below_px:.1} px below the top, legend {legend_px} px"
+            );
+        }
+        // With nothing in the upper corners the range stays as it was.
+        let low: Vec<(f64, f64)> = (0..360)
+            .map(|i| {
+                (
+                    f64::from(i),
+                    if (140..220).contains(&i) { 1.0 } else { -1.0 },
+                )
+            })
+            .collect();
+        let (y0, y1) = range(low.iter().map(|p| p.1), 0.08);
+        assert_eq!(legend_room(&low, &labels, (y0, y1)).1, y1);
     }
 
     #[test]

@@ -60,7 +60,7 @@ impl From<HarmonicArcsec> for Harmonic {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Graduation {
-    /// Number of graduation lines on the circle (36 000 in seed 000: a 36″ pitch).
+    /// Number of graduation lines on the circle (36 000 in Hsieh et al., 2022: a 36″ pitch).
     pub lines: u32,
     /// Standard deviation of one line's position error, arcseconds (0 for none).
     pub sigma_arcsec: f64,
@@ -87,9 +87,9 @@ pub struct EncoderModel {
 }
 
 impl EncoderModel {
-    /// The default harmonics: a low-order error like seed 000's encoder (its fitted 2nd harmonic,
-    /// A = 1.0314″, B = −2.4233 rad), a few higher orders, and small terms at orders 24 and 84 that
-    /// a 24-face polygon and the SelfA heads respectively cannot see.
+    /// The default harmonics: a low-order error like the encoder of Hsieh et al., 2022 (its fitted
+    /// 2nd harmonic, A = 1.0314″, B = −2.4233 rad), a few higher orders, and small terms at orders
+    /// 24 and 84 that a 24-face polygon and the SelfA heads respectively cannot see.
     pub fn default_harmonics() -> Vec<HarmonicArcsec> {
         let h = |order, amplitude_arcsec, phase_rad| HarmonicArcsec {
             order,

@@ -4,10 +4,10 @@
 //! - [`encoder`]: an encoder's angle error (harmonics + random graduation error with circle
 //!   closure), saved to and loaded from a JSON model file so every simulator calibrates the
 //!   same encoder.
-//! - [`selfcal`]: one scale read by several heads over full turns (seed 000 §2.3).
+//! - [`selfcal`]: one scale read by several heads over full turns (Hsieh et al., 2022, §2.3).
 //! - [`joint`]: one encoder on both rigs, for the joint calibration.
 //! - [`shift_angle`]: a polygon on the encoder's table read by an autocollimator at shifted start
-//!   angles (seed 000 §2.2).
+//!   angles (Hsieh et al., 2022, §2.2).
 //!
 //! Every simulation takes a seed; the same seed gives the same numbers, bit for bit
 //! (ChaCha8 streams, no global state).

@@ -1,4 +1,4 @@
-//! End to end, like seed 000 §3.2 (Fig. 11–12): one simulated encoder calibrated by the
+//! End to end, like Hsieh et al., 2022, §3.2 (Fig. 11–12): one simulated encoder calibrated by the
 //! shift-angle method (24 faces, S = 0°…14°) and by SelfA self-calibration, compared at the
 //! common 1° angles.
 //!
@@ -152,8 +152,8 @@ fn seed_protocol_differences_follow_the_row_noise() {
 }
 
 /// The seed's protocol as the seed ran it: the full matrix at S = 0°, one row at each other
-/// shift, and every result "the average of six measurement results" (seed 000 §3.3). α at S ≠ 0
-/// then carries u ≈ 0.05″·√(N²−1)/N/√6 ≈ 0.02″, and the comparison holds like the seed's
+/// shift, and every result "the average of six measurement results" (Hsieh et al., 2022, §3.3). α
+/// at S ≠ 0 then carries u ≈ 0.05″·√(N²−1)/N/√6 ≈ 0.02″, and the comparison holds like the seed's
 /// (Fig. 12: within ±0.1″; En ≤ 1 with the shift-angle U including its instrument terms).
 #[test]
 fn seed_protocol_with_six_repeats_agrees_within_a_tenth() {

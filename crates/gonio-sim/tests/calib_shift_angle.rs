@@ -200,7 +200,7 @@ fn monte_carlo_least_squares_gain_and_honest_uncertainty() {
 
 #[test]
 fn harmonic_check_recovers_planted_a_b_u() {
-    // Seed 000 §3.1: α = A·sin(2θ + B) with A = 1.0314″, B = −2.4233; U planted per run.
+    // Hsieh et al., 2022, §3.1: α = A·sin(2θ + B) with A = 1.0314″, B = −2.4233; U planted per run.
     let enc = EncoderModel::harmonics_only(vec![HarmonicArcsec {
         order: 2,
         amplitude_arcsec: 1.0314,

@@ -29,7 +29,7 @@ fn batch(strategy: Strategy, seed: u64) -> BatchReport {
 
 #[test]
 fn paper_strategy_reproduces_the_seed_within_20_percent() {
-    // Seed 004 §5.2, 25 real parts: 2.1 pushes, 25.1 s.
+    // Yu et al., 2024, §5.2, 25 real parts: 2.1 pushes, 25.1 s.
     for s in SEEDS {
         let b = batch(Strategy::Paper, s).summary;
         assert!(

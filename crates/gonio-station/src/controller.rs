@@ -1,4 +1,4 @@
-//! The mounting sequence (seed 004 §2, Yu et al., 2024): autofocus → measure → align → approach →
+//! The mounting sequence (Yu et al., 2024, §2): autofocus → measure → align → approach →
 //! push → verify → repeat or reject, generic over the hardware traits of [`crate::hal`], with the
 //! push strategies of [`crate::strategy`] and the quality gate of [`crate::quality`] on every turn.
 //!

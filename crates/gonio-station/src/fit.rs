@@ -14,7 +14,7 @@
 //!   [`FitOptions::outlier_sigma`] robust standard deviations are reported and dropped. The model is
 //!   linear, so no non-linear solver is needed.
 //! - [`FitMethod::Paper`] (Yu et al., 2024, §3, Eq. 1–2): natural cubic splines through the points
-//! around   the largest and the smallest `c`; their extrema give `P_max`, `P_min`;
+//!   around the largest and the smallest `c`; their extrema give `P_max`, `P_min`;
 //!   `e = (c_max − c_min)/2`, `θ_max` at `P_max`.
 //!
 //! Both work on partial turns and with dropped frames (only the angles of the samples matter).

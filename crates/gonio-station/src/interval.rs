@@ -1,4 +1,5 @@
-//! Angle stamping from the servo's angle log and the frame-interval error (seed 004 Eq. 3–5).
+//! Angle stamping from the servo's angle log and the frame-interval error (Yu et al., 2024, Eq.
+//! 3–5).
 //!
 //! The servo's angle is logged every millisecond. A frame integrates the ring over its exposure,
 //! so its angle is the servo angle at mid-exposure, interpolated linearly between the two log
@@ -165,7 +166,7 @@ mod tests {
 
     #[test]
     fn epsilon_matches_the_seed() {
-        // Seed 004 §3: e = 500 µm, 180°/s, 100 fps → ε ≈ 0.25 µm.
+        // Yu et al., 2024, §3: e = 500 µm, 180°/s, 100 fps → ε ≈ 0.25 µm.
         let eps = frame_interval_error_um(500.0, 180.0, 100.0);
         assert!((eps - 0.25).abs() < 0.005, "{eps}");
     }

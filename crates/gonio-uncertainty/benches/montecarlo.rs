@@ -104,10 +104,10 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
 
     let text = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../examples/budgets/seed-table3.toml"),
+            .join("../../examples/budgets/hsieh2022-shift-angle.toml"),
     )
     .unwrap();
-    c.bench_function("seed_table3_parse_and_evaluate", |b| {
+    c.bench_function("hsieh2022_table3_parse_and_evaluate", |b| {
         b.iter(|| {
             parse_budget_file(black_box(&text))
                 .unwrap()

@@ -239,7 +239,7 @@ impl InstrumentFile {
 /// use gonio_uncertainty::{Contribution, instrument::combine_with_instrument};
 /// let inst = [Contribution::direct("encoder resolution", 0.0101).with_dof(50.0)];
 /// let r = combine_with_instrument(0.01 / 6f64.sqrt(), 5.0, &inst, 0.95).unwrap();
-/// assert_eq!(r.nu_eff, 53.0); // seed 000's self-calibration budget
+/// assert_eq!(r.nu_eff, 53.0); // Hsieh et al. (2022)'s self-calibration budget
 /// ```
 pub fn combine_with_instrument(
     u_random: f64,

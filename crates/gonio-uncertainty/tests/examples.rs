@@ -13,17 +13,18 @@ struct Case {
 }
 
 const CASES: [Case; 3] = [
-    // Seed 000 Table 3: u_c 0.069″ (printed 0.07″), ν_eff 13, k 2.16, U 0.15″.
+    // Hsieh et al., 2022, Table 3: u_c 0.069″ (printed 0.07″), ν_eff 13, k 2.16, U 0.15″.
     Case {
-        file: "seed-table3.toml",
+        file: "hsieh2022-shift-angle.toml",
         u_c: (0.069, 5e-4),
         nu_eff: 13.0,
         k: (2.16, 5e-3),
         expanded: (0.15, 5e-3),
     },
-    // Seed 000 self-calibration: u 0.0109″ (printed 0.01″), ν_eff 53, k 2.01, U 0.022″ (0.02″).
+    // Hsieh et al., 2022 self-calibration: u 0.0109″ (printed 0.01″), ν_eff 53, k 2.01, U 0.022″
+    // (0.02″).
     Case {
-        file: "seed-selfcal.toml",
+        file: "hsieh2022-selfcal.toml",
         u_c: (0.0109, 5e-5),
         nu_eff: 53.0,
         k: (2.01, 5e-3),

@@ -1,6 +1,7 @@
 //! The routes: the read-only JSON API, the server-sent events and the pages.
 
 use crate::live::Hub;
+use crate::state::{AppState, Pool, blocking, error, parse_id};
 use crate::{WebError, assets, pages};
 use axum::Router;
 use axum::body::{Body, Bytes};
@@ -10,88 +11,22 @@ use axum::http::{StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
-use gonio_store::{PartQuery, Store, StoreError};
+use gonio_store::PartQuery;
 use serde::Deserialize;
 use serde_json::json;
 use std::convert::Infallible;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use tokio_stream::StreamExt;
 use tokio_stream::wrappers::BroadcastStream;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 
-/// Connections to the store, reused between requests (each request runs on a blocking thread
-/// with one connection of its own).
-pub(crate) struct Pool {
-    location: String,
-    idle: Mutex<Vec<Box<dyn Store>>>,
-}
-
-impl Pool {
-    pub(crate) fn with<T>(
-        &self,
-        f: impl FnOnce(&mut dyn Store) -> Result<T, StoreError>,
-    ) -> Result<T, StoreError> {
-        let cached = self.idle.lock().ok().and_then(|mut v| v.pop());
-        let mut s = match cached {
-            Some(s) => s,
-            None => gonio_store::open(&self.location)?,
-        };
-        let r = f(s.as_mut());
-        if r.is_ok()
-            && let Ok(mut v) = self.idle.lock()
-            && v.len() < 8
-        {
-            v.push(s);
-        }
-        r
-    }
-}
-
-#[derive(Clone)]
-pub(crate) struct AppState {
-    pub(crate) pool: Arc<Pool>,
-    pub(crate) hub: Arc<Hub>,
-    /// Arrays of parts streamed at once (each holds a store connection and a page).
-    pub(crate) streams: Arc<tokio::sync::Semaphore>,
-}
-
 /// Arrays of parts streamed at once; more requests wait their turn.
 const MAX_STREAMS: usize = 8;
-
-/// A JSON error response.
-pub(crate) fn error(status: StatusCode, message: impl std::fmt::Display) -> Response {
-    (
-        status,
-        [(header::CONTENT_TYPE, "application/json")],
-        json!({"error": message.to_string()}).to_string(),
-    )
-        .into_response()
-}
-
-fn store_error(e: StoreError) -> Response {
-    match e {
-        StoreError::Invalid { .. } => error(StatusCode::BAD_REQUEST, e),
-        e => error(StatusCode::INTERNAL_SERVER_ERROR, e),
-    }
-}
 
 fn json_response<T: serde::Serialize>(v: &T) -> Response {
     match serde_json::to_string(v) {
         Ok(s) => ([(header::CONTENT_TYPE, "application/json")], s).into_response(),
         Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, e),
-    }
-}
-
-/// Runs a store call on a blocking thread.
-pub(crate) async fn blocking<T: Send + 'static>(
-    pool: &Arc<Pool>,
-    f: impl FnOnce(&mut dyn Store) -> Result<T, StoreError> + Send + 'static,
-) -> Result<T, Response> {
-    let pool = pool.clone();
-    match tokio::task::spawn_blocking(move || pool.with(f)).await {
-        Ok(Ok(v)) => Ok(v),
-        Ok(Err(e)) => Err(store_error(e)),
-        Err(e) => Err(error(StatusCode::INTERNAL_SERVER_ERROR, e)),
     }
 }
 
@@ -238,16 +173,6 @@ async fn api_parts(
     }
 }
 
-/// A record's id from the path: a whole number, or a 400 naming what was expected.
-pub(crate) fn parse_id(what: &str, id: &str) -> Result<i64, Box<Response>> {
-    id.parse::<i64>().map_err(|_| {
-        Box::new(error(
-            StatusCode::BAD_REQUEST,
-            format!("{what} id {id:?}: expected a whole number"),
-        ))
-    })
-}
-
 async fn api_part(State(st): State<AppState>, Path(id): Path<String>) -> Response {
     let id = match parse_id("part", &id) {
         Ok(i) => i,
@@ -360,10 +285,7 @@ async fn method_not_allowed() -> Response {
 /// [`WebError::Store`] when the store cannot be opened (it is opened once here, migrating it).
 pub fn router(store_location: &str, hub: Arc<Hub>) -> Result<Router, WebError> {
     let first = gonio_store::open(store_location)?;
-    let pool = Arc::new(Pool {
-        location: store_location.to_string(),
-        idle: Mutex::new(vec![first]),
-    });
+    let pool = Arc::new(Pool::new(store_location, first));
     let state = AppState {
         pool,
         hub,

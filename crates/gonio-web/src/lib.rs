@@ -32,6 +32,7 @@ mod assets;
 pub mod live;
 mod pages;
 pub mod server;
+mod state;
 
 use std::sync::Arc;
 use thiserror::Error;

@@ -1,7 +1,7 @@
 //! Pages rendered on the server: a part with its plots (the report's SVG figures), the list of
 //! calibration certificates, and a certificate as the report shows it.
 
-use crate::api::{AppState, blocking, error, parse_id};
+use crate::state::{AppState, blocking, error, parse_id};
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::response::{Html, IntoResponse, Response};

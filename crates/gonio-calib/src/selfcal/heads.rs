@@ -138,8 +138,8 @@ impl Heads {
         Heads::new((0..nh).map(|j| j as f64 * 360.0 / nh as f64).collect())
     }
 
-    /// The SelfA twelve-head arrangement of seed 000 (the union of 3, 4 and 7 equal divisions),
-    /// with its sets {1,5,9}, {1,3,7,11} and {1,2,4,6,8,10,12} (1-based).
+    /// The SelfA twelve-head arrangement of Hsieh et al., 2022 (the union of 3, 4 and 7 equal
+    /// divisions), with its sets {1,5,9}, {1,3,7,11} and {1,2,4,6,8,10,12} (1-based).
     pub fn selfa12() -> Self {
         let s = 360.0 / 7.0;
         let angles = vec![

@@ -15,7 +15,7 @@
 //! - [`Method::Fourier`] (default, any head positions): `v_hk = conj(w_hk) / Σ_h |w_hk|²`, the
 //!   least-squares solution. Harmonic k is undetectable when every `w_hk = 0`; its noise gain is
 //!   `1 / Σ_h |w_hk|²` (1/28 at k = 1 for SelfA).
-//! - [`Method::Eda`] on one set of NH equally spaced heads (seed 000 Eq. 9):
+//! - [`Method::Eda`] on one set of NH equally spaced heads (Hsieh et al., 2022, Eq. 9):
 //!   `μ_i = −(1/NH)·Σ_j D_j(θ_i)` (the seed's δ_(1,j) = −D_j); harmonics divisible by NH vanish.
 //! - [`Method::Eda`] on an arrangement with several sets (SelfA: 3, 4 and 7 heads on 12): each
 //!   set's EDA, combined harmonic by harmonic from the sets whose NH does not divide k

@@ -1,4 +1,4 @@
-//! The harmonic check of the setup error (seed 000 §3.1).
+//! The harmonic check of the setup error (Hsieh et al., 2022, §3.1).
 //!
 //! At the first shift, fit `α(θ) + U ≈ A·sin(kθ + B) + U_fit` (k = 2 in the seed: A = 1.0314″,
 //! B = −2.4233 rad, U₀ = 0.9596″). At every other shift keep A and B fixed and fit only U_fit;

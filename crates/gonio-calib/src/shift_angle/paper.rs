@@ -1,4 +1,5 @@
-//! The seed's algorithm (seed 000 §2.2, Tables 1–2, Eq. 7), kept as the reference baseline.
+//! The paper's algorithm (Hsieh et al., 2022, §2.2, Tables 1–2, Eq. 7), kept as the reference
+//! baseline.
 //!
 //! 1. β_k from the full N×N matrix of one shift: the mean over i of ε(i+1, n) − ε(i, n) with
 //!    n ≡ k − i (mod N), ε(N+1, n) read as ε(1, n) (Table 2; the α differences telescope away).
@@ -32,7 +33,7 @@ impl Grid {
 }
 
 /// Which cells the algorithm reads: the reference shift's full matrix and the complete rows.
-struct Plan {
+struct CellsRead {
     reference: usize,
     /// Complete rows per shift (0-based faces); the first one listed is used for α.
     rows: Vec<Vec<usize>>,
@@ -41,12 +42,12 @@ struct Plan {
 struct Estimate {
     beta: Vec<f64>,
     alpha: Vec<Vec<f64>>,
-    /// U per shift per complete row, in `Plan::rows` order.
+    /// U per shift per complete row, in `CellsRead::rows` order.
     setup: Vec<Vec<f64>>,
 }
 
 /// Runs the algorithm on values given by `eps(s, j, i)` (0-based).
-fn estimate(n: usize, plan: &Plan, eps: &dyn Fn(usize, usize, usize) -> f64) -> Estimate {
+fn estimate(n: usize, plan: &CellsRead, eps: &dyn Fn(usize, usize, usize) -> f64) -> Estimate {
     let r = plan.reference;
     let beta: Vec<f64> = (1..=n)
         .map(|k| {
@@ -115,7 +116,7 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
         complete.sort_unstable();
         rows.push(complete);
     }
-    let plan = Plan { reference, rows };
+    let plan = CellsRead { reference, rows };
     let mean = |s: usize, j: usize, i: usize| {
         let c = grid.cells[s][j][i];
         c.0 / c.1 as f64

@@ -18,10 +18,10 @@ use std::path::PathBuf;
 The budget file format, with examples, is in docs/budget-format.md.
 
 Examples:
-  gonio budget examples/budgets/seed-table3.toml
+  gonio budget examples/budgets/hsieh2022-shift-angle.toml
   gonio budget examples/budgets/jcgm100-h1.toml --coverage 0.99 --json h1.json
-  gonio budget examples/budgets/seed-table3.toml --monte-carlo --seed 7
-  gonio budget examples/budgets/seed-table3.toml --budget 'measured value' --format markdown")]
+  gonio budget examples/budgets/hsieh2022-shift-angle.toml --monte-carlo --seed 7
+  gonio budget examples/budgets/hsieh2022-shift-angle.toml --budget 'measured value' --format markdown")]
 pub struct Args {
     /// Budget file (TOML; `-` for standard input).
     pub budget: PathBuf,
@@ -291,10 +291,14 @@ mod tests {
     }
 
     #[test]
-    fn seed_table3_json_has_the_contract_fields() {
+    fn hsieh2022_table3_json_has_the_contract_fields() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("t3.json");
-        run(args(example("seed-table3.toml"), Some(out.clone()))).unwrap();
+        run(args(
+            example("hsieh2022-shift-angle.toml"),
+            Some(out.clone()),
+        ))
+        .unwrap();
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
         // Seed Table 3: u_c 0.069″, ν_eff 13, k 2.16, U 0.15″.
@@ -346,7 +350,7 @@ mod tests {
                 p.display()
             )
         );
-        let mut a = args(example("seed-selfcal.toml"), None);
+        let mut a = args(example("hsieh2022-selfcal.toml"), None);
         a.coverage = Some(0.0);
         assert!(run(a).unwrap_err().to_string().starts_with("--coverage"));
     }

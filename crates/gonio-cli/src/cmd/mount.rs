@@ -202,7 +202,7 @@ pub fn run(a: Args) -> Result<()> {
     );
     bar.set_position(prepared.first_part as u64);
     let recorder = match &a.record {
-        Some(dir) => Some(Recorder::new(recorder::Plan {
+        Some(dir) => Some(Recorder::new(recorder::Recording {
             dir: dir.clone(),
             parts: record_parts,
             first_part: prepared.first_part,

@@ -25,6 +25,7 @@ pub mod json;
 
 use crate::input::{FileId, recorded};
 use crate::term;
+pub use crate::term::os_message;
 use anyhow::{Result, anyhow, bail};
 use serde::Serialize;
 use std::fs::File;
@@ -194,15 +195,6 @@ fn node_kind(m: &std::fs::Metadata) -> &'static str {
         "a symbolic link"
     } else {
         "not a regular file"
-    }
-}
-
-/// An operating-system error without the temporary file's name (`No space left on device (os
-/// error 28)`).
-pub fn os_message(e: &std::io::Error) -> String {
-    match e.raw_os_error() {
-        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
-        None => e.kind().to_string(),
     }
 }
 

@@ -5,9 +5,9 @@ use super::*;
 use crate::UncertaintyError;
 use crate::montecarlo::{InputDistribution, McConfig};
 
-/// Seed 000 Table 3 as printed, from its listed contributions (the two-stage evaluation the
-/// paper describes: u(ε) from six rows, then ε, β and the polygon set-up).
-fn seed_table3() -> BudgetSet {
+/// Hsieh et al., 2022, Table 3 as printed, from its listed contributions (the two-stage evaluation
+/// the paper describes: u(ε) from six rows, then ε, β and the polygon set-up).
+fn hsieh2022_table3() -> BudgetSet {
     let mut eps = Budget::new("measured value");
     eps.push(Contribution::type_a_from_std(
         "repeatability of angle error",
@@ -38,8 +38,8 @@ fn seed_table3() -> BudgetSet {
 }
 
 #[test]
-fn seed_table3_reproduced() {
-    let set = seed_table3();
+fn hsieh2022_table3_reproduced() {
+    let set = hsieh2022_table3();
     let all = set.evaluate_all(None).unwrap();
     let eps = &all[0];
     // Paper: u(ε) = 0.0676″ (0.0677 from the listed rows), ν = 12.
@@ -60,8 +60,8 @@ fn seed_table3_reproduced() {
 }
 
 #[test]
-fn seed_table3_flat_gives_13_96() {
-    let set = seed_table3();
+fn hsieh2022_table3_flat_gives_13_96() {
+    let set = hsieh2022_table3();
     let mut flat = Budget::new("flat");
     flat.contributions = set.budgets[0].contributions.clone();
     flat.contributions
@@ -206,7 +206,7 @@ fn bad_inputs_are_typed_errors() {
 /// the sampler).
 #[test]
 fn table3_monte_carlo_u_matches_t_inflated_variance() {
-    let set = seed_table3();
+    let set = hsieh2022_table3();
     let model = set.linear_model(None).unwrap();
     assert_eq!(model.inputs.len(), 8);
     let mc = model.monte_carlo(&McConfig::default()).unwrap();
