@@ -280,7 +280,12 @@ fn every_other_command_writes_strict_json() {
     // Budgets.
     for b in ["seed-table3.toml", "jcgm100-h1.toml", "seed-selfcal.toml"] {
         let out = p(&format!("{b}.json"));
-        ok(&["budget", &example(b), "--json", &s(&out)]);
+        ok(&[
+            "budget",
+            &example(&format!("budgets/{b}")),
+            "--json",
+            &s(&out),
+        ]);
         strict(&out);
     }
     // Calibrations, with the frozen key lists of their certificates.
