@@ -280,7 +280,12 @@ fn every_other_command_writes_strict_json() {
     // Budgets.
     for b in ["seed-table3.toml", "jcgm100-h1.toml", "seed-selfcal.toml"] {
         let out = p(&format!("{b}.json"));
-        ok(&["budget", &example(b), "--json", &s(&out)]);
+        ok(&[
+            "budget",
+            &example(&format!("budgets/{b}")),
+            "--json",
+            &s(&out),
+        ]);
         strict(&out);
     }
     // Calibrations, with the frozen key lists of their certificates.
@@ -382,22 +387,20 @@ fn every_other_command_writes_strict_json() {
         let v = strict(&out);
         assert_eq!(v["u_e_um"].is_null(), method == "paper", "{v}");
     }
-    // Detector lines.
-    let frames = p("frames");
-    ok(&[
-        "simulate",
-        "frames",
-        "--count",
-        "2",
-        "--seed",
-        "3",
-        "--out",
-        &s(&frames),
-    ]);
-    let (lines, _) = ok(&["detect", &s(&frames)]);
+    // Detector lines, of a frame with a ring and one without (as detect_cli.rs took its list).
     let mut dk = BTreeSet::new();
-    for l in lines.lines() {
-        dk.extend(keys(&strict_text("detect", l)));
+    for (name, extra) in [("ring", None), ("none", Some("--no-ring"))] {
+        let frames = p(name);
+        let f = s(&frames);
+        let mut args = vec![
+            "simulate", "frames", "--count", "1", "--seed", "3", "--out", &f,
+        ];
+        args.extend(extra);
+        ok(&args);
+        let (lines, _) = ok(&["detect", &f]);
+        for l in lines.lines() {
+            dk.extend(keys(&strict_text("detect", l)));
+        }
     }
     keeps_keys("detect", &dk);
 }

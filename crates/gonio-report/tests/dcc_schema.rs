@@ -198,11 +198,13 @@ fn case(rng: &mut ChaCha8Rng, base: &Certificate) -> (Certificate, bool) {
         humidity_tolerance_percent: Some(rng.random_range(0.0..10.0)),
     };
     if rng.random_bool(0.03) {
-        env.temperature_c = Some([f64::NAN, f64::INFINITY, -300.0][rng.random_range(0..3)]);
+        // (NaN and ∞ cannot pass through JSON: they are `null` there; the TOML metadata's NaN is
+        // refused when read, tests/honest_values_cli.rs.)
+        env.temperature_c = Some([-300.0, -273.5, 1e5][rng.random_range(0..3)]);
         ok = false;
     }
     if rng.random_bool(0.03) {
-        env.humidity_percent = Some([f64::NAN, 101.0, -1.0][rng.random_range(0..3)]);
+        env.humidity_percent = Some([100.5, 101.0, -1.0][rng.random_range(0..3)]);
         ok = false;
     }
     meta.environment = Some(env);

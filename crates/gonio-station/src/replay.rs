@@ -40,8 +40,8 @@
 //! let log: Vec<AngleSample> =
 //!     (0..=2002).map(|k| AngleSample { t_s: k as f64 * 1e-3, theta_deg: 0.18 * k as f64 }).collect();
 //! let (stored, _) =
-//!     evaluate_turn(&r, Strategy::Learned, &frames, log.clone(), 0.0, TurnKind::Initial, 0.0);
-//! let rec = RecordedTurn { t_start_s: 0.0, kind: TurnKind::Initial, focus_um: 0.0, frames: frames.clone(), log };
+//!     evaluate_turn(&r, Strategy::Learned, &frames, log.clone(), 0.0, TurnKind::Initial, Some(0.0));
+//! let rec = RecordedTurn { t_start_s: 0.0, kind: TurnKind::Initial, focus_um: Some(0.0), frames: frames.clone(), log };
 //! let out = replay_turn(&mut Again(frames.into_iter()), &r, Strategy::Learned, &rec, &stored).unwrap();
 //! assert!(out.differences.is_empty());
 //! assert_eq!(out.frames, 200);

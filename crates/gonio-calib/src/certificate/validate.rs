@@ -199,7 +199,7 @@ impl Certificate {
                 "a probability strictly between 0 and 1",
             )?;
             if let Some(nu) = p.nu_eff
-                && !(nu > 0.0)
+                && (nu.is_nan() || nu <= 0.0)
             {
                 return Err(invalid(
                     f("nu_eff"),
