@@ -734,7 +734,7 @@ mod camera_run {
             // The raw path's in-order workers: more frames per second on a slow core, but a
             // result waits up to a frame period for the reader (which holds the source while
             // it waits for the next frame) before it is handed on.
-            let run = detect_in_order(&mut src, optics, threads, |src, item| handle(&**src, item));
+            let run = detect_in_order(&mut src, optics, threads, |src, item| handle(src, item));
             match run {
                 Ok(()) => {}
                 Err(DetectInOrderError::Sink(e)) => return Err(e),
@@ -745,11 +745,11 @@ mod camera_run {
             let mut det = SourceDetector::new(&mut src, optics)?;
             loop {
                 match det.detect_next() {
-                    Ok(Some(d)) => handle(&**det.source(), Ok(d))?,
+                    Ok(Some(d)) => handle(det.source(), Ok(d))?,
                     Ok(None) => break,
                     Err(e) => {
                         let stop = matches!(e, SourceError::Source(_));
-                        handle(&**det.source(), Err(e))?;
+                        handle(det.source(), Err(e))?;
                         if stop {
                             break;
                         }
