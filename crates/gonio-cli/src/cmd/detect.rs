@@ -216,6 +216,7 @@ pub(crate) struct Sink {
 
 impl Sink {
     /// Writes one JSON value as a line (a camera's line, patched).
+    #[cfg_attr(not(feature = "genicam"), allow(dead_code))]
     pub(crate) fn value(&mut self, frame: u64, v: &serde_json::Value) -> Result<()> {
         gonio_cli::output::json::check_finite(v).map_err(|e| anyhow!("frame {frame}: {e}"))?;
         let mut b = serde_json::to_vec(v)?;
