@@ -138,7 +138,7 @@ mod with_aravis {
             let c = f.c_px.unwrap_or_else(|| panic!("{:?}", f.invalid_reason));
             // c is relative to the window's first column; the fill draws in window columns.
             let frac = (c - 600.0).rem_euclid(1.0);
-            assert!(frac < 0.05 || frac > 0.95, "c = {c}");
+            assert!(!(0.05..=0.95).contains(&frac), "c = {c}");
             assert!((600.0..640.0).contains(&c.round()), "c = {c}");
             assert!((f.exposure_s - 500e-6).abs() < 1e-6, "{}", f.exposure_s);
             if let Some(t) = last {

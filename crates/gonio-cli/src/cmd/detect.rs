@@ -204,6 +204,7 @@ pub(crate) struct Sink {
 
 impl Sink {
     /// Writes one JSON value as a line (a camera's line, patched).
+    #[cfg_attr(not(feature = "genicam"), allow(dead_code))]
     pub(crate) fn value(&mut self, frame: u64, v: &serde_json::Value) -> Result<()> {
         gonio_cli::output::json::check_finite(v).map_err(|e| anyhow!("frame {frame}: {e}"))?;
         let mut b = serde_json::to_vec(v)?;
@@ -717,7 +718,7 @@ mod camera_run {
             // The raw path's in-order workers: more frames per second on a slow core, but a
             // result waits up to a frame period for the reader (which holds the source while
             // it waits for the next frame) before it is handed on.
-            let run = detect_in_order(&mut src, optics, threads, |src, item| handle(&**src, item));
+            let run = detect_in_order(&mut src, optics, threads, |src, item| handle(src, item));
             match run {
                 Ok(()) => {}
                 Err(DetectInOrderError::Sink(e)) => return Err(e),
@@ -728,11 +729,11 @@ mod camera_run {
             let mut det = SourceDetector::new(&mut src, optics)?;
             loop {
                 match det.detect_next() {
-                    Ok(Some(d)) => handle(&**det.source(), Ok(d))?,
+                    Ok(Some(d)) => handle(det.source(), Ok(d))?,
                     Ok(None) => break,
                     Err(e) => {
                         let stop = matches!(e, SourceError::Source(_));
-                        handle(&**det.source(), Err(e))?;
+                        handle(det.source(), Err(e))?;
                         if stop {
                             break;
                         }

@@ -66,6 +66,7 @@ pub struct Args {
 }
 
 /// Most bytes of one pre-rendered turn.
+#[cfg(feature = "genicam")]
 const MAX_TURN_BYTES: f64 = 1.5e9;
 
 /// Runs `gonio simulate camera`.
