@@ -5,7 +5,7 @@ dicts with the keys and values of its JSON, on files or numpy arrays::
 
     import gonio
     cert = gonio.shift_angle("lab/readings.csv")           # gonio.certificate/1, as a dict
-    r = gonio.budget("examples/budgets/seed-table3.toml")   # r["U"] == 0.1495…
+    r = gonio.budget("examples/budgets/hsieh2022-shift-angle.toml")   # r["U"] == 0.1495…
     c = gonio.detect(frame)["c_px"]                         # frame: 2-D uint8 numpy array
 
 Errors are :class:`GonioError` (a ``ValueError``) with the command line's one-line message.

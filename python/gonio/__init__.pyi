@@ -98,7 +98,7 @@ def budget(
 ) -> dict[str, Any]:
     """A GUM budget evaluated (``gonio budget --json``), with a Monte Carlo run if asked.
 
-    >>> gonio.budget("examples/budgets/seed-table3.toml")["U"]
+    >>> gonio.budget("examples/budgets/hsieh2022-shift-angle.toml")["U"]
     0.1495…
     """
 

@@ -22,7 +22,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 GONIO = os.environ.get("GONIO_BIN", str(ROOT / "target" / "release" / "gonio"))
 EXAMPLES = ROOT / "examples"
 # GUM Table 3 of Hsieh et al., 2022 (the shift-angle method's budget), as printed.
-TABLE3_BUDGET = EXAMPLES / "budgets" / "seed-table3.toml"
+TABLE3_BUDGET = EXAMPLES / "budgets" / "hsieh2022-shift-angle.toml"
 META = EXAMPLES / "certificate-meta.toml"
 INSTRUMENT = EXAMPLES / "instrument-shift-angle.toml"
 

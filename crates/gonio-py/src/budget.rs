@@ -18,7 +18,7 @@ use pyo3::types::PyBool;
 ///
 /// Example::
 ///
-///     r = gonio.budget("examples/budgets/seed-table3.toml", monte_carlo=True)
+///     r = gonio.budget("examples/budgets/hsieh2022-shift-angle.toml", monte_carlo=True)
 ///     print(r["u_c"], r["nu_eff"], r["k"], r["U"], r["monte_carlo"]["reported"])
 #[pyfunction]
 #[pyo3(signature = (toml_text_or_path, monte_carlo=None, coverage=None, budget=None, seed=1, ndig=2))]
