@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CI for the GenICam camera (issue 27): installs Aravis when missing, then builds, lints and runs
+# CI for the GenICam camera (issue 27) and the station through its PLC with that camera (issue 28): installs Aravis when missing, then builds, lints and runs
 # the camera tests with `--features genicam`. Every test that starts a GigE Vision camera runs it
 # in its own network namespace (`unshare -n`), so this needs root or CAP_SYS_ADMIN (as CI has).
 set -euo pipefail
@@ -22,6 +22,6 @@ fi
 
 echo "== cargo clippy --features genicam (gonio-camera, gonio)"
 cargo clippy -p gonio-camera -p gonio --features genicam --all-targets -- -D warnings
-echo "== camera tests (--features genicam)"
+echo "== camera tests (--features genicam): Aravis's fake camera, gonio's, and the station as two processes"
 cargo test --release -p gonio-camera --features genicam
-cargo test --release -p gonio --features genicam --test camera
+cargo test --release -p gonio --features genicam --test camera --test plc_station_cli
