@@ -278,7 +278,11 @@ fn every_other_command_writes_strict_json() {
         &["--sigma", "0.01", "--seed", "2"],
     );
     // Budgets.
-    for b in ["hsieh2022-shift-angle.toml", "jcgm100-h1.toml", "hsieh2022-selfcal.toml"] {
+    for b in [
+        "hsieh2022-shift-angle.toml",
+        "jcgm100-h1.toml",
+        "hsieh2022-selfcal.toml",
+    ] {
         let out = p(&format!("{b}.json"));
         ok(&[
             "budget",

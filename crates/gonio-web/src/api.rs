@@ -11,7 +11,7 @@ use axum::http::{StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
-use gonio_store::PartQuery;
+use gonio_store::{PartQuery, Store, StoreError};
 use serde::Deserialize;
 use serde_json::json;
 use std::convert::Infallible;

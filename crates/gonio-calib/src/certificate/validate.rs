@@ -170,7 +170,7 @@ impl Certificate {
                 ("u_random_arcsec", p.u_random_arcsec),
             ] {
                 // NaN is `null`: unknown.
-                if !u.is_nan() && !(u.is_finite() && u >= 0.0) {
+                if u.is_infinite() || u < 0.0 {
                     return Err(invalid(
                         f(name),
                         format!("{u}: expected a finite number ≥ 0"),
@@ -247,7 +247,7 @@ impl Certificate {
             if !b.value_arcsec.is_finite() {
                 return Err(invalid(f("value_arcsec"), "not a finite number"));
             }
-            if !b.u_arcsec.is_nan() && !(b.u_arcsec.is_finite() && b.u_arcsec >= 0.0) {
+            if b.u_arcsec.is_infinite() || b.u_arcsec < 0.0 {
                 return Err(invalid(
                     f("u_arcsec"),
                     format!("{}: expected a finite number ≥ 0", b.u_arcsec),
