@@ -45,7 +45,18 @@ fn the_api_serves_what_gonio_parts_prints() {
     std::fs::write(&recipe, "timeout_s = 12.0\n").unwrap();
     let r = recipe.display().to_string();
     for extra in [vec!["--recipe", r.as_str()], vec![]] {
-        let mut a = vec!["mount", "--sim", "--parts", "6", "--seed", "3", "--db", &db];
+        let mut a = vec![
+            "mount",
+            "--sim",
+            "--parts",
+            "6",
+            "--seed",
+            "3",
+            "--strategy",
+            "learned",
+            "--db",
+            &db,
+        ];
         a.extend(extra);
         assert!(gonio(&a).status.success());
     }
