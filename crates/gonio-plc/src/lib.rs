@@ -29,7 +29,7 @@
 //! let part = station.wait_part(Duration::from_secs(5)).unwrap();
 //! let mut ctl = Controller::new(recipe, Strategy::Live);
 //! let rec = ctl.mount(&mut station.devices(), &format!("PLC-{part:04}")).unwrap();
-//! println!("{} µm", rec.final_e_um);
+//! println!("{:?} µm", rec.final_e_um); // None when the part was not measured
 //! ```
 #![deny(missing_docs)]
 

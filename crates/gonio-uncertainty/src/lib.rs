@@ -14,7 +14,7 @@
 //! ```
 //! use gonio_uncertainty::{Budget, Contribution};
 //! // Hsieh et al. (2022)'s self-calibration budget: repeatability 0.01″/√6 (ν = 5) and the encoder
-//! resolution // row as printed (0.0101″, ν = 50).
+//! // resolution row as printed (0.0101″, ν = 50).
 //! let mut b = Budget::new("self-calibration");
 //! b.push(Contribution::direct("repeatability", 0.01 / 6f64.sqrt()).with_dof(5.0));
 //! b.push(Contribution::direct("encoder resolution", 0.0101).with_dof(50.0));
