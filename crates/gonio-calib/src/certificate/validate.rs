@@ -63,6 +63,37 @@ fn walk_texts(v: &serde_json::Value, path: &str) -> Result<(), CertificateError>
     }
 }
 
+/// A standard uncertainty: NaN (`null`, unknown) or a finite number ≥ 0.
+fn standard_u(field: &str, u: f64) -> Result<(), CertificateError> {
+    if u.is_infinite() || u < 0.0 {
+        return Err(invalid(field, format!("{u}: expected a finite number ≥ 0")));
+    }
+    Ok(())
+}
+
+/// An expanded uncertainty U (≥ 0) and its coverage factor k (> 0), where given; `f` makes a
+/// field's name.
+fn expanded_and_k(
+    f: &dyn Fn(&str) -> String,
+    expanded: Option<f64>,
+    k: Option<f64>,
+) -> Result<(), CertificateError> {
+    finite_in(
+        &f("U_arcsec"),
+        expanded,
+        0.0,
+        f64::MAX,
+        "a finite number ≥ 0",
+    )?;
+    finite_in(
+        &f("k"),
+        k,
+        f64::MIN_POSITIVE,
+        f64::MAX,
+        "a finite number > 0",
+    )
+}
+
 fn finite_in(
     field: &str,
     v: Option<f64>,
@@ -165,32 +196,9 @@ impl Certificate {
             if !p.value_arcsec.is_finite() {
                 return Err(invalid(f("value_arcsec"), "not a finite number"));
             }
-            for (name, u) in [
-                ("u_arcsec", p.u_arcsec),
-                ("u_random_arcsec", p.u_random_arcsec),
-            ] {
-                // NaN is `null`: unknown.
-                if u.is_infinite() || u < 0.0 {
-                    return Err(invalid(
-                        f(name),
-                        format!("{u}: expected a finite number ≥ 0"),
-                    ));
-                }
-            }
-            finite_in(
-                &f("U_arcsec"),
-                p.expanded_arcsec,
-                0.0,
-                f64::MAX,
-                "a finite number ≥ 0",
-            )?;
-            finite_in(
-                &f("k"),
-                p.k,
-                f64::MIN_POSITIVE,
-                f64::MAX,
-                "a finite number > 0",
-            )?;
+            standard_u(&f("u_arcsec"), p.u_arcsec)?;
+            standard_u(&f("u_random_arcsec"), p.u_random_arcsec)?;
+            expanded_and_k(&f, p.expanded_arcsec, p.k)?;
             finite_in(
                 &f("p"),
                 p.p,
@@ -247,26 +255,8 @@ impl Certificate {
             if !b.value_arcsec.is_finite() {
                 return Err(invalid(f("value_arcsec"), "not a finite number"));
             }
-            if b.u_arcsec.is_infinite() || b.u_arcsec < 0.0 {
-                return Err(invalid(
-                    f("u_arcsec"),
-                    format!("{}: expected a finite number ≥ 0", b.u_arcsec),
-                ));
-            }
-            finite_in(
-                &f("U_arcsec"),
-                b.expanded_arcsec,
-                0.0,
-                f64::MAX,
-                "a finite number ≥ 0",
-            )?;
-            finite_in(
-                &f("k"),
-                b.k,
-                f64::MIN_POSITIVE,
-                f64::MAX,
-                "a finite number > 0",
-            )?;
+            standard_u(&f("u_arcsec"), b.u_arcsec)?;
+            expanded_and_k(&f, b.expanded_arcsec, b.k)?;
         }
         let r = &self.residuals;
         for (name, v) in [
