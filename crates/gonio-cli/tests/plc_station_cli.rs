@@ -112,8 +112,11 @@ fn three_parts_through_the_plc_and_the_camera() {
                 p["final_e_um"].as_f64().unwrap(),
                 t["true_final_e_um"].as_f64().unwrap(),
             );
+            // The measurement agrees with the truth within 2 × the quality gate's largest u(e)
+            // (5 % of the 5 µm threshold: 0.25 µm), and an accepted part is truly below the
+            // threshold within that same margin (measured e < 5 µm was the acceptance).
             assert!((e - te).abs() < 0.5, "measured {e} µm, true {te} µm");
-            assert!(te < 3.0, "true final e {te} µm");
+            assert!(te < 5.0 + 0.5, "true final e {te} µm");
         }
         assert!(report["link"]["frames_paired"].as_u64().unwrap() > 500);
     }
