@@ -20,8 +20,11 @@ if [ ${#need[@]} -gt 0 ]; then
     $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${need[@]}"
 fi
 
-echo "== cargo clippy --features genicam (gonio-camera, gonio)"
-cargo clippy -p gonio-camera -p gonio --features genicam --all-targets -- -D warnings
+# The whole workspace with the feature on (`--workspace`): the features of every shared
+# dependency are then those of the default build before it, so only Aravis's stack,
+# gonio-camera and the CLI are compiled again (gonio-camera's Cargo.toml says how).
+echo "== cargo clippy --workspace --features gonio/genicam"
+cargo clippy --release --workspace --all-targets --features gonio/genicam -- -D warnings
 echo "== camera tests (--features genicam): Aravis's fake camera, gonio's, and the station as two processes"
-cargo test --release -p gonio-camera --features genicam
-cargo test --release -p gonio --features genicam --test camera --test plc_station_cli
+cargo test --release --workspace --features gonio/genicam \
+    --test aravis_fake --test fake_gv_camera --test camera --test plc_station_cli

@@ -236,6 +236,9 @@ pub struct Run<'a> {
     pub frame_tap: Option<FrameTap<'a>>,
     /// The station's name in the store.
     pub station: &'a str,
+    /// Keep no part in the returned report (its summary still counts them all): a long batch
+    /// whose parts go only to the store or to a table printed as they end.
+    pub discard_parts: bool,
 }
 
 /// Runs the prepared batch: each part committed to the store as it finishes, then
@@ -283,6 +286,7 @@ pub fn run(
         // A shorter lifetime for the tap, as for the observers (a trait object's lifetime
         // shortens by coercion even behind `&mut`).
         frame_tap: run.frame_tap.map(|t| t as FrameTap<'_>),
+        discard_parts: run.discard_parts,
     };
     let report = run_batch_observed(cfg, seed, opts, &mut |d: &PartDone| match sink.as_mut() {
         Some(s) => match s.commit(d, &started.borrow()) {

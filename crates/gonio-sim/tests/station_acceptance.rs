@@ -64,10 +64,12 @@ fn default_strategy_meets_its_targets() {
 
 #[test]
 fn live_strategy_needs_about_one_push() {
+    // One push a part (15.0 s), plus a touch-up push (≈ 10 s with its verify turn) on the
+    // parts whose random spring-back left them above the aim: 6–9 % of them on these seeds.
     for s in SEEDS {
         let b = batch(Strategy::Live, s).summary;
-        assert!(b.mean_pushes <= 1.1, "{}", b.mean_pushes);
-        assert!(b.mean_time_s.unwrap() <= 16.0, "{}", b.mean_time_s.unwrap());
+        assert!(b.mean_pushes <= 1.15, "{}", b.mean_pushes);
+        assert!(b.mean_time_s.unwrap() <= 17.0, "{}", b.mean_time_s.unwrap());
     }
 }
 
@@ -138,4 +140,54 @@ fn same_seed_same_bytes() {
     assert_eq!(a, b);
     let c = serde_json::to_string(&run_batch(&cfg, 12, &mut |_, _, _| {}).unwrap()).unwrap();
     assert_ne!(a, c);
+}
+
+#[test]
+fn a_batch_that_discards_its_parts_has_the_same_summary() {
+    use gonio_sim::station::{PartDone, RunOptions, run_batch_observed};
+    use std::ops::ControlFlow;
+    let cfg = BatchConfig {
+        parts: 40,
+        strategy: Strategy::Live,
+        ..BatchConfig::default()
+    };
+    let kept = run_batch(&cfg, 7, &mut |_, _, _| {}).unwrap();
+    let mut seen = Vec::new();
+    let opts = RunOptions {
+        discard_parts: true,
+        ..RunOptions::default()
+    };
+    let lean = run_batch_observed(&cfg, 7, opts, &mut |d: &PartDone| {
+        seen.push(d.part.record.serial.clone());
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert!(lean.parts.is_empty());
+    assert_eq!(seen.len(), 40);
+    // The same sums in the same order: the same bits, not merely close.
+    assert_eq!(
+        serde_json::to_string(&lean.summary).unwrap(),
+        serde_json::to_string(&kept.summary).unwrap()
+    );
+}
+
+#[test]
+fn the_live_strategy_pushes_again_above_its_aim() {
+    // Spring-back is random (up to 3 % of the move): one push from 150 µm can end near 3 µm.
+    // The live strategy pushes again while e ≥ 55 % of the threshold (2.75 µm), so no accepted
+    // part is measured above that, nor truly above it plus the quality gate's largest u(e)
+    // (0.25 µm): 3 µm.
+    let r = gonio_station::Recipe::default();
+    let aim = r.threshold_um * r.push.live_aim_fraction;
+    let max_u = r.quality.max_u_e_fraction * r.threshold_um;
+    for s in SEEDS {
+        let b = batch(Strategy::Live, s);
+        for p in &b.parts {
+            if p.record.result == PartResult::Accepted && p.record.pushes < r.push.max_pushes {
+                let (e, t) = (p.record.final_e_um.unwrap(), p.true_final_e_um);
+                assert!(e < aim, "{}: {e} µm", p.record.serial);
+                assert!(t < aim + max_u, "{}: {t} µm", p.record.serial);
+            }
+        }
+    }
 }

@@ -13,8 +13,9 @@
 //!   otherwise pushing stops and the part ends `push_inconsistent` (unless the trusted verify
 //!   turn already finds it within the threshold: then it is accepted, the push flagged).
 //!
-//! A part also ends accepted (e below the recipe's threshold) or rejected (max pushes, ring lost,
-//! focus failure, timeout). A device error ends the part `rejected_device_error` with its record
+//! A part also ends accepted (e below the recipe's threshold; the live strategy pushes again
+//! while e is above `push.live_aim_fraction` of it and pushes and time remain) or rejected (max
+//! pushes, ring lost, focus failure, timeout). A device error ends the part `rejected_device_error` with its record
 //! kept (the device, its message, every turn and push so far); the controller then tries to
 //! leave the station safe (rod retracted, servo stopped).
 //!
@@ -221,6 +222,12 @@ impl Controller {
         }
         let um = self.recipe.um_per_px;
         let threshold = self.recipe.threshold_um;
+        // The live strategy aims below the threshold (a touch-up push when one push ended
+        // between the aim and the threshold); the others push until under the threshold.
+        let aim = match self.strategy {
+            Strategy::Live => threshold * self.recipe.push.live_aim_fraction,
+            _ => threshold,
+        };
         let mut current = match self.gated_turn(d, rec, t0, TurnKind::Initial, obs)? {
             Gated::Trusted(f) => *f,
             Gated::Rejected(r, why) => return Ok((r, Some(why))),
@@ -229,10 +236,15 @@ impl Controller {
         rec.final_e_um = rec.initial_e_um;
         loop {
             let (e_um, theta_max) = (current.0.e_px * um, current.0.theta_max_deg);
-            if e_um < threshold {
+            if e_um < aim {
                 return Ok((PartResult::Accepted, None));
             }
+            // Between the aim and the threshold (live only), a part is accepted once the
+            // pushes or the time are used up.
             if rec.pushes >= self.recipe.push.max_pushes {
+                if e_um < threshold {
+                    return Ok((PartResult::Accepted, None));
+                }
                 return Ok((
                     PartResult::RejectedMaxPushes,
                     Some(format!(
@@ -243,6 +255,9 @@ impl Controller {
             }
             let elapsed = now(d)? - t0;
             if elapsed > self.recipe.timeout_s {
+                if e_um < threshold {
+                    return Ok((PartResult::Accepted, None));
+                }
                 return Ok((
                     PartResult::RejectedTimeout,
                     Some(format!(

@@ -115,6 +115,11 @@ pub struct PushSettings {
     pub spring_back: f64,
     /// Stop live-feedback pushing when the remaining distance is below this, µm.
     pub live_tolerance_um: f64,
+    /// The live strategy pushes again while a trusted turn finds e at or above this share of
+    /// `threshold_um` (spring-back is random, up to 3 % of the move, so one push from 150 µm
+    /// can end near 3 µm); below the threshold a part is still accepted when the pushes or the
+    /// time are used up. 1 turns it off.
+    pub live_aim_fraction: f64,
     /// Frames averaged per live-feedback reading.
     pub live_frames: usize,
     /// Most live-feedback readings in one push.
@@ -230,6 +235,9 @@ impl Default for PushSettings {
             slip_um: 0.75,
             spring_back: 0.015,
             live_tolerance_um: 0.3,
+            // 2.75 µm of the 5 µm threshold: a part accepted below it is truly under 3 µm,
+            // the quality gate's largest u(e) (0.25 µm) included.
+            live_aim_fraction: 0.55,
             live_frames: 3,
             live_max_steps: 60,
             live_first_step_fraction: 0.85,
@@ -440,6 +448,13 @@ impl Recipe {
             return Err(bad("push.spring_back", p.spring_back, "0 to below 1"));
         }
         pos("push.live_tolerance_um", p.live_tolerance_um)?;
+        if !(p.live_aim_fraction > 0.0 && p.live_aim_fraction <= 1.0) {
+            return Err(bad(
+                "push.live_aim_fraction",
+                p.live_aim_fraction,
+                "above 0, at most 1",
+            ));
+        }
         if p.live_frames == 0 {
             return Err(bad("push.live_frames", 0, "at least 1"));
         }
@@ -465,6 +480,98 @@ impl Recipe {
             "push.verify_tolerance_fraction",
             p.verify_tolerance_fraction,
         )?;
+        // Lengths and times a station can have, far above real use: beyond them the twin's
+        // random draws and the renderer's sizes stop being meaningful (a focus sweep of 1e160 µm).
+        for (key, v, max, what) in [
+            (
+                "um_per_px",
+                self.um_per_px,
+                1000.0,
+                "at most 1000 µm per px",
+            ),
+            (
+                "threshold_um",
+                self.threshold_um,
+                10_000.0,
+                "at most 10000 µm",
+            ),
+            (
+                "timeout_s",
+                self.timeout_s,
+                86_400.0,
+                "at most 86400 s (a day)",
+            ),
+            (
+                "ring_radius_mm",
+                self.ring_radius_mm,
+                1000.0,
+                "at most 1000 mm",
+            ),
+            (
+                "ring_width_um",
+                self.ring_width_um,
+                10_000.0,
+                "at most 10000 µm",
+            ),
+            (
+                "focus.range_um",
+                f.range_um,
+                10_000.0,
+                "at most 10000 µm (±10 mm of focus travel)",
+            ),
+            (
+                "focus.nominal_um",
+                f.nominal_um.abs(),
+                10_000.0,
+                "within ±10000 µm",
+            ),
+            (
+                "push.max_push_um",
+                p.max_push_um,
+                10_000.0,
+                "at most 10000 µm",
+            ),
+            (
+                "push.slow_contact_below_um",
+                p.slow_contact_below_um,
+                10_000.0,
+                "at most 10000 µm",
+            ),
+            (
+                "push.overshoot_fast_um",
+                p.overshoot_fast_um,
+                1000.0,
+                "at most 1000 µm",
+            ),
+            (
+                "push.overshoot_slow_um",
+                p.overshoot_slow_um,
+                1000.0,
+                "at most 1000 µm",
+            ),
+            ("push.slip_um", p.slip_um, 1000.0, "at most 1000 µm"),
+            (
+                "push.live_tolerance_um",
+                p.live_tolerance_um,
+                10_000.0,
+                "at most 10000 µm",
+            ),
+            (
+                "push.live_min_step_um",
+                p.live_min_step_um,
+                10_000.0,
+                "at most 10000 µm",
+            ),
+        ] {
+            if v > max {
+                let shown = if key == "focus.nominal_um" {
+                    f.nominal_um
+                } else {
+                    v
+                };
+                return Err(bad(key, shown, what));
+            }
+        }
         self.fit.validate(None).map_err(|e| match e {
             StationError::OutOfRange {
                 name,
@@ -565,6 +672,8 @@ mod tests {
             ),
             ("window_px = [0, 540]\n", "window_px", 1),
             ("[focus]\nrange_um = -150.0\n", "focus.range_um", 2),
+            ("[focus]\nrange_um = 1e160\n", "focus.range_um", 2),
+            ("[push]\nmax_push_um = 1e12\n", "push.max_push_um", 2),
             (
                 "[learn]\ngain_min = 1.5\ngain_max = 0.5\n",
                 "learn.gain_max",

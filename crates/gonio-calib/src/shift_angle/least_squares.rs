@@ -229,9 +229,12 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
     let mut y_blocks = Vec::with_capacity(ns); // P·W_α per shift, for the full covariance
     for s in 0..ns {
         let wa = w_mat[s].rows(0, n).clone_owned();
-        let t = &wa * &sg; // n × g
+        // W S⁻¹ (len × g), once per shift: its α rows give Cov(α) and its V rows the setup
+        // errors' variances, so that each run costs O(N) instead of a product with A⁻¹.
+        let ws = &w_mat[s] * &sg;
+        let t = ws.rows(0, n);
         let mut c = a_inv[s].view((0, 0), (n, n)).clone_owned();
-        c += &t * wa.transpose();
+        c += t * wa.transpose();
         let u_alpha = centred_diag(&c)
             .into_iter()
             .map(|v| (s2 * v).sqrt())
@@ -243,21 +246,34 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
             alpha_arcsec: alpha[s].clone(),
             u_alpha_arcsec: u_alpha,
         });
-        // Setup errors: U = V_j + mean(α_s) + B(j).
+        // Setup errors: U = V_j + mean(α_s) + B(j) = tᵀx_s + B(j) with t = m + e_k (m: 1/N on
+        // the α block, e_k: run j's V). x_s = w − W·γ, so
+        // Var(U) = tᵀA⁻¹t + qᵀS⁻¹q − 2(S⁻¹q)_(j−1) + S⁻¹_(j−1,j−1), with q = Wᵀt = q₀ + W_k.
+        let mut m = DVector::zeros(lay[s].len);
+        m.rows_mut(0, n).fill(1.0 / n as f64);
+        let am = &a_inv[s] * &m;
+        let m_am = m.dot(&am);
+        let q0 = w_mat[s].transpose() * &m;
+        let sq0 = &sg * &q0;
+        let q0_sq0 = q0.dot(&sq0);
         for &j in &lay[s].runs {
-            let mut tv = DVector::from_element(lay[s].len, 0.0);
-            for i in 0..n {
-                tv[i] = 1.0 / n as f64;
-            }
-            if let Some(k) = lay[s].v_index[j] {
-                tv[k] += 1.0;
-            }
-            let a = &a_inv[s] * &tv;
-            let q = w_mat[s].transpose() * &tv;
-            let sq = &sg * &q;
-            let mut var = tv.dot(&a) + q.dot(&sq);
+            let (t_at, q_sq, sq_row) = match lay[s].v_index[j] {
+                Some(k) => {
+                    let wk = w_mat[s].row(k);
+                    let wsk = ws.row(k);
+                    (
+                        m_am + 2.0 * am[k] + a_inv[s][(k, k)],
+                        q0_sq0 + 2.0 * wk.transpose().dot(&sq0) + wsk.dot(&wk),
+                        Some(k),
+                    )
+                }
+                None => (m_am, q0_sq0, None),
+            };
+            let mut var = t_at + q_sq;
             if j > 0 {
-                var += sg[(j - 1, j - 1)] - 2.0 * sq[j - 1];
+                // (S⁻¹q)_(j−1) = (S⁻¹q₀)_(j−1) + (W S⁻¹)_(k, j−1) (S⁻¹ is symmetric).
+                let sq = sq0[j - 1] + sq_row.map_or(0.0, |k| ws[(k, j - 1)]);
+                var += sg[(j - 1, j - 1)] - 2.0 * sq;
             }
             setup.push(SetupError {
                 shift_deg,

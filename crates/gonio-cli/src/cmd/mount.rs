@@ -221,6 +221,13 @@ pub fn run(a: Args) -> Result<()> {
     };
     let mut observer = recorder.clone();
     let mut none = NoObserver;
+    // The table's rows are printed as the parts end, so a batch without --json keeps no part
+    // in memory (a million parts in a few MB).
+    let table = !to_stdout;
+    if table {
+        say!("{}", table_header())?;
+    }
+    let mut printed: Result<()> = Ok(());
     let report = station::run(
         *prepared,
         &cfg,
@@ -233,8 +240,12 @@ pub fn run(a: Args) -> Result<()> {
             pace: None,
             frame_tap: recorder.is_some().then_some(&mut tap as FrameTap<'_>),
             station: &a.station_name,
+            discard_parts: json.is_none(),
         },
         &mut |d: &PartDone, _| {
+            if table && printed.is_ok() {
+                printed = bar.suspend(|| print_row(&d.part.record));
+            }
             bar.inc(1);
             bar.set_message(format!(
                 "{} {}",
@@ -251,6 +262,7 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     bar.finish_and_clear();
+    printed?;
     drop(observer);
     if let Some(r) = recorder {
         let (written, error) = r.finish();
@@ -268,6 +280,34 @@ pub fn run(a: Args) -> Result<()> {
     print_and_write(&report, to_stdout, outputs, json)
 }
 
+/// The table's heading line.
+fn table_header() -> String {
+    format!(
+        "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
+        "serial", "initial e/µm", "final e/µm", "pushes", "remeasured", "time/s"
+    )
+}
+
+/// One part's row of the table (and why it was rejected, on a line of its own).
+fn print_row(r: &gonio_station::PartRecord) -> Result<()> {
+    say!(
+        "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  {}",
+        r.serial,
+        fixed(r.initial_e_um, 1),
+        fixed(r.final_e_um, 2),
+        r.pushes,
+        r.remeasured_turns,
+        fixed(r.time_s, 1),
+        r.result.name()
+    )?;
+    if let Some(why) = &r.reject_reason {
+        say!("{:<14} why: {why}", "")?;
+    }
+    Ok(())
+}
+
+/// The summary lines (when stdout is not the JSON) and the JSON; the table's rows were
+/// printed as the parts ended.
 fn print_and_write(
     report: &BatchReport,
     to_stdout: bool,
@@ -275,31 +315,6 @@ fn print_and_write(
     json: Option<OutId>,
 ) -> Result<()> {
     if !to_stdout {
-        say!(
-            "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
-            "serial",
-            "initial e/µm",
-            "final e/µm",
-            "pushes",
-            "remeasured",
-            "time/s"
-        )?;
-        for p in &report.parts {
-            let r = &p.record;
-            say!(
-                "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  {}",
-                r.serial,
-                fixed(r.initial_e_um, 1),
-                fixed(r.final_e_um, 2),
-                r.pushes,
-                r.remeasured_turns,
-                fixed(r.time_s, 1),
-                r.result.name()
-            )?;
-            if let Some(why) = &r.reject_reason {
-                say!("{:<14} why: {why}", "")?;
-            }
-        }
         let s = &report.summary;
         say!(
             "\n{} parts, strategy {}, recipe {}: mean {} s, {:.2} pushes (max {}), final e {} µm (true {:.2} µm), {} rejected",
@@ -419,7 +434,15 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut store_error = None;
+    let table = !to_stdout;
+    if table {
+        say!("{}", table_header())?;
+    }
+    let mut printed: Result<()> = Ok(());
     let report = run_batch(&st, &mut ctl, a.parts, &mut |d: &PlcPartDone<'_>| {
+        if table && printed.is_ok() {
+            printed = bar.suspend(|| print_row(d.record));
+        }
         bar.inc(1);
         bar.set_message(format!("{} {}", d.record.serial, d.record.result.name()));
         if let Some(s) = store.as_mut()
@@ -431,6 +454,7 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         PartEnd::Continue
     })?;
     bar.finish_and_clear();
+    printed?;
     if let Some(e) = store_error {
         return Err(e);
     }
@@ -438,31 +462,6 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         s.end(report.stopped.as_deref())?;
     }
     if !to_stdout {
-        say!(
-            "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
-            "serial",
-            "initial e/µm",
-            "final e/µm",
-            "pushes",
-            "remeasured",
-            "time/s"
-        )?;
-        for p in &report.parts {
-            let r = &p.record;
-            say!(
-                "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  {}",
-                r.serial,
-                fixed(r.initial_e_um, 1),
-                fixed(r.final_e_um, 2),
-                r.pushes,
-                r.remeasured_turns,
-                fixed(r.time_s, 1),
-                r.result.name()
-            )?;
-            if let Some(why) = &r.reject_reason {
-                say!("{:<14} why: {why}", "")?;
-            }
-        }
         let s = &report.summary;
         say!(
             "\n{} parts through {}, strategy {}: mean {} s (focus {:.1}, measure {:.1}, push {:.1}), {:.2} pushes (max {}), final e {} µm, {} rejected, {} device errors",

@@ -367,6 +367,8 @@ fn spawn_station(
                 pace: Some(pace),
                 frame_tap: frames.then_some(&mut tap as FrameTap<'_>),
                 station: &name,
+                // Every part is in the store as it ends; the report keeps only the summary.
+                discard_parts: true,
             },
             &mut |d: &PartDone, id| {
                 if let Some(id) = id {
@@ -377,7 +379,7 @@ fn spawn_station(
         let message = match report {
             Ok(r) => match &r.stopped {
                 Some(why) => format!("the batch {why} (recipe on_device_error = \"stop\")"),
-                None => format!("batch done: {} parts mounted", r.parts.len()),
+                None => format!("batch done: {} parts mounted", r.summary.parts),
             },
             Err(e) => {
                 let m = format!("station stopped: {}", gonio_cli::input::one_line(&e));

@@ -119,7 +119,7 @@ pub struct BatchReport {
     pub station_truth: StationTruth,
     /// What the controller learned by the end.
     pub learned: Learned,
-    /// Every part.
+    /// Every part (empty when the run discarded them: [`RunOptions::discard_parts`]).
     pub parts: Vec<SimPartRecord>,
     /// Why the batch stopped before its last part (a device error under the recipe's
     /// `on_device_error = "stop"`); `None` when every part was mounted.
@@ -130,30 +130,103 @@ pub struct BatchReport {
 
 /// Summarises part records.
 pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
-    let n = parts.len().max(1) as f64;
-    let mean = |f: &dyn Fn(&SimPartRecord) -> f64| parts.iter().map(f).sum::<f64>() / n;
-    // The mean of the values defined (`None`: none is).
-    let mean_of = |f: &dyn Fn(&SimPartRecord) -> Option<f64>| {
-        let v: Vec<f64> = parts.iter().filter_map(f).collect();
-        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-    };
-    let count = |r: PartResult| parts.iter().filter(|p| p.record.result == r).count();
-    BatchSummary {
-        parts: parts.len(),
-        mean_time_s: mean_of(&|p| p.record.time_s),
-        mean_final_e_um: mean_of(&|p| p.record.final_e_um),
-        mean_true_final_e_um: mean(&|p| p.true_final_e_um),
-        mean_pushes: mean(&|p| p.record.pushes as f64),
-        max_pushes: parts.iter().map(|p| p.record.pushes).max().unwrap_or(0),
-        rejected: parts
-            .iter()
-            .filter(|p| p.record.result != PartResult::Accepted)
-            .count(),
-        untrusted: count(PartResult::MeasurementUntrusted),
-        push_inconsistent: count(PartResult::PushInconsistent),
-        device_errors: count(PartResult::RejectedDeviceError),
-        remeasured_turns: parts.iter().map(|p| p.record.remeasured_turns).sum(),
-        total_time_s: parts.iter().filter_map(|p| p.record.time_s).sum(),
+    let mut s = SummaryBuilder::default();
+    for p in parts {
+        s.add(p);
+    }
+    s.finish()
+}
+
+/// A batch's summary built part by part, so a long batch need not keep its parts: the same
+/// sums in the same order as [`summarise`] over the same parts, so the same bits.
+#[derive(Debug, Clone)]
+pub struct SummaryBuilder {
+    parts: usize,
+    time_sum_s: f64,
+    timed: usize,
+    final_sum_um: f64,
+    measured: usize,
+    true_final_sum_um: f64,
+    pushes_sum: f64,
+    max_pushes: u32,
+    rejected: usize,
+    untrusted: usize,
+    push_inconsistent: usize,
+    device_errors: usize,
+    remeasured_turns: u32,
+}
+
+impl Default for SummaryBuilder {
+    fn default() -> Self {
+        // −0.0 is the neutral element of `Iterator::sum` for floats: an empty sum stays what
+        // the standard library's sum gives.
+        SummaryBuilder {
+            parts: 0,
+            time_sum_s: -0.0,
+            timed: 0,
+            final_sum_um: -0.0,
+            measured: 0,
+            true_final_sum_um: -0.0,
+            pushes_sum: -0.0,
+            max_pushes: 0,
+            rejected: 0,
+            untrusted: 0,
+            push_inconsistent: 0,
+            device_errors: 0,
+            remeasured_turns: 0,
+        }
+    }
+}
+
+impl SummaryBuilder {
+    /// Counts one more part.
+    pub fn add(&mut self, p: &SimPartRecord) {
+        let r = &p.record;
+        self.parts += 1;
+        if let Some(t) = r.time_s {
+            self.time_sum_s += t;
+            self.timed += 1;
+        }
+        if let Some(e) = r.final_e_um {
+            self.final_sum_um += e;
+            self.measured += 1;
+        }
+        self.true_final_sum_um += p.true_final_e_um;
+        self.pushes_sum += f64::from(r.pushes);
+        self.max_pushes = self.max_pushes.max(r.pushes);
+        match r.result {
+            PartResult::Accepted => {}
+            other => {
+                self.rejected += 1;
+                match other {
+                    PartResult::MeasurementUntrusted => self.untrusted += 1,
+                    PartResult::PushInconsistent => self.push_inconsistent += 1,
+                    PartResult::RejectedDeviceError => self.device_errors += 1,
+                    _ => {}
+                }
+            }
+        }
+        self.remeasured_turns += r.remeasured_turns;
+    }
+
+    /// The summary of the parts counted so far.
+    pub fn finish(&self) -> BatchSummary {
+        let n = self.parts.max(1) as f64;
+        let mean_of = |sum: f64, k: usize| (k > 0).then(|| sum / k as f64);
+        BatchSummary {
+            parts: self.parts,
+            mean_time_s: mean_of(self.time_sum_s, self.timed),
+            mean_final_e_um: mean_of(self.final_sum_um, self.measured),
+            mean_true_final_e_um: self.true_final_sum_um / n,
+            mean_pushes: self.pushes_sum / n,
+            max_pushes: self.max_pushes,
+            rejected: self.rejected,
+            untrusted: self.untrusted,
+            push_inconsistent: self.push_inconsistent,
+            device_errors: self.device_errors,
+            remeasured_turns: self.remeasured_turns,
+            total_time_s: self.time_sum_s,
+        }
     }
 }
 
@@ -278,6 +351,9 @@ pub struct RunOptions<'a> {
     /// Told every rendered frame with the detector's result (full fidelity only; see
     /// [`run_batch_observed`]): a recorder, the live view's thumbnail.
     pub frame_tap: Option<FrameTap<'a>>,
+    /// Keep no part in the report ([`BatchReport::parts`] empty; the summary still counts
+    /// every part, and `on_part` still sees each): a long batch in bounded memory.
+    pub discard_parts: bool,
 }
 
 impl std::fmt::Debug for RunOptions<'_> {
@@ -288,6 +364,7 @@ impl std::fmt::Debug for RunOptions<'_> {
             .field("observed", &self.observer.is_some())
             .field("pace", &self.pace)
             .field("tapped", &self.frame_tap.is_some())
+            .field("discard_parts", &self.discard_parts)
             .finish()
     }
 }
@@ -353,7 +430,12 @@ pub fn run_batch_from<C: Camera, P: PushRod>(
         Some(o) => o,
         None => &mut none,
     };
-    let mut parts = Vec::with_capacity(cfg.parts.saturating_sub(opts.first_part));
+    let mut parts = if opts.discard_parts {
+        Vec::new()
+    } else {
+        Vec::with_capacity(cfg.parts.saturating_sub(opts.first_part))
+    };
+    let mut summary = SummaryBuilder::default();
     let mut stopped = None;
     for i in opts.first_part..cfg.parts {
         let truth = PartTruth::draw(&cfg.plant, seed, i as u64 + 1);
@@ -383,12 +465,15 @@ pub fn run_batch_from<C: Camera, P: PushRod>(
                 p.record.reject_reason.as_deref().unwrap_or("device error")
             ));
         }
-        parts.push(p);
+        summary.add(&p);
+        if !opts.discard_parts {
+            parts.push(p);
+        }
         if stopped.is_some() || flow.is_break() {
             break;
         }
     }
-    let summary = summarise(&parts);
+    let summary = summary.finish();
     Ok(BatchReport {
         seed,
         strategy: cfg.strategy.name().to_string(),

@@ -24,7 +24,7 @@ pub mod twin;
 
 pub use batch::{
     BatchConfig, BatchReport, BatchSummary, Fidelity, PartDone, RunOptions, SimPartRecord,
-    run_batch, run_batch_from, run_batch_observed, run_batch_on, run_batch_with,
+    SummaryBuilder, run_batch, run_batch_from, run_batch_observed, run_batch_on, run_batch_with,
 };
 pub use frames::{
     FrameCamera, FrameTap, KeptFrames, SeenFrame, TappedCamera, TwinFrames, frame_camera,
