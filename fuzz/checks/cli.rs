@@ -1,5 +1,5 @@
 //! Invariants checked on every input of the CLI's fuzz targets (the parsers of
-//! `crates/gonio-cli/src/formats/`), and replayed on the kept corpora and crashes by
+//! `crates/gonio-io/src/formats/`), and replayed on the kept corpora and crashes by
 //! `crates/gonio-cli/tests/fuzz_regressions.rs`.
 //!
 //! Whatever the bytes: no panic, no abort, no hang, no memory blow-up; an error is one line of at
@@ -9,8 +9,8 @@
 //! parser (one target per family of formats).
 #![allow(dead_code)]
 
-use gonio_cli::formats;
-use gonio_cli::input::{MAX_ERROR_CHARS, decode, one_line};
+use gonio_io::formats;
+use gonio_io::input::{MAX_ERROR_CHARS, decode, one_line};
 
 const NAME: &str = "in";
 
@@ -158,7 +158,7 @@ pub fn json_files(data: &[u8]) {
         }
         1 => {
             if let Some(c) = run(rest, formats::certificate::parse(NAME, &t)) {
-                let _ = gonio_cli::output::json::to_bytes(&c);
+                let _ = gonio_io::json::to_bytes(&c);
             }
         }
         2 => {

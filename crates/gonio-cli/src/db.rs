@@ -33,10 +33,10 @@ pub fn open_existing(location: &str) -> Result<Box<dyn Store>> {
 }
 
 /// Reserves the results store of a command (`--db`, a SQLite path): none of the command's
-/// outputs may name it ([`gonio_cli::input::reserve`]). A `postgres://` URL names no file.
+/// outputs may name it ([`gonio_io::input::reserve`]). A `postgres://` URL names no file.
 pub fn reserve(location: &str) {
     if !gonio_store::is_postgres(location) {
-        gonio_cli::input::reserve(
+        gonio_io::input::reserve(
             std::path::Path::new(location),
             &format!("results store (--db {location})"),
         );

@@ -111,7 +111,7 @@ fn main() {
     };
     if let Err(e) = result {
         // One line: the chain of causes joined by ": ", echoed input capped.
-        gonio_cli::term::note(&format!("error: {}", gonio_cli::input::one_line(&e)));
+        gonio_cli::term::note(&format!("error: {}", gonio_io::input::one_line(&e)));
         std::process::exit(2);
     }
 }

@@ -1,12 +1,12 @@
 //! `gonio mount --record DIR`: writes the chosen parts' measuring turns for a replay (the format
-//! in [`gonio_cli::formats::replay`]). It listens to the station as an observer (turn boundaries,
+//! in [`gonio_io::formats::replay`]). It listens to the station as an observer (turn boundaries,
 //! each turn's frames as the camera reported them and the servo's angle log, the finished
 //! record) and to the camera's frames through the simulation's frame tap (the pixels). A part
 //! is written into a temporary directory and renamed into place when it is finished, so a
 //! recorded part is whole or absent.
 
 use anyhow::{Context, Result, anyhow};
-use gonio_cli::formats::replay::{FORMAT, PartFile, TurnFiles, part_dir};
+use gonio_io::formats::replay::{FORMAT, PartFile, TurnFiles, part_dir};
 use gonio_sim::station::SeenFrame;
 use gonio_station::fit::EccentricityFit;
 use gonio_station::hal::CameraFrame;

@@ -63,7 +63,7 @@ impl From<FidelityArg> for Fidelity {
 
 /// Reads a recipe file; errors name the file, line and column.
 pub fn load_recipe(path: &Path) -> Result<Recipe> {
-    gonio_cli::formats::recipe::load(path)
+    gonio_io::formats::recipe::load(path)
 }
 
 /// Where a batch's parts go.

@@ -1,8 +1,8 @@
 //! `budget`: a GUM uncertainty budget file evaluated, optionally with a JCGM 101 Monte Carlo run:
-//! what `gonio budget --json` writes (`gonio_cli::results::budget`).
+//! what `gonio budget --json` writes (`gonio_io::results::budget`).
 
 use crate::convert::{self, OrGonio, Source, refuse};
-use gonio_cli::results::budget::{McRequest, Request, evaluate};
+use gonio_io::results::budget::{McRequest, Request, evaluate};
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
@@ -55,7 +55,7 @@ pub fn budget<'py>(
     let src = convert::source(toml_text_or_path, "budget", false)?;
     let file = src.name();
     let bytes = match src {
-        Source::Path(p) => gonio_cli::input::read_bytes(&p, MAX_FILE_BYTES).or_gonio()?,
+        Source::Path(p) => gonio_io::input::read_bytes(&p, MAX_FILE_BYTES).or_gonio()?,
         Source::Text { text, .. } => text.into_bytes(),
     };
     let e = py

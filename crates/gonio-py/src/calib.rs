@@ -9,9 +9,9 @@ use gonio_calib::certificate::{Certificate, CertificateMeta, Instrument};
 use gonio_calib::joint::{HeadAngles, Interpolation, JointError, JointOptions};
 use gonio_calib::selfcal::{Method as SelfcalMethod, NoiseModel, SelfcalOptions};
 use gonio_calib::shift_angle::{Method, Options};
-use gonio_cli::formats::csv::CsvTable;
-use gonio_cli::formats::heads::{self, locate, read_turns};
-use gonio_cli::formats::{self, curve, readings};
+use gonio_io::formats::csv::CsvTable;
+use gonio_io::formats::heads::{self, locate, read_turns};
+use gonio_io::formats::{self, curve, readings};
 use pyo3::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -131,8 +131,7 @@ fn certificate<'py>(
     if let Some(m) = meta {
         cert = cert.with_meta(m);
     }
-    gonio_cli::output::json::finite_result(&cert, Path::new(input), "the calibration")
-        .or_gonio()?;
+    gonio_io::json::finite_result(&cert, Path::new(input), "the calibration").or_gonio()?;
     convert::to_python(py, &cert, input)
 }
 

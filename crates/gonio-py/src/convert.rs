@@ -2,7 +2,7 @@
 //! line's JSON parsed by Python's `json`), paths, texts and numpy arrays as inputs.
 
 use crate::GonioError;
-use gonio_cli::formats::csv::CsvTable;
+use gonio_io::formats::csv::CsvTable;
 use numpy::{AllowTypeChange, PyArrayLike2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 /// An error as `GonioError` with the command line's one-line message.
 pub fn error(e: anyhow::Error) -> PyErr {
-    GonioError::new_err(gonio_cli::input::one_line(&e))
+    GonioError::new_err(gonio_io::input::one_line(&e))
 }
 
 /// A `GonioError` with this message.
@@ -44,8 +44,7 @@ pub fn to_python<'py, T: Serialize + ?Sized>(
     value: &T,
     name: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let bytes =
-        gonio_cli::output::json::to_bytes(value).map_err(|e| refuse(format!("{name}: {e}")))?;
+    let bytes = gonio_io::json::to_bytes(value).map_err(|e| refuse(format!("{name}: {e}")))?;
     from_json(py, &bytes)
 }
 
@@ -71,13 +70,13 @@ impl Source {
         }
     }
 
-    /// Parses it with a `gonio_cli::formats` parser (`parse(name, text)`).
+    /// Parses it with a `gonio_io::formats` parser (`parse(name, text)`).
     pub fn parse<T>(
         &self,
         parse: impl FnOnce(&str, &str) -> anyhow::Result<T>,
     ) -> anyhow::Result<T> {
         match self {
-            Source::Path(p) => gonio_cli::input::load(p, parse),
+            Source::Path(p) => gonio_io::input::load(p, parse),
             Source::Text { name, text } => parse(name, text),
         }
     }

@@ -3,7 +3,7 @@
 //!
 //! Every function returns what the command line writes as JSON, as plain Python objects (dicts,
 //! lists, floats, ints, strings, None) with the same keys and values: the results are made by
-//! the library crates and shaped by `gonio_cli` (its file formats, its result types and its one
+//! the library crates and shaped by `gonio_io` (its file formats, its result types and its one
 //! JSON emitter, which refuses a non-finite number), then parsed by Python's `json` module.
 //!
 //! Inputs are file paths, as on the command line, or numpy arrays. An array is read as the

@@ -4,9 +4,9 @@
 
 use crate::convert::{self, OrGonio, Source, refuse};
 use anyhow::anyhow;
-use gonio_cli::formats::{frames, recipe, samples};
-use gonio_cli::results::detect::Line;
-use gonio_cli::results::eccentricity::{Settings, evaluate};
+use gonio_io::formats::{frames, recipe, samples};
+use gonio_io::results::detect::Line;
+use gonio_io::results::eccentricity::{Settings, evaluate};
 use gonio_station::Recipe;
 use gonio_station::fit::FitMethod;
 use gonio_vision::{
@@ -57,7 +57,7 @@ fn line_json(
     um_per_px: f64,
 ) -> anyhow::Result<Vec<u8>> {
     let line = Line::new(index, None, None, None, r, um_per_px);
-    gonio_cli::output::json::check_finite(&line).map_err(|e| anyhow!("frame {index}: {e}"))?;
+    gonio_io::json::check_finite(&line).map_err(|e| anyhow!("frame {index}: {e}"))?;
     Ok(serde_json::to_vec(&line)?)
 }
 
@@ -251,7 +251,7 @@ pub fn eccentricity<'py>(
     let read = match c_px.filter(|c| !c.is_none()) {
         None if convert::is_path(theta_deg) => {
             let p: std::path::PathBuf = theta_deg.extract()?;
-            gonio_cli::formats::csv::CsvTable::read(&p)
+            gonio_io::formats::csv::CsvTable::read(&p)
                 .and_then(samples::from_table)
                 .or_gonio()?
         }

@@ -9,7 +9,8 @@ mod screen;
 
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::output::Outputs;
-use gonio_cli::{input, note, say};
+use gonio_cli::{note, say};
+use gonio_io::input;
 use gonio_lab::acquire::{AcquireError, Acquisition, Attempt, Check, CheckKind, Settings};
 use gonio_lab::instrument::{Autocollimator, Transport};
 use gonio_lab::journal::{self, Outcome};

@@ -2,9 +2,9 @@
 
 use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
-use gonio_cli::input;
 use gonio_cli::output::Outputs;
-use gonio_cli::results::budget::{self, McJson, Progress};
+use gonio_io::input;
+use gonio_io::results::budget::{self, McJson, Progress};
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use gonio_uncertainty::{BudgetResult, short};
 use std::collections::HashSet;
@@ -109,7 +109,7 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     // Checked before anything is printed: a result that is not finite is an error, not a null.
-    let bytes = gonio_cli::output::json::to_bytes(&e.output())
+    let bytes = gonio_io::json::to_bytes(&e.output())
         .map_err(|err| anyhow!("{file}: nothing was written: {err}"))?;
     gonio_cli::term::out(&out)?;
     if let Some(j) = json {
@@ -342,7 +342,7 @@ mod tests {
             "[[budget]]\nname = \"b\"\n[[budget.contribution]]\nname = \"r\"\nu = 1\ndof = -2\n",
         )
         .unwrap();
-        let e = gonio_cli::input::one_line(&run(args(p.clone(), None)).unwrap_err());
+        let e = gonio_io::input::one_line(&run(args(p.clone(), None)).unwrap_err());
         assert_eq!(
             e,
             format!(

@@ -61,7 +61,7 @@ fn list(a: ListArgs) -> Result<()> {
         })
         .collect();
     if a.json {
-        let mut v = gonio_cli::output::json::to_bytes(&rows)?;
+        let mut v = gonio_io::json::to_bytes(&rows)?;
         if v.last() != Some(&b'\n') {
             v.push(b'\n');
         }

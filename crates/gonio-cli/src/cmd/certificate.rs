@@ -2,9 +2,9 @@
 //! Certificate (DCC v3.1.2 XML).
 
 use anyhow::{Result, anyhow};
-use gonio_cli::formats;
 use gonio_cli::output::Outputs;
 use gonio_cli::say;
+use gonio_io::formats;
 use std::path::PathBuf;
 
 /// Arguments of `gonio certificate`.

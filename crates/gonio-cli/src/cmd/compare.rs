@@ -3,8 +3,8 @@
 
 use anyhow::{Result, anyhow};
 use gonio_calib::compare::{Comparison, compare};
-use gonio_cli::formats::curve;
 use gonio_cli::output::Outputs;
+use gonio_io::formats::curve;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -5,9 +5,9 @@ use gonio_calib::certificate::{Certificate, Instrument};
 use gonio_calib::compare::{Curve, compare};
 use gonio_calib::selfcal::{self, Heads, SelfcalOptions};
 use gonio_calib::shift_angle::{Calibration, Method, Options, ReadingSet, calibrate};
-use gonio_cli::formats::report::{self, ReportInput};
 use gonio_cli::output::Outputs;
 use gonio_cli::say;
+use gonio_io::formats::report::{self, ReportInput};
 use gonio_sim::EncoderModel;
 use gonio_sim::selfcal::SelfcalSimConfig;
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, ShiftAngleTruth, simulate};
@@ -228,7 +228,7 @@ fn write_report(
     comparison: &gonio_calib::compare::Comparison,
     batch: &BatchReport,
 ) -> Result<()> {
-    let meta = gonio_cli::formats::meta::parse("examples/certificate-meta.toml", META)?;
+    let meta = gonio_io::formats::meta::parse("examples/certificate-meta.toml", META)?;
     let with_meta = |c: &Certificate| {
         let mut m = meta.clone();
         m.remarks = Some(format!(

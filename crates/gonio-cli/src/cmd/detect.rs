@@ -2,11 +2,11 @@
 //! input, one JSON line per frame.
 
 use anyhow::{Result, anyhow, bail};
-use gonio_cli::formats::angles::{self, AngleLog};
-use gonio_cli::formats::csv::CsvTable;
-use gonio_cli::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
 use gonio_cli::output::{OutId, Outputs};
-use gonio_cli::results::detect::Line;
+use gonio_io::formats::angles::{self, AngleLog};
+use gonio_io::formats::csv::CsvTable;
+use gonio_io::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
+use gonio_io::results::detect::Line;
 use gonio_vision::reference::{Image, label};
 use gonio_vision::{
     DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
@@ -206,14 +206,14 @@ impl Sink {
     /// Writes one JSON value as a line (a camera's line, patched).
     #[cfg_attr(not(feature = "genicam"), allow(dead_code))]
     pub(crate) fn value(&mut self, frame: u64, v: &serde_json::Value) -> Result<()> {
-        gonio_cli::output::json::check_finite(v).map_err(|e| anyhow!("frame {frame}: {e}"))?;
+        gonio_io::json::check_finite(v).map_err(|e| anyhow!("frame {frame}: {e}"))?;
         let mut b = serde_json::to_vec(v)?;
         b.push(b'\n');
         self.out.write(self.id, &b)
     }
 
     fn line(&mut self, l: &Line) -> Result<()> {
-        gonio_cli::output::json::check_finite(l).map_err(|e| anyhow!("frame {}: {e}", l.frame))?;
+        gonio_io::json::check_finite(l).map_err(|e| anyhow!("frame {}: {e}", l.frame))?;
         let mut v = serde_json::to_vec(l)?;
         v.push(b'\n');
         self.out.write(self.id, &v)
@@ -266,7 +266,7 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
         for f in &files {
-            gonio_cli::input::record(f);
+            gonio_io::input::record(f);
         }
         detect_all(
             &a,

@@ -1,11 +1,11 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
 use anyhow::Result;
-use gonio_cli::formats::csv::CsvTable;
-use gonio_cli::formats::{recipe, samples};
 use gonio_cli::output::Outputs;
-use gonio_cli::results::eccentricity::{Settings, evaluate};
 use gonio_cli::say;
+use gonio_io::formats::csv::CsvTable;
+use gonio_io::formats::{recipe, samples};
+use gonio_io::results::eccentricity::{Settings, evaluate};
 use gonio_station::Recipe;
 use gonio_station::fit::FitMethod;
 use std::path::PathBuf;
@@ -129,7 +129,7 @@ mod tests {
     }
 
     fn err(text: &str) -> String {
-        gonio_cli::input::one_line(&run_on(text, Method::LeastSquares).unwrap_err())
+        gonio_io::input::one_line(&run_on(text, Method::LeastSquares).unwrap_err())
     }
 
     #[test]

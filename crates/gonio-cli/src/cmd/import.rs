@@ -4,8 +4,8 @@
 //! Glue only: the log's format, the plan and the pairing of the two are `gonio_lab`'s.
 
 use anyhow::Result;
-use gonio_cli::input;
 use gonio_cli::output::Outputs;
+use gonio_io::input;
 use gonio_lab::plan::Plan;
 use gonio_lab::{import, log, readings};
 use std::path::PathBuf;

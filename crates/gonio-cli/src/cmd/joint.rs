@@ -7,10 +7,10 @@ use gonio_calib::joint::{
     HeadAngles, Interpolation, JointError, JointHarmonic, JointOptions, SigmaUsed, calibrate,
 };
 use gonio_calib::selfcal::NoiseModel;
-use gonio_cli::formats::csv::CsvTable;
-use gonio_cli::formats::heads::{self, locate, read_turns};
-use gonio_cli::formats::{self, readings};
 use gonio_cli::output::Outputs;
+use gonio_io::formats::csv::CsvTable;
+use gonio_io::formats::heads::{self, locate, read_turns};
+use gonio_io::formats::{self, readings};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -170,7 +170,7 @@ pub fn run(args: Args) -> Result<()> {
         cert = cert.with_meta(m);
     }
     // Overflow (a reading of 1e308) is an error naming the input, before any output.
-    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    gonio_io::json::finite_result(&cert, &args.readings, "the calibration")?;
     let to_stdout = out.to_stdout(json);
     out.certificate(json, comp, &cert)?;
     if !to_stdout {

@@ -4,10 +4,10 @@ use crate::recorder::{self, Recorder};
 use crate::station::{self, FidelityArg, StrategyArg};
 use crate::table::fixed;
 use anyhow::{Result, bail};
-use gonio_cli::formats::frames::load_scene;
-use gonio_cli::formats::recipe;
 use gonio_cli::output::{OutId, Outputs};
 use gonio_cli::say;
+use gonio_io::formats::frames::load_scene;
+use gonio_io::formats::recipe;
 use gonio_sim::frames::{GratingScene, ScenePreset};
 use gonio_sim::station::{BatchConfig, BatchReport, FrameTap, PartDone, SeenFrame};
 use gonio_station::Recipe;
@@ -380,7 +380,7 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     }
     let addr = plc_address(url)?;
     let map = match &a.plc_map {
-        Some(p) => gonio_cli::input::load(p, |name, text| {
+        Some(p) => gonio_io::input::load(p, |name, text| {
             gonio_plc::RegisterMap::from_toml(text).map_err(|e| match e {
                 gonio_plc::map::MapError::Syntax {
                     line,

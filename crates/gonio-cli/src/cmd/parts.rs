@@ -167,7 +167,7 @@ pub fn run(a: Args) -> Result<()> {
         store
             .for_each_page(&q, PAGE_PARTS, &mut |page| {
                 for p in &page {
-                    let r = gonio_cli::output::json::to_bytes(p)
+                    let r = gonio_io::json::to_bytes(p)
                         .map_err(|e| {
                             anyhow!("{shown}: nothing was written: [{n}] (part {}): {e}", p.part)
                         })

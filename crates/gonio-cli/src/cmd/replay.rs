@@ -1,8 +1,8 @@
 //! `gonio replay`: re-run a recorded part's detection and fit and compare with its record.
 
 use anyhow::{Result, anyhow, bail};
-use gonio_cli::formats::replay::{self, PartFile};
 use gonio_cli::say;
+use gonio_io::formats::replay::{self, PartFile};
 use gonio_station::DetectorCamera;
 use gonio_station::replay::{TurnReplay, replay_turn};
 use serde::Serialize;

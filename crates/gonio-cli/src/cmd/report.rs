@@ -2,8 +2,8 @@
 //! comparisons and mounting batches.
 
 use anyhow::Result;
-use gonio_cli::formats::{self, report};
 use gonio_cli::output::Outputs;
+use gonio_io::formats::{self, report};
 use std::path::PathBuf;
 
 /// Arguments of `gonio report`.

@@ -4,10 +4,10 @@ use crate::db;
 use anyhow::{Context, Result, bail};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::selfcal::{Method, NoiseModel, SelfcalOptions, calibrate};
-use gonio_cli::formats::csv::CsvTable;
-use gonio_cli::formats::heads::{self, locate, read_turns};
-use gonio_cli::formats::{self};
 use gonio_cli::output::Outputs;
+use gonio_io::formats::csv::CsvTable;
+use gonio_io::formats::heads::{self, locate, read_turns};
+use gonio_io::formats::{self};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -110,9 +110,9 @@ pub fn run(args: Args) -> Result<()> {
     };
     let reference_heads = parse_reference(&args.reference, heads.len())?;
     let table = {
-        let bytes = gonio_cli::input::read_bytes(&args.readings, MAX_READINGS_BYTES)?;
+        let bytes = gonio_io::input::read_bytes(&args.readings, MAX_READINGS_BYTES)?;
         let name = args.readings.display().to_string();
-        CsvTable::parse(&name, &gonio_cli::input::decode(&name, &bytes)?)?
+        CsvTable::parse(&name, &gonio_io::input::decode(&name, &bytes)?)?
     };
     let rt = read_turns(&table, &heads, args.raw)?;
     let opts = SelfcalOptions {
@@ -129,7 +129,7 @@ pub fn run(args: Args) -> Result<()> {
         cert = cert.with_meta(m);
     }
     // Overflow (a reading of 1e308) is an error naming the input, before any output.
-    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    gonio_io::json::finite_result(&cert, &args.readings, "the calibration")?;
     let to_stdout = out.to_stdout(json);
     if let Some(j) = json {
         out.json(j, &cert)?;
@@ -248,18 +248,18 @@ mod tests {
         assert_eq!(r.errors.len(), 36);
         // Position 7 (file line 9) off the 10° grid.
         let bad = csv(36, 10.0, |_| "0.1,0.2".into()).replace("\n70,", "\n71,");
-        let e = gonio_cli::input::one_line(&run_csv(&bad, "eda:3", false).unwrap_err());
+        let e = gonio_io::input::one_line(&run_csv(&bad, "eda:3", false).unwrap_err());
         assert!(
             e.starts_with("r.csv:9: column 'position_deg': found 71°"),
             "{e}"
         );
         // Half a turn.
-        let e = gonio_cli::input::one_line(
+        let e = gonio_io::input::one_line(
             &run_csv(&csv(36, 5.0, |_| "0,0".into()), "eda:3", false).unwrap_err(),
         );
         assert!(e.starts_with("r.csv:3: column 'position_deg'"), "{e}");
         // NaN and ragged rows.
-        let e = gonio_cli::input::one_line(
+        let e = gonio_io::input::one_line(
             &run_csv(
                 &csv(
                     36,
@@ -272,7 +272,7 @@ mod tests {
             .unwrap_err(),
         );
         assert!(e.starts_with("r.csv:5:2: column 'head_2'"), "{e}");
-        let e = gonio_cli::input::one_line(
+        let e = gonio_io::input::one_line(
             &run_csv(
                 &csv(36, 10.0, |i| if i == 2 { "0".into() } else { "0,0".into() }),
                 "eda:3",
@@ -282,12 +282,12 @@ mod tests {
         );
         assert!(e.starts_with("r.csv:4: expected 3 fields"), "{e}");
         // Head count not matching the heads.
-        let e = gonio_cli::input::one_line(&run_csv(&ok, "eda:4", false).unwrap_err());
+        let e = gonio_io::input::one_line(&run_csv(&ok, "eda:4", false).unwrap_err());
         assert!(e.starts_with("r.csv:1: 2 head columns for 4 heads"), "{e}");
-        let e = gonio_cli::input::one_line(&run_csv(&ok, "eda:3", true).unwrap_err());
+        let e = gonio_io::input::one_line(&run_csv(&ok, "eda:3", true).unwrap_err());
         assert!(e.contains("expected head_1,head_2,head_3"), "{e}");
         // Too few rows.
-        let e = gonio_cli::input::one_line(
+        let e = gonio_io::input::one_line(
             &run_csv(&csv(4, 90.0, |_| "0,0".into()), "eda:3", false).unwrap_err(),
         );
         assert!(e.starts_with("r.csv:5: turn 1: expected at least 8"), "{e}");
@@ -305,7 +305,7 @@ mod tests {
         assert_eq!(r.turns, 2);
         assert_eq!(r.uncertainty.source, "repeated turns");
         let s = s.replace(",1\n", ",0\n");
-        let e = gonio_cli::input::one_line(&run_csv(&s, "eda:2", false).unwrap_err());
+        let e = gonio_io::input::one_line(&run_csv(&s, "eda:2", false).unwrap_err());
         assert!(e.contains("turn number ≥ 1"), "{e}");
     }
 }

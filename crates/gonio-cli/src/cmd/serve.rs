@@ -382,7 +382,7 @@ fn spawn_station(
                 None => format!("batch done: {} parts mounted", r.summary.parts),
             },
             Err(e) => {
-                let m = format!("station stopped: {}", gonio_cli::input::one_line(&e));
+                let m = format!("station stopped: {}", gonio_io::input::one_line(&e));
                 gonio_cli::note!("error: {m}");
                 m
             }

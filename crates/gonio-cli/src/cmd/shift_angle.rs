@@ -4,8 +4,8 @@ use crate::db;
 use anyhow::{Result, anyhow};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::shift_angle::{Method, Options, calibrate};
-use gonio_cli::formats::{self, readings};
 use gonio_cli::output::Outputs;
+use gonio_io::formats::{self, readings};
 use std::path::PathBuf;
 
 /// Arguments of `gonio shift-angle`.
@@ -95,7 +95,7 @@ pub fn run(args: Args) -> Result<()> {
         cert = cert.with_meta(m);
     }
     // Overflow (a reading of 1e308) is an error naming the input, before any output.
-    gonio_cli::output::json::finite_result(&cert, &args.readings, "the calibration")?;
+    gonio_io::json::finite_result(&cert, &args.readings, "the calibration")?;
     let to_stdout = out.to_stdout(json);
     out.certificate(json, comp, &cert)?;
     if !to_stdout {

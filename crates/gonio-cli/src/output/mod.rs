@@ -8,7 +8,7 @@
 //!   in.csv --json in.csv`, a hard link, `./in.csv`); checked again when the set is committed, for
 //!   inputs read later;
 //! - it is the command's results store (`--db X --json X`) or one of its SQLite companions,
-//!   whether the store exists yet or not ([`crate::input::reserve`]);
+//!   whether the store exists yet or not ([`gonio_io::input::reserve`]);
 //! - it is not a regular file: a directory, a device (`/dev/null`), a FIFO or a socket — writing
 //!   one whole by rename would replace the node itself. Write to standard output with `-` and
 //!   redirect it instead;
@@ -21,12 +21,11 @@
 //! files of an earlier run that this run does not write (stale frames) are removed when the set
 //! is committed.
 
-pub mod json;
-
-use crate::input::{FileId, recorded};
 use crate::term;
 pub use crate::term::os_message;
 use anyhow::{Result, anyhow, bail};
+use gonio_io::input::{FileId, recorded};
+use gonio_io::json;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -240,7 +239,7 @@ fn parent_of(path: &Path) -> PathBuf {
 /// input of the command.
 fn check_destination(flag: &str, path: &Path) -> Result<Option<FileId>> {
     let shown = path.display();
-    if let Some(what) = crate::input::reserved(path) {
+    if let Some(what) = gonio_io::input::reserved(path) {
         bail!(
             "{flag} {shown}: is the command's {what}: writing it would destroy the store; choose another output file"
         );
@@ -519,7 +518,7 @@ impl Outputs {
             self.json(j, cert)?;
         }
         if let Some(c) = compensation {
-            self.write(c, crate::formats::compensation::csv(cert).as_bytes())?;
+            self.write(c, gonio_io::formats::compensation::csv(cert).as_bytes())?;
         }
         Ok(())
     }

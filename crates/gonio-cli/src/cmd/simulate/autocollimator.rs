@@ -4,9 +4,10 @@
 //! Glue only: the instrument and the pseudo-terminal are `gonio_lab::simulator`'s.
 
 use anyhow::{Result, anyhow, bail};
-use gonio_cli::formats::encoder as encoder_file;
 use gonio_cli::output::Outputs;
-use gonio_cli::{input, note, say};
+use gonio_cli::{note, say};
+use gonio_io::formats::encoder as encoder_file;
+use gonio_io::input;
 use gonio_lab::plan::Plan;
 use gonio_lab::simulator::{Position, Pty, SimConfig, SimulatedAutocollimator};
 use gonio_sim::EncoderModel;

@@ -113,7 +113,7 @@ fn serve(_: Args, _: u64) -> Result<()> {
 #[cfg(feature = "genicam")]
 fn serve(a: Args, per_turn: u64) -> Result<()> {
     use gonio_camera::{FakeConfig, FakeGvCamera, FillInfo};
-    use gonio_cli::formats::frames::load_optics;
+    use gonio_io::formats::frames::load_optics;
     use gonio_sim::frames::{GratingScene, RenderedFrames, SceneChoice, ScenePreset, Turn};
     use gonio_vision::FrameSource;
     use std::sync::atomic::{AtomicBool, Ordering};

@@ -1,8 +1,8 @@
 //! `gonio simulate frames`: rendered camera frames of a rotating, eccentric grating, with truth.
 
 use anyhow::{Result, bail};
-use gonio_cli::formats::frames::{load_optics, load_scene};
 use gonio_cli::output::Outputs;
+use gonio_io::formats::frames::{load_optics, load_scene};
 use gonio_sim::frames::{
     FrameTruth, GratingScene, RenderedFrames, SceneChoice, SceneDraw, SceneFamily, ScenePreset,
     Turn,

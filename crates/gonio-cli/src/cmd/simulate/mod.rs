@@ -9,8 +9,8 @@ pub mod shift_angle;
 pub mod station;
 
 use anyhow::Result;
-use gonio_cli::formats::encoder as encoder_file;
 use gonio_cli::output::{OutId, Outputs};
+use gonio_io::formats::encoder as encoder_file;
 use gonio_sim::EncoderModel;
 use std::path::Path;
 

@@ -1,8 +1,8 @@
 //! `gonio simulate selfcal`: multi-head readings of one encoder scale, with ground truth.
 
 use anyhow::{Result, bail};
-use gonio_cli::formats::heads;
 use gonio_cli::output::Outputs;
+use gonio_io::formats::heads;
 use gonio_sim::selfcal::{SelfcalSimConfig, simulate};
 use std::fmt::Write as _;
 use std::path::PathBuf;

@@ -1,8 +1,8 @@
 //! `gonio simulate shift-angle`: polygon + autocollimator readings with ground truth.
 
 use anyhow::{Context, Result, bail};
-use gonio_cli::formats::readings;
 use gonio_cli::output::Outputs;
+use gonio_io::formats::readings;
 use gonio_lab::log::{self as elcomat, Mode};
 use gonio_lab::plan::{Level, ModeRule, Plan, ShiftPlan};
 use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, simulate};

@@ -2,7 +2,7 @@
 //! (docs/plc-interface.md) with the twin's plant, and the camera it triggers.
 
 use anyhow::{Context, Result, anyhow, bail};
-use gonio_cli::output::json;
+use gonio_io::json;
 use gonio_plc::sim::{SimConfig, SimServer, TruthPart};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};

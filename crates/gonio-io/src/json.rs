@@ -50,7 +50,7 @@ impl ser::Error for NonFinite {
 /// A number that is not finite, with its path.
 ///
 /// ```
-/// use gonio_cli::output::json::to_bytes;
+/// use gonio_io::json::to_bytes;
 /// #[derive(serde::Serialize)]
 /// struct P { u_arcsec: f64 }
 /// assert_eq!(to_bytes(&P { u_arcsec: 0.5 }).unwrap(), b"{\n  \"u_arcsec\": 0.5\n}\n");

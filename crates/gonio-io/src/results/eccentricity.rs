@@ -5,8 +5,8 @@
 //! Errors are `anyhow` errors naming the flag or the samples' file.
 //!
 //! ```
-//! use gonio_cli::formats::samples;
-//! use gonio_cli::results::eccentricity::{Settings, evaluate};
+//! use gonio_io::formats::samples;
+//! use gonio_io::results::eccentricity::{Settings, evaluate};
 //! use gonio_station::{Recipe, fit::FitMethod};
 //! let mut csv = String::from("theta_deg,c_px\n");
 //! for i in 0..200 {
@@ -155,7 +155,7 @@ pub fn evaluate(
         quality: f.quality.metrics.clone(),
     };
     // A result that overflowed (e.g. --um-per-px 1e308) is an error naming it, not "inf".
-    crate::output::json::check_finite(&out).map_err(|e| {
+    crate::json::check_finite(&out).map_err(|e| {
         anyhow!(
             "{}: {e}; with um_per_px = {um} and e = {} px",
             t.name,

@@ -160,7 +160,7 @@ pub const MAX_SHIFTS: usize = 100_000;
 /// neither, or has more than [`MAX_SHIFTS`] shifts.
 ///
 /// ```
-/// use gonio_cli::formats::readings::shift_range;
+/// use gonio_io::formats::readings::shift_range;
 /// assert_eq!(shift_range("0:5:10"), Some(vec![0.0, 5.0, 10.0]));
 /// assert_eq!(shift_range("0:1e-300:1"), None);
 /// ```

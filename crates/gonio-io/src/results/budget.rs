@@ -6,11 +6,11 @@
 //! in it).
 //!
 //! ```
-//! use gonio_cli::results::budget::{Request, evaluate};
+//! use gonio_io::results::budget::{Request, evaluate};
 //! let toml = b"[[budget]]\nname = \"y\"\n[[budget.contribution]]\nname = \"a\"\nu = 0.1\n";
 //! let e = evaluate(toml, "b.toml", &Request::default(), |_| {}).unwrap();
 //! assert_eq!(e.selected, "y");
-//! assert!(gonio_cli::output::json::to_bytes(&e.output()).is_ok());
+//! assert!(gonio_io::json::to_bytes(&e.output()).is_ok());
 //! ```
 
 use anyhow::{Result, anyhow, bail};

@@ -1,6 +1,6 @@
 //! Reading input files: size limits checked before reading, UTF-8 text with the line of a bad
-//! byte, and the record of every file read, which outputs may not overwrite
-//! ([`crate::output::Outputs`] refuses an output that is one of these files).
+//! byte, and the record of every file read, which outputs may not overwrite (the binary's output
+//! set, `gonio_cli::output::Outputs`, refuses an output that is one of these files).
 
 use anyhow::{Context, Result, anyhow};
 use std::io::Read;

@@ -3,7 +3,7 @@
 //! detector's [`FrameResult`] (c_px, valid, reason, score, margin, edges …).
 //!
 //! ```
-//! use gonio_cli::results::detect::Line;
+//! use gonio_io::results::detect::Line;
 //! use gonio_vision::{Detector, Optics};
 //! let optics = Optics::default();
 //! let r = Detector::new(&optics).unwrap().detect(&vec![128u8; 1440 * 540]).unwrap();
