@@ -5,7 +5,6 @@
 
 mod cmd;
 mod db;
-mod recorder;
 mod station;
 mod table;
 

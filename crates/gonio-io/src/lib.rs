@@ -1,7 +1,9 @@
 //! gonio's files: the lab formats' readers and writers ([`formats`]), input reading with size
 //! limits and the record of the files read ([`input`]), the result documents of the commands that
 //! more than one front end gives ([`results`]: the `gonio` binary's JSON, the Python module's
-//! dicts) and the one strict JSON emitter, which refuses a number that is not finite ([`json`]).
+//! dicts), the one strict JSON emitter, which refuses a number that is not finite ([`json`]), and
+//! the replay recorder, the writer of the replay format whose reader is [`formats::replay`]
+//! ([`recorder`]).
 //!
 //! Every parser takes text (or bytes) and a name, so that it can be tested and fuzzed (`fuzz/`)
 //! without files. Errors are `anyhow` errors whose one-line text names the file, line and column
@@ -22,4 +24,5 @@
 pub mod formats;
 pub mod input;
 pub mod json;
+pub mod recorder;
 pub mod results;

@@ -1,6 +1,5 @@
 //! `gonio mount`: mount a batch of gratings on the (simulated) automatic mounting station.
 
-use crate::recorder::{self, Recorder};
 use crate::station::{self, FidelityArg, StrategyArg};
 use crate::table::fixed;
 use anyhow::{Result, bail};
@@ -8,6 +7,7 @@ use gonio_cli::output::{OutId, Outputs};
 use gonio_cli::say;
 use gonio_io::formats::frames::load_scene;
 use gonio_io::formats::recipe;
+use gonio_io::recorder::{self, Recorder};
 use gonio_sim::frames::{GratingScene, ScenePreset};
 use gonio_sim::station::{BatchConfig, BatchReport, FrameTap, PartDone, SeenFrame};
 use gonio_station::Recipe;
@@ -210,6 +210,12 @@ pub fn run(a: Args) -> Result<()> {
             recipe: cfg.recipe.clone(),
             strategy: cfg.strategy,
             software_version: crate::db::software_version(),
+            guard: recorder::DirGuard {
+                install: gonio_cli::output::install_signal_cleanup,
+                created_dir: gonio_cli::output::guard_created_dir,
+                temporary_dir: gonio_cli::output::guard_temporary_dir,
+                release: gonio_cli::output::release_dir,
+            },
         })?),
         None => None,
     };

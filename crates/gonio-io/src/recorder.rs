@@ -1,12 +1,12 @@
 //! `gonio mount --record DIR`: writes the chosen parts' measuring turns for a replay (the format
-//! in [`gonio_io::formats::replay`]). It listens to the station as an observer (turn boundaries,
+//! in [`crate::formats::replay`]). It listens to the station as an observer (turn boundaries,
 //! each turn's frames as the camera reported them and the servo's angle log, the finished
 //! record) and to the camera's frames through the simulation's frame tap (the pixels). A part
 //! is written into a temporary directory and renamed into place when it is finished, so a
 //! recorded part is whole or absent.
 
+use crate::formats::replay::{FORMAT, PartFile, TurnFiles, part_dir};
 use anyhow::{Context, Result, anyhow};
-use gonio_io::formats::replay::{FORMAT, PartFile, TurnFiles, part_dir};
 use gonio_sim::station::SeenFrame;
 use gonio_station::fit::EccentricityFit;
 use gonio_station::hal::CameraFrame;
@@ -39,6 +39,33 @@ pub struct Recording {
     pub strategy: Strategy,
     /// The software.
     pub software_version: String,
+    /// How the front end removes the directories made for the record if the run is interrupted.
+    pub guard: DirGuard,
+}
+
+/// The front end's cleanup of interrupted runs (a signal handler that removes directories): the
+/// recorder tells it which directories to remove when the run is interrupted and which to keep.
+/// Nothing here prints or installs a handler itself.
+#[derive(Debug, Clone, Copy)]
+pub struct DirGuard {
+    /// Installs the cleanup (called once, after the record directory is made).
+    pub install: fn(),
+    /// A directory this run created: removed if the run is interrupted.
+    pub created_dir: fn(&Path),
+    /// A temporary directory: removed if the run is interrupted.
+    pub temporary_dir: fn(&Path),
+    /// A directory no longer to be removed (moved into place, or dropped).
+    pub release: fn(&Path),
+}
+
+impl DirGuard {
+    /// No cleanup: every call does nothing.
+    pub const NONE: DirGuard = DirGuard {
+        install: || {},
+        created_dir: |_| {},
+        temporary_dir: |_| {},
+        release: |_| {},
+    };
 }
 
 struct Part {
@@ -107,9 +134,9 @@ impl Recorder {
             )
         })?;
         if let Some(d) = &first_missing {
-            gonio_cli::output::guard_created_dir(d);
+            (plan.guard.created_dir)(d);
         }
-        gonio_cli::output::install_signal_cleanup();
+        (plan.guard.install)();
         let next = plan.first_part;
         Ok(Recorder(Rc::new(RefCell::new(State {
             plan,
@@ -269,7 +296,7 @@ impl State {
         }
         let tmp = p.tmp.keep();
         let moved = std::fs::rename(&tmp, &dest);
-        gonio_cli::output::release_dir(&tmp);
+        (self.plan.guard.release)(&tmp);
         if moved.is_err() {
             let _ = std::fs::remove_dir_all(&tmp);
         }
@@ -299,9 +326,9 @@ impl Observer for Recorder {
             .tempdir_in(&s.plan.dir);
         match tmp {
             Ok(tmp) => {
-                gonio_cli::output::guard_temporary_dir(tmp.path());
+                (s.plan.guard.temporary_dir)(tmp.path());
                 if let Some(old) = s.part.take() {
-                    gonio_cli::output::release_dir(old.tmp.path());
+                    (s.plan.guard.release)(old.tmp.path());
                 }
                 s.part = Some(Part {
                     index,
