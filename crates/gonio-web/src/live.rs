@@ -4,9 +4,11 @@
 //! event to the connected pages. Publishing never blocks the station: a page that falls behind
 //! loses events and is told to reload the state.
 
+use base64::Engine as _;
 use gonio_station::fit::EccentricityFit;
 use gonio_station::observe::{LiveFrame, Observer, Phase};
 use gonio_station::record::{PartRecord, PushRecord, TurnRecord};
+use image::ImageEncoder as _;
 use serde::Serialize;
 use serde_json::{Value, json};
 use std::sync::{Arc, Mutex};
@@ -329,4 +331,70 @@ impl Observer for LiveObserver {
             |s| s.phase = "idle".into(),
         );
     }
+}
+
+/// An 8-bit grey image as a PNG data URL.
+fn png_url(px: &[u8], w: usize, h: usize) -> Option<String> {
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(px, w as u32, h as u32, image::ExtendedColorType::L8)
+        .ok()?;
+    Some(format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&png)
+    ))
+}
+
+/// Columns of the full-resolution strip around the ring.
+const ZOOM_COLUMNS: usize = 360;
+
+/// The live view's picture of a frame: the whole frame at a quarter (4 × 4 pixel means), and
+/// the 360 columns around the ring's column at full resolution (every 4th row), with the
+/// detected edges.
+///
+/// `pixels` are the frame's 8-bit grey pixels, row-major, `width` × `height`; `edges_px` the
+/// columns of the edges the detector found and `c_px` the ring's column it found (if none, the
+/// middle of two edges). `None` for a frame too small or short of pixels.
+pub fn thumbnail(
+    width: usize,
+    height: usize,
+    pixels: &[u8],
+    edges_px: Vec<f64>,
+    c_px: Option<f64>,
+) -> Option<FrameImage> {
+    let (w, h) = (width / 4, height / 4);
+    if w == 0 || h == 0 || pixels.len() < width * height {
+        return None;
+    }
+    let mut small = vec![0u8; w * h];
+    for (y, row) in small.chunks_exact_mut(w).enumerate() {
+        for (x, px) in row.iter_mut().enumerate() {
+            let mut sum = 0u32;
+            for dy in 0..4 {
+                let line = &pixels[(4 * y + dy) * width + 4 * x..][..4];
+                sum += line.iter().map(|&v| u32::from(v)).sum::<u32>();
+            }
+            *px = (sum / 16) as u8;
+        }
+    }
+    let centre = c_px.or_else(|| (edges_px.len() == 2).then(|| 0.5 * (edges_px[0] + edges_px[1])));
+    let zw = ZOOM_COLUMNS.min(width);
+    let x0 = centre.map_or(0, |c| {
+        (c.round() as i64 - zw as i64 / 2).clamp(0, (width - zw) as i64) as usize
+    });
+    let zoom_src = centre.and_then(|_| {
+        let strip: Vec<u8> = (0..h)
+            .flat_map(|y| pixels[4 * y * width + x0..][..zw].iter().copied())
+            .collect();
+        png_url(&strip, zw, h)
+    });
+    Some(FrameImage {
+        src: png_url(&small, w, h)?,
+        width: width as u32,
+        height: height as u32,
+        edges_px,
+        zoom_src,
+        zoom_x0_px: x0 as u32,
+        zoom_width_px: zw as u32,
+    })
 }

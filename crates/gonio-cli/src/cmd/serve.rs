@@ -3,11 +3,9 @@
 
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
-use base64::Engine;
 use gonio_sim::station::{BatchConfig, Fidelity, FrameTap, FrameTiming, Pace, PartDone, SeenFrame};
 use gonio_station::Recipe;
-use gonio_web::live::{FrameImage, Hub, LiveObserver};
-use image::ImageEncoder;
+use gonio_web::live::{Hub, LiveObserver};
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -252,66 +250,6 @@ pub fn run(a: Args) -> Result<()> {
     served.map_err(|e| anyhow::anyhow!("dashboard: {e}"))
 }
 
-/// An 8-bit grey image as a PNG data URL.
-fn png_url(px: &[u8], w: usize, h: usize) -> Option<String> {
-    let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut png)
-        .write_image(px, w as u32, h as u32, image::ExtendedColorType::L8)
-        .ok()?;
-    Some(format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(&png)
-    ))
-}
-
-/// Columns of the full-resolution strip around the ring.
-const ZOOM_COLUMNS: usize = 360;
-
-/// The live view's picture of a frame: the whole frame at a quarter (4 × 4 pixel means), and
-/// the 360 columns around the ring's column at full resolution (every 4th row), with the
-/// detected edges.
-fn thumbnail(f: &SeenFrame<'_>) -> Option<FrameImage> {
-    let (w, h) = (f.width / 4, f.height / 4);
-    if w == 0 || h == 0 || f.pixels.len() < f.width * f.height {
-        return None;
-    }
-    let mut small = vec![0u8; w * h];
-    for (y, row) in small.chunks_exact_mut(w).enumerate() {
-        for (x, px) in row.iter_mut().enumerate() {
-            let mut sum = 0u32;
-            for dy in 0..4 {
-                let line = &f.pixels[(4 * y + dy) * f.width + 4 * x..][..4];
-                sum += line.iter().map(|&v| u32::from(v)).sum::<u32>();
-            }
-            *px = (sum / 16) as u8;
-        }
-    }
-    let edges_px: Vec<f64> = f.result.edges.iter().map(|e| e.column_px).collect();
-    let centre = f
-        .result
-        .c_px
-        .or_else(|| (edges_px.len() == 2).then(|| 0.5 * (edges_px[0] + edges_px[1])));
-    let zw = ZOOM_COLUMNS.min(f.width);
-    let x0 = centre.map_or(0, |c| {
-        (c.round() as i64 - zw as i64 / 2).clamp(0, (f.width - zw) as i64) as usize
-    });
-    let zoom_src = centre.and_then(|_| {
-        let strip: Vec<u8> = (0..h)
-            .flat_map(|y| f.pixels[4 * y * f.width + x0..][..zw].iter().copied())
-            .collect();
-        png_url(&strip, zw, h)
-    });
-    Some(FrameImage {
-        src: png_url(&small, w, h)?,
-        width: f.width as u32,
-        height: f.height as u32,
-        edges_px,
-        zoom_src,
-        zoom_x0_px: x0 as u32,
-        zoom_width_px: zw as u32,
-    })
-}
-
 /// Runs the station on a thread of its own, publishing to `hub` and committing to the store.
 fn spawn_station(
     prepared: station::Start,
@@ -353,7 +291,10 @@ fn spawn_station(
                 return;
             }
             last = Some(Instant::now());
-            if let Some(img) = thumbnail(f) {
+            let edges_px = f.result.edges.iter().map(|e| e.column_px).collect();
+            let img =
+                gonio_web::live::thumbnail(f.width, f.height, f.pixels, edges_px, f.result.c_px);
+            if let Some(img) = img {
                 th.image(&img);
             }
         };
