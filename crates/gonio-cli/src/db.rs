@@ -4,20 +4,7 @@
 use anyhow::{Result, anyhow};
 use gonio_store::Store;
 
-/// The software that writes records (`gonio 0.1.0`).
-pub fn software_version() -> String {
-    format!("gonio {}", env!("CARGO_PKG_VERSION"))
-}
-
-/// Opens the store at `location` (a SQLite path or a `postgres://` URL), migrating it.
-pub fn open(location: &str) -> Result<Box<dyn Store>> {
-    gonio_store::open(location).map_err(|e| {
-        anyhow!(
-            "results store {}: {e}",
-            gonio_store::display_location(location)
-        )
-    })
-}
+pub use gonio_sim::station::store::{open, software_version};
 
 /// Opens the existing store at `location` for a command that only reads (`parts`, `serve`
 /// without a station): a SQLite path that does not exist is an error naming it, never a new

@@ -20,6 +20,7 @@ pub mod batch;
 pub mod frames;
 pub mod pace;
 pub mod plant;
+pub mod store;
 pub mod twin;
 
 pub use batch::{
