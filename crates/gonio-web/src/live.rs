@@ -398,3 +398,28 @@ pub fn thumbnail(
         zoom_width_px: zw as u32,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::thumbnail;
+
+    #[test]
+    fn thumbnail_reduces_the_frame_and_clamps_the_strip_to_it() {
+        let (w, h) = (400, 8);
+        let pixels: Vec<u8> = (0..w * h).map(|i| (i % 251) as u8).collect();
+        // The ring near the right edge: the 360-column strip ends at the frame's edge.
+        let img = thumbnail(w, h, &pixels, vec![390.0, 398.0], None).expect("an image");
+        assert!(img.src.starts_with("data:image/png;base64,"));
+        assert_eq!((img.width, img.height), (400, 8));
+        assert_eq!(img.edges_px, vec![390.0, 398.0]);
+        assert_eq!((img.zoom_x0_px, img.zoom_width_px), (40, 360));
+        assert!(img.zoom_src.is_some());
+        // No ring found: no strip.
+        let img = thumbnail(w, h, &pixels, vec![], None).expect("an image");
+        assert!(img.zoom_src.is_none());
+        assert_eq!(img.zoom_x0_px, 0);
+        // Too small, or short of pixels.
+        assert!(thumbnail(3, 8, &pixels, vec![], None).is_none());
+        assert!(thumbnail(w, h, &pixels[..10], vec![], Some(5.0)).is_none());
+    }
+}
