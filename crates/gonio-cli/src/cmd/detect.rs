@@ -7,12 +7,10 @@ use gonio_io::formats::angles::{self, AngleLog};
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
 use gonio_io::results::detect::Line;
-use gonio_vision::reference::{Image, label};
 use gonio_vision::{
     DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
     SourceDetector, SourceError, detect_in_order,
 };
-use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gonio detect`.
@@ -430,136 +428,14 @@ pub(crate) struct Detected {
     stream_error: Option<anyhow::Error>,
 }
 
-/// Writes one stage image (8- or 16-bit grey) as a PNG into the dump directory.
-fn save_png<P: image::Primitive>(
-    out: &mut Outputs,
-    dir: &Path,
-    name: &str,
-    w: usize,
-    h: usize,
-    data: Vec<P>,
-) -> Result<()>
-where
-    [P]: image::EncodableLayout,
-    image::Luma<P>: image::Pixel<Subpixel = P> + image::PixelWithColorType,
-{
-    let img = image::ImageBuffer::<image::Luma<P>, Vec<P>>::from_raw(w as u32, h as u32, data)
-        .ok_or_else(|| anyhow!("{name}: image size"))?;
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )?;
-    out.put("--dump-stages", &dir.join(name), &bytes)?;
-    Ok(())
-}
-
-/// Writes the stage images of the detector's last frame.
+/// Writes the stage images of the detector's last frame and their JSON document.
 fn write_dump(out: &mut Outputs, dir: &Path, det: &Detector, res: &FrameResult) -> Result<()> {
-    let d = det
-        .dump()
-        .ok_or_else(|| anyhow!("no stage images recorded"))?;
-    let (w, h) = (d.width, d.height);
-    let off = |v: &[i16]| {
-        v.iter()
-            .map(|&x| (x as i32 + 32768) as u16)
-            .collect::<Vec<u16>>()
-    };
-    save_png(out, dir, "00_input.png", w, h, d.input.clone())?;
-    save_png(out, dir, "01_tophat.png", w, h, d.tophat.clone())?;
-    save_png(out, dir, "02_opened.png", w, h, d.opened.clone())?;
-    save_png(out, dir, "03_blurred.png", w, h, d.blurred.clone())?;
-    save_png(out, dir, "04_gx_plus32768.png", w, h, off(&d.gx))?;
-    save_png(out, dir, "05_gy_plus32768.png", w, h, off(&d.gy))?;
-    save_png(out, dir, "06_magnitude.png", w, h, d.mag.clone())?;
-    save_png(out, dir, "07_edges_class.png", w, h, d.edges.class.clone())?;
-    save_png(out, dir, "08_edges_dir256.png", w, h, d.edges.dir.clone())?;
-    save_png(
-        out,
-        dir,
-        "09_edges_sub32_plus128.png",
-        w,
-        h,
-        d.edges
-            .sub
-            .iter()
-            .map(|&s| (s as i16 + 128) as u8)
-            .collect(),
-    )?;
-    save_png(
-        out,
-        dir,
-        "10_filled_class.png",
-        w,
-        h,
-        d.filled.class.clone(),
-    )?;
-    save_png(out, dir, "11_filled_dir256.png", w, h, d.filled.dir.clone())?;
-    let edges = (
-        Image::from_vec(w, h, d.filled.class.clone()),
-        Image::from_vec(w, h, d.filled.dir.clone()),
-        Image::from_vec(w, h, d.filled.sub.clone()),
-    );
-    let (_, labels) = label(&edges, &Image::from_vec(w, h, d.filled.mag.clone()));
-    save_png(
-        out,
-        dir,
-        "12_labels.png",
-        w,
-        h,
-        labels.data.iter().map(|&l| l.min(65535) as u16).collect(),
-    )?;
-    #[derive(Serialize)]
-    struct Comp {
-        pixels: u64,
-        strong: u64,
-        weak: u64,
-        first_index: u64,
-        rows: (u32, u32),
-        cols: (u32, u32),
-        sum_row: i64,
-        sum_col32: i64,
-        sum_dev: i64,
+    let dump = gonio_io::stage_dump::stage_dump(det, res)?;
+    for f in &dump.images {
+        out.put("--dump-stages", &dir.join(f.name), &f.png)?;
     }
-    let comps: Vec<Comp> = d
-        .components
-        .iter()
-        .map(|c| Comp {
-            pixels: c.pixels,
-            strong: c.strong,
-            weak: c.weak,
-            first_index: c.first_index,
-            rows: (c.min_row, c.max_row),
-            cols: (c.min_col, c.max_col),
-            sum_row: c.sum_row,
-            sum_col32: c.sum_col32,
-            sum_dev: c.sum_dev,
-        })
-        .collect();
-    let id = out.file("--dump-stages", &dir.join("13_components_and_result.json"))?;
-    out.json(
-        id,
-        &serde_json::json!({
-            "params": det.params(),
-            "components": comps,
-            "result": res,
-            "files": {
-                "00_input.png": "input (inverted for a bright ring), u8",
-                "01_tophat.png": "black top-hat, u8",
-                "02_opened.png": "opening, u8",
-                "03_blurred.png": "5x5 binomial blur, u8",
-                "04_gx_plus32768.png": "Sobel Gx + 32768, u16",
-                "05_gy_plus32768.png": "Sobel Gy + 32768, u16",
-                "06_magnitude.png": "|Gx| + |Gy|, u16",
-                "07_edges_class.png": "0 none, 1 weak, 2 strong (after NMS, thresholds, baseline filter)",
-                "08_edges_dir256.png": "gradient direction, 256 per turn",
-                "09_edges_sub32_plus128.png": "sub-pixel x offset in 1/32 px + 128 (0 = filled)",
-                "10_filled_class.png": "classes after edge filling",
-                "11_filled_dir256.png": "directions after edge filling",
-                "12_labels.png": "component id (raster order of first pixel), u16"
-            }
-        }),
-    )
+    let id = out.file("--dump-stages", &dir.join(gonio_io::stage_dump::JSON_NAME))?;
+    out.json(id, &dump.json)
 }
 
 #[cfg(not(feature = "genicam"))]
