@@ -14,9 +14,11 @@
 //! # Timestamps and the station clock
 //! `FrameStamp::start_s` is the camera's timestamp mapped to the host's monotonic clock, s since
 //! [`AravisSource::epoch`]: `start_s = a₀ + (t − t₀)·10⁻⁹`, with t the frame's timestamp (ns,
-//! camera clock), t₀ the first frame's, and a₀ the first frame's arrival on the host. The offset
-//! is fixed at the first frame, so frame-to-frame intervals are the camera's own (no host
-//! jitter); the whole turn is late by the first frame's transfer time (a constant, which cancels
+//! camera clock), t₀ the first complete frame's, and a₀ its arrival on the host (an incomplete
+//! frame arrives late, after the stream has waited for its missing packets; frames before the
+//! first complete one are mapped provisionally on themselves). The offset is then fixed, so
+//! frame-to-frame intervals are the camera's own (no host
+//! jitter); the whole turn is late by that frame's transfer time (a constant, which cancels
 //! in an eccentricity fit's amplitude) and drifts with the two clocks' rate difference (tens of
 //! ppm: microseconds over a 2 s turn). `exposure_s` is the camera's `ExposureTime` read after
 //! set-up.
@@ -512,7 +514,14 @@ impl FrameSource for AravisSource {
             } else {
                 self.stats.incomplete += 1;
             }
-            let (t0, a0) = *self.first.get_or_insert((ts, arrival_s));
+            // Anchored at the first complete frame: an incomplete one arrives late (the
+            // stream waits for its missing packets), and anchoring at it would put every
+            // later frame ahead of the host's clock by that wait.
+            let (t0, a0) = if complete {
+                *self.first.get_or_insert((ts, arrival_s))
+            } else {
+                self.first.unwrap_or((ts, arrival_s))
+            };
             let meta = FrameMeta {
                 slot: step.slot,
                 frame_id: step.frame_id,
