@@ -210,8 +210,12 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// Highest order of a certificate's spectrum (one cycle a degree).
+pub const MAX_SPECTRUM_ORDER: u32 = 360;
+
 /// The harmonic spectrum of α from its values at the calibrated angles (least squares over
-/// orders 1…K, with K below the grid's Nyquist order; the orders `invisible` lists are marked).
+/// orders 1…K, with K below the grid's Nyquist order and at most [`MAX_SPECTRUM_ORDER`]; the
+/// orders `invisible` lists are marked).
 fn spectrum_of(points: &[AnglePoint], invisible: InvisibleOrders) -> Spectrum {
     let n = points.len();
     let theta: Vec<f64> = points.iter().map(|p| p.angle_deg.to_radians()).collect();
@@ -232,6 +236,10 @@ fn spectrum_of(points: &[AnglePoint], invisible: InvisibleOrders) -> Spectrum {
     } else {
         n.saturating_sub(1) / 4
     } as u32;
+    // At most one order a degree: the fit is a dense least squares (n × K), and a 1,000-face
+    // polygon at 10 shifts (10,000 angles) would otherwise ask for 5,000 orders: minutes and
+    // gigabytes for lines no certificate reader uses.
+    kmax = kmax.min(MAX_SPECTRUM_ORDER);
     let hidden = |k: u32| invisible.orders.contains(&k);
     while kmax >= 1 {
         let orders: Vec<u32> = (1..=kmax).filter(|&k| !hidden(k)).collect();

@@ -52,7 +52,7 @@ mod meta;
 mod validate;
 mod wire;
 
-pub use build::Instrument;
+pub use build::{Instrument, MAX_SPECTRUM_ORDER};
 pub use error::CertificateError;
 pub use meta::{
     Authorisation, CalibrationDates, CertificateMeta, Date, Environment, Item, MethodMeta, Party,
@@ -248,7 +248,8 @@ pub struct InvisibleOrders {
 /// The harmonic amplitude spectrum of α and the blind orders of each method behind it.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Spectrum {
-    /// Orders 1… in ascending order.
+    /// Orders 1… in ascending order, up to the grid's Nyquist order and at most 360 (one a
+    /// degree).
     pub lines: Vec<SpectrumLine>,
     /// Per method (one for shift-angle or self-calibration; several for a joint calibration).
     pub invisible: Vec<InvisibleOrders>,
