@@ -1,5 +1,5 @@
 //! The multi-head measurement simulator: one encoder scale read by several heads over full turns
-//! (Hsieh et al., 2022, §2.3; model in `spec/self-calibration.md`).
+//! (Hsieh et al., 2022, §2.3).
 //!
 //! Head h sits at φ_h + δ_h (δ_h its mounting offset, arcsec; δ_1 = 0 since head 1 is the
 //! reference). At rotation position θ it reads the scale at θ + φ_h + δ_h, so its reading is

@@ -1,6 +1,5 @@
 //! The shift-angle measurement simulator: a polygon on the encoder's table, read by an
-//! autocollimator at shifted start angles (Hsieh et al., 2022, §2.2; model in
-//! `spec/cross-calibration.md`).
+//! autocollimator at shifted start angles (Hsieh et al., 2022, §2.2).
 //!
 //! For shift S, start face j and step i the autocollimator reads
 //!

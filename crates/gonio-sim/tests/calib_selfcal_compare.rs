@@ -3,8 +3,8 @@
 //! common 1° angles.
 //!
 //! Uncertainties: the self-calibration's own U (random part from its residuals). The
-//! shift-angle U combines the least-squares random part with the seed's instrument terms
-//! (`spec/uncertainty.md`, seed Table 3 as corrected): autocollimator error 0.05″ rectangular,
+//! shift-angle U combines the least-squares random part with the paper's instrument terms
+//! (Hsieh et al., 2022, Table 3 as corrected, `examples/budgets/hsieh2022-shift-angle.toml`): autocollimator error 0.05″ rectangular,
 //! autocollimator resolution 0.001″, encoder resolution 0.04″, setup 0.05″ rectangular, k = 2.
 //! The simulation has none of those instrument errors, so En here is, if anything, too kind to
 //! the shift-angle side; the differences are checked against ±0.1″ independently of U.

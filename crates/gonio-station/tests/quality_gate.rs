@@ -137,7 +137,7 @@ fn a_dropped_third_is_caught_by_gap_coverage_and_frames() {
         assert!(checks.contains(&c), "{checks:?}");
     }
     // Half of the frames dropped at random (not contiguous) is fine for the geometry: the
-    // fit is still accurate (mounting-station.md: 0.03 µm); only the frames check objects.
+    // fit is still accurate (tests/fit_accuracy.rs: 0.03 µm); only the frames check objects.
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let s = turn(&mut rng, 120.0, 0.3);
     let half: Vec<Sample> = s

@@ -1,5 +1,4 @@
-//! Cross-calibration by the shift-angle method (Hsieh et al., 2022, §2.1–2.2,
-//! `spec/cross-calibration.md`).
+//! Cross-calibration by the shift-angle method (Hsieh et al., 2022, §2.1–2.2).
 //!
 //! A polygon of N faces sits on the table of the encoder under test; an autocollimator reads one
 //! face. For shift angle S, step i (table angle θ_i = (i−1)·360°/N + S) and start face j:

@@ -1,9 +1,9 @@
-//! The mounting station's digital twin (`mounting-station.md`, "Simulation"): the default plant,
+//! The mounting station's digital twin (the station of Yu et al., 2024): the default plant,
 //! a discrete-event clock, simulated servo, camera, focus drive and push rod implementing
 //! `gonio_station::hal`, and a batch runner.
 //!
 //! Two fidelities: [`Fidelity::Fast`] computes each frame's ring column from the geometry plus
-//! the detector's noise ([`SimCamera`](twin::SimCamera)); [`Fidelity::Frames`] renders each frame
+//! the detector's noise ([`SimCamera`]); [`Fidelity::Frames`] renders each frame
 //! ([`TwinFrames`]) and runs it through the station's own camera path
 //! (`gonio_station::DetectorCamera`). Both report the detector's typed reasons.
 //!

@@ -1,4 +1,4 @@
-//! The default plant of the simulated station (`mounting-station.md`, "Default plant"): the
+//! The default plant of the simulated station (the station of Yu et al., 2024, as modelled here): the
 //! parts, the push rod's behaviour, the detector's noise and the durations of every action.
 
 use rand::{RngExt, SeedableRng};
