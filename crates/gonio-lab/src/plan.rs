@@ -37,8 +37,7 @@ use toml::Spanned;
 /// Most repeats of one reading (the readings CSV's limit).
 pub const MAX_REPEAT: i64 = 1_000_000;
 
-/// Most shifts a range `START:STEP:END` may give.
-pub const MAX_SHIFTS: usize = 100_000;
+pub use gonio_calib::shift_angle::{MAX_SHIFTS, shift_range};
 
 /// A plan that cannot be used, located in its file.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -67,29 +66,6 @@ fn cap(s: &str) -> String {
     let head: String = s.chars().take(300).collect();
     let tail: String = s.chars().skip(n - 150).collect();
     format!("{head} … ({n} characters) … {tail}")
-}
-
-/// Parses `START:STEP:END` (inclusive end, at most [`MAX_SHIFTS`] angles) or a single number.
-///
-/// ```
-/// use gonio_lab::plan::shift_range;
-/// assert_eq!(shift_range("0:5:10"), Some(vec![0.0, 5.0, 10.0]));
-/// assert_eq!(shift_range("0:x:1"), None);
-/// ```
-pub fn shift_range(s: &str) -> Option<Vec<f64>> {
-    let p: Vec<f64> = s
-        .split(':')
-        .map(|x| x.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
-        .collect::<Option<_>>()?;
-    match p.as_slice() {
-        [a] => Some(vec![*a]),
-        [a, st, b] if *st > 0.0 && b >= a => {
-            let count = ((b - a) / st + 1e-9).floor() + 1.0;
-            (count.is_finite() && count <= MAX_SHIFTS as f64)
-                .then(|| (0..count as usize).map(|k| a + k as f64 * st).collect())
-        }
-        _ => None,
-    }
 }
 
 /// Most readings a plan may describe (an hour of readings at 1 kHz is 3.6 million).
