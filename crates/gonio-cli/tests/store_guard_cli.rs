@@ -2,7 +2,8 @@
 //! and outputs, which never overlap (`--db X --json X`, `--compensation X`, `parts --db X --out
 //! X` are refused before any work, the store intact, whether it exists yet or not); a command
 //! that only reads (`parts`, `serve` without a station) never creates a store; a device is not
-//! a store.
+//! a store; a store that fails half-way through `parts --json` leaves nothing written, on
+//! standard output either.
 
 mod common;
 
@@ -109,4 +110,37 @@ fn reading_never_creates_a_store_and_a_device_is_no_store() {
     }
     assert!(!Path::new("/dev/null-journal").exists());
     assert!(!Path::new("/dev/null-wal").exists());
+}
+
+/// `parts --json` reads the store a page at a time; a record that cannot be read on a later
+/// page ends the command with nothing written: no partial array on standard output, no file.
+#[test]
+fn a_store_failing_half_way_writes_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let db = s(&d.path().join("results.sqlite"));
+    // More parts than one page (64), the bad one on the second page.
+    let o = gonio(&["mount", "--sim", "--parts", "70", "--seed", "3", "--db", &db]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(parts_json(&db).as_array().unwrap().len(), 70);
+    let c = rusqlite::Connection::open(&db).unwrap();
+    let n = c
+        .execute(
+            "UPDATE turns SET samples_json = '[{oops' \
+             WHERE part_id = (SELECT id FROM parts WHERE batch_index = 68)",
+            [],
+        )
+        .unwrap();
+    assert!(n > 0);
+    drop(c);
+    let o = gonio(&["parts", "--db", &db, "--json"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(e.contains("samples_json"), "{e}");
+    assert!(o.stdout.is_empty(), "{} bytes on stdout", o.stdout.len());
+    let out = d.path().join("parts.json");
+    let o = gonio(&["parts", "--db", &db, "--json", "--out", &s(&out)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!out.exists());
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 1, "a file left behind");
 }

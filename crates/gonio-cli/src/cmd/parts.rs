@@ -159,7 +159,10 @@ pub fn run(a: Args) -> Result<()> {
     let id = outs.file("--out", &out)?;
     if a.json {
         // Streamed a page of parts at a time: memory holds a page, never the whole store. The
-        // bytes are those of the whole array written at once (pretty, two spaces).
+        // bytes are those of the whole array written at once (pretty, two spaces). Standard
+        // output is spooled to a temporary file until the last page is read, so that a store
+        // failing half-way writes nothing there either.
+        outs.spool(id)?;
         let shown = out.display().to_string();
         let mut failed: Option<anyhow::Error> = None;
         let mut n = 0usize;

@@ -130,6 +130,9 @@ pub struct OutId(usize);
 #[derive(Debug)]
 enum Target {
     Stdout,
+    /// Standard output held in an unnamed temporary file until the commit (see
+    /// [`Outputs::spool`]).
+    Spool(BufWriter<File>),
     File {
         tmp: PathBuf,
         file: Option<BufWriter<File>>,
@@ -421,7 +424,7 @@ impl Outputs {
 
     /// Whether the output goes to standard output (`-`).
     pub fn is_stdout(&self, id: OutId) -> bool {
-        matches!(self.items[id.0].target, Target::Stdout)
+        matches!(self.items[id.0].target, Target::Stdout | Target::Spool(_))
     }
 
     /// The user's path of an output.
@@ -437,6 +440,9 @@ impl Outputs {
         let item = &mut self.items[id.0];
         match &mut item.target {
             Target::Stdout => term::out_bytes(data),
+            Target::Spool(f) => f
+                .write_all(data)
+                .map_err(|e| anyhow!("cannot spool standard output: {}", os_message(&e))),
             Target::File { file, .. } => {
                 let f = file
                     .as_mut()
@@ -446,6 +452,28 @@ impl Outputs {
                 })
             }
         }
+    }
+
+    /// Holds an output that is standard output in an unnamed temporary file (deleted by the
+    /// system when the process ends, however it ends) and copies it to standard output only at
+    /// the commit: for an output written a piece at a time from a source that can fail half-way
+    /// (a store read page by page), so that a failure writes nothing. Other outputs are
+    /// unchanged.
+    ///
+    /// # Errors
+    /// The temporary file cannot be created.
+    pub fn spool(&mut self, id: OutId) -> Result<()> {
+        let item = &mut self.items[id.0];
+        if matches!(item.target, Target::Stdout) {
+            let f = tempfile::tempfile().map_err(|e| {
+                anyhow!(
+                    "cannot create a temporary file for standard output: {}",
+                    os_message(&e)
+                )
+            })?;
+            item.target = Target::Spool(BufWriter::new(f));
+        }
+        Ok(())
     }
 
     /// Adds the output `path` with its whole content `data`, written and closed now (for sets of
@@ -546,14 +574,22 @@ impl Outputs {
     pub fn commit(mut self) -> Result<()> {
         // Flush and close every file first: a full disk shows here.
         for k in 0..self.items.len() {
-            match self.items[k].target {
+            match &mut self.items[k].target {
                 Target::Stdout => term::flush()?,
+                Target::Spool(f) => f
+                    .flush()
+                    .map_err(|e| anyhow!("cannot spool standard output: {}", os_message(&e)))?,
                 Target::File { .. } => self.close(OutId(k))?,
             }
         }
         for item in &self.items {
-            if !matches!(item.target, Target::Stdout) {
+            if matches!(item.target, Target::File { .. }) {
                 check_destination(&item.flag, &item.path)?;
+            }
+        }
+        for item in &mut self.items {
+            if let Target::Spool(f) = &mut item.target {
+                copy_to_stdout(f.get_mut())?;
             }
         }
         let mut p = pending();
@@ -586,6 +622,22 @@ impl Outputs {
             release_dir(&d);
         }
         Ok(())
+    }
+}
+
+/// Copies a spooled standard output from its start to standard output, a block at a time.
+fn copy_to_stdout(f: &mut File) -> Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
+    let spool =
+        |e: std::io::Error| anyhow!("cannot read spooled standard output: {}", os_message(&e));
+    f.seek(SeekFrom::Start(0)).map_err(spool)?;
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = f.read(&mut buf).map_err(spool)?;
+        if n == 0 {
+            return term::flush();
+        }
+        term::out_bytes(&buf[..n])?;
     }
 }
 
