@@ -119,7 +119,9 @@ fn a_store_failing_half_way_writes_nothing() {
     let d = tempfile::tempdir().unwrap();
     let db = s(&d.path().join("results.sqlite"));
     // More parts than one page (64), the bad one on the second page.
-    let o = gonio(&["mount", "--sim", "--parts", "70", "--seed", "3", "--db", &db]);
+    let o = gonio(&[
+        "mount", "--sim", "--parts", "70", "--seed", "3", "--db", &db,
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(parts_json(&db).as_array().unwrap().len(), 70);
     let c = rusqlite::Connection::open(&db).unwrap();
@@ -142,5 +144,9 @@ fn a_store_failing_half_way_writes_nothing() {
     let o = gonio(&["parts", "--db", &db, "--json", "--out", &s(&out)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!out.exists());
-    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 1, "a file left behind");
+    assert_eq!(
+        std::fs::read_dir(d.path()).unwrap().count(),
+        1,
+        "a file left behind"
+    );
 }

@@ -159,9 +159,16 @@ fn serve(a: Args, per_turn: u64) -> Result<()> {
     let frames = Arc::new(frames);
     // Fill time per frame (thread CPU, s), kept for the summary.
     let fill_s = Arc::new(Mutex::new(Vec::<f64>::new()));
-    let (turn_frames, fill_log) = (frames.clone(), fill_s.clone());
+    // When the first and the latest frame were filled: the rate while a client acquires (the
+    // camera fills nothing before its AcquisitionStart).
+    let span = Arc::new(Mutex::new(None::<(Instant, Instant)>));
+    let (turn_frames, fill_log, fill_span) = (frames.clone(), fill_s.clone(), span.clone());
     let fill = move |f: &FillInfo, px: &mut [u8]| {
         let c0 = thread_cpu_s();
+        if let Ok(mut s) = fill_span.lock() {
+            let now = Instant::now();
+            *s = Some(s.map_or((now, now), |(first, _)| (first, now)));
+        }
         let frame = &turn_frames[(f.index % turn_frames.len() as u64) as usize];
         let (cw, ch) = (f.width as usize, f.height as usize);
         if cw == w && ch == h {
@@ -225,9 +232,22 @@ fn serve(a: Args, per_turn: u64) -> Result<()> {
             fills[((p * fills.len() as f64).ceil() as usize).clamp(1, fills.len()) - 1] * 1e3
         }
     };
+    // Frames per second from the first filled frame to the last (the frame rate a client sees).
+    let acquiring = span
+        .lock()
+        .ok()
+        .and_then(|s| *s)
+        .map(|(first, last)| (last - first).as_secs_f64())
+        .filter(|&t| t > 0.0 && served > 1)
+        .map_or_else(String::new, |t| {
+            format!(
+                ", {:.2} frames/s from the first frame filled to the last ({t:.1} s)",
+                (served - 1) as f64 / t
+            )
+        });
     gonio_cli::note!(
-        "served {served} frames in {dt:.1} s ({:.1} frames/s); fill {:.3} ms median, {:.3} ms \
-         99th percentile; CPU of the whole process {:.3} ms per frame served",
+        "served {served} frames in {dt:.1} s ({:.1} frames/s{acquiring}); fill {:.3} ms median, \
+         {:.3} ms 99th percentile; CPU of the whole process {:.3} ms per frame served",
         served as f64 / dt.max(1e-9),
         q(0.5),
         q(0.99),
