@@ -18,7 +18,7 @@
 //!
 //! [`parse`] reads a whole log ([`LogError`] names every bad line); [`parse_reply`] reads one
 //! answer of the instrument (the driver's view: a reading, a flagged reading, or garbage);
-//! [`write`] writes readings as the instrument sends them.
+//! [`write()`] writes readings as the instrument sends them.
 //!
 //! ```
 //! use gonio_lab::log::{self, Mode, Reply};

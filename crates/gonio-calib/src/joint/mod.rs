@@ -10,19 +10,19 @@
 //! pitch sums γ (β); the setup error of every run; the head offsets. The joint weighted least
 //! squares is solved without ever forming an NS × NS system:
 //!
-//! 1. **Heads** ([`heads_block`]): one FFT per difference channel and a generalised least-squares
+//! 1. **Heads** (`heads_block`): one FFT per difference channel and a generalised least-squares
 //!    fit per harmonic give the heads-alone estimate of every order they see with its variance
 //!    `σ_h²·g_k` (independent between orders). One inverse FFT of `g_k` gives the covariance of
 //!    that estimate between any two grid positions, hence its weight `W = C̃⁻¹` on α at the
 //!    nq distinct polygon angles.
-//! 2. **Polygon** ([`polygon_block`]): the shift-angle method's block-arrow normal equations,
+//! 2. **Polygon** (`polygon_block`): the shift-angle method's block-arrow normal equations,
 //!    with each run's setup error eliminated shift by shift, leave the polygon's information on
 //!    α at its angles and on γ.
-//! 3. **Orders only the polygon sees** ([`spectrum`]): heads-blind orders that are not constant
+//! 3. **Orders only the polygon sees** (`spectrum`): heads-blind orders that are not constant
 //!    on every shift's angles and not aliased with one another on the polygon's angles become
 //!    explicit unknowns `b` (cos, sin pairs), up to a cap (by default half the number of
 //!    distinct angles).
-//! 4. **Solve** ([`solve`]): minimise
+//! 4. **Solve** (`solve`): minimise
 //!
 //!    ```text
 //!    ‖polygon residuals‖²/σ_p² + (y − H_B·b − ŷ)ᵀ·W·(y − H_B·b − ŷ)/σ_h²
@@ -32,7 +32,7 @@
 //!    (e.g. 360 + 23 + 2 for 24 faces at 15 one-degree shifts). Its inverse is the full
 //!    covariance; the part due to each instrument's noise is `H⁻¹·H_i·H⁻¹`, from which every
 //!    α gets its Welch–Satterthwaite degrees of freedom. Every order the heads see is then
-//!    updated in closed form (see [`spectrum`]'s `harmonic_table`), which gives the per-order
+//!    updated in closed form (see `spectrum`'s `harmonic_table`), which gives the per-order
 //!    split of the information between the instruments.
 //!
 //! Each instrument is weighted by its own σ: stated, or estimated from its own residuals (the

@@ -26,8 +26,8 @@ pub struct Args {
     /// The results store: a SQLite file or a postgres:// URL.
     #[arg(long, value_name = "PATH|postgres://…")]
     pub db: String,
-    /// Only parts started at or after this time: YYYY-MM-DD, YYYY-MM-DDTHH:MM[:SS] (UTC), or
-    /// RFC 3339 with an offset.
+    /// Only parts started at or after this time: YYYY-MM-DD, YYYY-MM-DDTHH:MM or
+    /// YYYY-MM-DDTHH:MM:SS (UTC), or RFC 3339 with an offset.
     #[arg(long, value_name = "TIME")]
     pub since: Option<String>,
     /// Only parts with this verdict: pass, reject, or a result (rejected_ring_lost,

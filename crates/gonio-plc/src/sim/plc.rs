@@ -1,7 +1,7 @@
 //! The simulated PLC's scan: motion profiles of the servo, focus drive and push rod on the wall
 //! clock, the push rod's contact with the grating (the plant of `gonio_sim::station`), the
 //! camera trigger with its latch ring, angle samples, the watchdog, faults and the part
-//! handshake. The Modbus server ([`super::server`]) reads and writes its registers.
+//! handshake. The Modbus server ([`super::SimServer`]) reads and writes its registers.
 
 use crate::link::{Command, FaultCode, bits};
 use crate::map::{

@@ -187,7 +187,7 @@ impl Contribution {
         Self::with_source(name, expanded / k, Source::Normal { expanded, k })
     }
 
-    /// Another budget's combined uncertainty and truncated ν_eff, resolved by [`BudgetSet`].
+    /// Another budget's combined uncertainty and truncated ν_eff, resolved by [`BudgetSet`](super::BudgetSet).
     pub fn from_budget(name: &str, budget: &str) -> Contribution {
         Self::with_source(
             name,
