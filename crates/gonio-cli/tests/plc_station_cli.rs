@@ -175,3 +175,168 @@ fn killing_the_station_mid_part_ends_the_mount_as_a_device_error() {
         assert!(stored.contains("rejected_device_error"), "{stored}");
     }
 }
+
+/// The server-sent events of `GET /api/events` on `addr` (plain HTTP on loopback), as
+/// (event, data) pairs, until `last` is seen or `limit` passes.
+#[cfg(feature = "genicam")]
+fn events_until(addr: &str, last: &str, limit: Duration) -> Vec<(String, serde_json::Value)> {
+    use std::io::{BufRead, BufReader, Read, Write};
+    let s = std::net::TcpStream::connect(addr).unwrap();
+    // The dashboard sends a keep-alive comment every 15 s: a read never waits longer.
+    s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    (&s).write_all(
+        format!("GET /api/events HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes(),
+    )
+    .unwrap();
+    let mut r = BufReader::new(&s);
+    let mut line = String::new();
+    r.read_line(&mut line).unwrap();
+    assert!(line.contains(" 200 "), "GET /api/events: {line:?}");
+    let mut chunked = false;
+    loop {
+        let mut h = String::new();
+        r.read_line(&mut h).unwrap();
+        if h.trim().is_empty() {
+            break;
+        }
+        let h = h.to_ascii_lowercase();
+        chunked |= h.starts_with("transfer-encoding:") && h.contains("chunked");
+        if h.starts_with("content-type:") {
+            assert!(h.contains("text/event-stream"), "{h}");
+        }
+    }
+    let t0 = Instant::now();
+    let (mut text, mut events) = (String::new(), Vec::new());
+    while t0.elapsed() < limit {
+        if chunked {
+            let mut size = String::new();
+            r.read_line(&mut size).unwrap();
+            let n = usize::from_str_radix(size.trim(), 16)
+                .unwrap_or_else(|_| panic!("chunk size {size:?}"));
+            if n == 0 {
+                break;
+            }
+            let mut chunk = vec![0; n + 2];
+            r.read_exact(&mut chunk).unwrap();
+            text.push_str(&String::from_utf8_lossy(&chunk[..n]));
+        } else {
+            let mut l = String::new();
+            if r.read_line(&mut l).unwrap() == 0 {
+                break;
+            }
+            text.push_str(&l);
+        }
+        while let Some(end) = text.find("\n\n") {
+            let block: String = text.drain(..end + 2).collect();
+            let (mut name, mut data) = (String::new(), String::new());
+            for l in block.lines() {
+                if let Some(v) = l.strip_prefix("event:") {
+                    name = v.trim().to_string();
+                } else if let Some(v) = l.strip_prefix("data:") {
+                    data.push_str(v.trim_start());
+                }
+            }
+            if name.is_empty() {
+                continue; // a keep-alive comment
+            }
+            let data = serde_json::from_str(&data).unwrap_or(serde_json::Value::Null);
+            let done = name == last;
+            events.push((name, data));
+            if done {
+                return events;
+            }
+        }
+    }
+    panic!(
+        "no {last:?} event within {limit:?}; events: {:?}",
+        events.iter().map(|e| &e.0).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
+    #[cfg(not(feature = "genicam"))]
+    {
+        println!("skipped: built without the genicam feature");
+    }
+    #[cfg(feature = "genicam")]
+    {
+        if !in_own_netns("serve_shows_a_part_through_the_plc_live_and_stores_it") {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let truth = d.path().join("T.json");
+        let db = d.path().join("r.sqlite").display().to_string();
+        let (_station, addr, cam) = station(&truth);
+        let plc = format!("modbus://{addr}");
+        let (_serve, web) = common::start_serve(
+            env!("CARGO_BIN_EXE_gonio"),
+            &[
+                "serve",
+                "--db",
+                &db,
+                "--addr",
+                "127.0.0.1:0",
+                "--station",
+                "plc",
+                "--plc",
+                &plc,
+                "--camera",
+                &cam,
+                "--parts",
+                "1",
+            ],
+        );
+        // Subscribed while the part is mounted (its focus sweep takes seconds): the events
+        // arrive as the controller goes, through the end of the batch.
+        let events = events_until(&web, "batch", Duration::from_secs(180));
+        let names: Vec<&str> = events.iter().map(|e| e.0.as_str()).collect();
+        let mut runs: Vec<(&str, usize)> = Vec::new();
+        for n in &names {
+            match runs.last_mut() {
+                Some((last, k)) if last == n => *k += 1,
+                _ => runs.push((n, 1)),
+            }
+        }
+        println!("events (name, times in a row): {runs:?}");
+        let at = |name: &str| names.iter().position(|n| *n == name);
+        let finished = at("finished").expect("a finished event");
+        let stored = at("stored").expect("a stored event");
+        let measuring = events
+            .iter()
+            .position(|(n, v)| n == "phase" && v["phase"] == "measure")
+            .expect("a measure phase event");
+        let turn = at("turn").expect("a turn event");
+        let frames = at("frames").expect("frames events");
+        assert!(measuring < finished && turn < finished && frames < finished);
+        assert!(finished < stored, "{names:?}");
+        let t = &events[turn].1;
+        assert!(t["e_um"].as_f64().is_some_and(|e| e > 0.0), "{t}");
+        assert!(t["valid_frames"].as_u64().is_some_and(|n| n > 100), "{t}");
+        let f = &events[finished].1;
+        assert_eq!(f["serial"], "PLC-0001", "{f}");
+        assert_eq!(f["result"], "accepted", "{f}");
+        let s = &events[stored].1;
+        assert_eq!(s["serial"], "PLC-0001", "{s}");
+        assert_eq!(s["result"], "accepted", "{s}");
+        let batch = &events.last().unwrap().1;
+        assert!(
+            batch["message"].as_str().unwrap().contains("batch done"),
+            "{batch}"
+        );
+
+        let (status, body) = common::http_get(&web, "/api/parts");
+        assert_eq!(status, 200, "{body}");
+        let parts: serde_json::Value = serde_json::from_str(&body).unwrap();
+        let parts = parts.as_array().unwrap();
+        assert_eq!(parts.len(), 1, "{body}");
+        assert_eq!(parts[0]["part"], s["part"], "{body}");
+        assert_eq!(parts[0]["serial"], "PLC-0001", "{body}");
+        assert_eq!(parts[0]["result"], "accepted", "{body}");
+        // The dashboard stays up after the batch and says it is done.
+        let (status, live) = common::http_get(&web, "/api/live");
+        assert_eq!(status, 200);
+        let live: serde_json::Value = serde_json::from_str(&live).unwrap();
+        assert_eq!(live["phase"], "idle", "{live}");
+    }
+}
