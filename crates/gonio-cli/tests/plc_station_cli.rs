@@ -175,3 +175,258 @@ fn killing_the_station_mid_part_ends_the_mount_as_a_device_error() {
         assert!(stored.contains("rejected_device_error"), "{stored}");
     }
 }
+
+/// The server-sent events of `GET /api/events` on a dashboard (plain HTTP on loopback).
+#[cfg(feature = "genicam")]
+struct Events {
+    r: std::io::BufReader<std::net::TcpStream>,
+    chunked: bool,
+    text: String,
+}
+
+/// One event: its name and its JSON data.
+#[cfg(feature = "genicam")]
+type Event = (String, serde_json::Value);
+
+#[cfg(feature = "genicam")]
+impl Events {
+    /// Subscribes to the events of the dashboard at `addr`.
+    fn open(addr: &str) -> Events {
+        use std::io::{BufRead, Write};
+        let s = std::net::TcpStream::connect(addr).unwrap();
+        // The dashboard sends a keep-alive comment every 15 s: a read never waits longer.
+        s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+        (&s).write_all(
+            format!("GET /api/events HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n")
+                .as_bytes(),
+        )
+        .unwrap();
+        let mut r = std::io::BufReader::new(s);
+        let mut line = String::new();
+        r.read_line(&mut line).unwrap();
+        assert!(line.contains(" 200 "), "GET /api/events: {line:?}");
+        let mut chunked = false;
+        loop {
+            let mut h = String::new();
+            r.read_line(&mut h).unwrap();
+            if h.trim().is_empty() {
+                break;
+            }
+            let h = h.to_ascii_lowercase();
+            chunked |= h.starts_with("transfer-encoding:") && h.contains("chunked");
+            if h.starts_with("content-type:") {
+                assert!(h.contains("text/event-stream"), "{h}");
+            }
+        }
+        Events {
+            r,
+            chunked,
+            text: String::new(),
+        }
+    }
+
+    /// The events from here up to the first that `last` picks (included), within `limit`.
+    fn until(&mut self, last: impl Fn(&Event) -> bool, limit: Duration) -> Vec<Event> {
+        use std::io::{BufRead, Read};
+        let t0 = Instant::now();
+        let mut events = Vec::new();
+        while t0.elapsed() < limit {
+            if let Some(end) = self.text.find("\n\n") {
+                let block: String = self.text.drain(..end + 2).collect();
+                let (mut name, mut data) = (String::new(), String::new());
+                for l in block.lines() {
+                    if let Some(v) = l.strip_prefix("event:") {
+                        name = v.trim().to_string();
+                    } else if let Some(v) = l.strip_prefix("data:") {
+                        data.push_str(v.trim_start());
+                    }
+                }
+                if name.is_empty() {
+                    continue; // a keep-alive comment
+                }
+                let e = (
+                    name,
+                    serde_json::from_str(&data).unwrap_or(serde_json::Value::Null),
+                );
+                let done = last(&e);
+                events.push(e);
+                if done {
+                    return events;
+                }
+                continue;
+            }
+            if self.chunked {
+                let mut size = String::new();
+                self.r.read_line(&mut size).unwrap();
+                let n = usize::from_str_radix(size.trim(), 16)
+                    .unwrap_or_else(|_| panic!("chunk size {size:?}"));
+                if n == 0 {
+                    break;
+                }
+                let mut chunk = vec![0; n + 2];
+                self.r.read_exact(&mut chunk).unwrap();
+                self.text.push_str(&String::from_utf8_lossy(&chunk[..n]));
+            } else {
+                let mut l = String::new();
+                if self.r.read_line(&mut l).unwrap() == 0 {
+                    break;
+                }
+                self.text.push_str(&l);
+            }
+        }
+        panic!(
+            "no such event within {limit:?}; events: {:?}",
+            events.iter().map(|e| &e.0).collect::<Vec<_>>()
+        );
+    }
+}
+
+/// `gonio serve --station plc` against the station at `addr` with camera `cam`, `parts` parts
+/// into store `db`; the child and the dashboard's address.
+#[cfg(feature = "genicam")]
+fn serve_plc(db: &str, addr: &str, cam: &str, parts: &str) -> (common::Guard, String) {
+    let plc = format!("modbus://{addr}");
+    common::start_serve(
+        env!("CARGO_BIN_EXE_gonio"),
+        &[
+            "serve",
+            "--db",
+            db,
+            "--addr",
+            "127.0.0.1:0",
+            "--station",
+            "plc",
+            "--plc",
+            &plc,
+            "--camera",
+            cam,
+            "--parts",
+            parts,
+        ],
+    )
+}
+
+#[test]
+fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
+    #[cfg(not(feature = "genicam"))]
+    {
+        println!("skipped: built without the genicam feature");
+    }
+    #[cfg(feature = "genicam")]
+    {
+        if !in_own_netns("serve_shows_a_part_through_the_plc_live_and_stores_it") {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let truth = d.path().join("T.json");
+        let db = d.path().join("r.sqlite").display().to_string();
+        let (_station, addr, cam) = station(&truth);
+        let (_serve, web) = serve_plc(&db, &addr, &cam, "1");
+        // Subscribed while the part is mounted (its focus sweep takes seconds): the events
+        // arrive as the controller goes, through the end of the batch.
+        let events = Events::open(&web).until(|e| e.0 == "batch", Duration::from_secs(180));
+        let names: Vec<&str> = events.iter().map(|e| e.0.as_str()).collect();
+        let mut runs: Vec<(&str, usize)> = Vec::new();
+        for n in &names {
+            match runs.last_mut() {
+                Some((last, k)) if last == n => *k += 1,
+                _ => runs.push((n, 1)),
+            }
+        }
+        println!("events (name, times in a row): {runs:?}");
+        let at = |name: &str| names.iter().position(|n| *n == name);
+        let finished = at("finished").expect("a finished event");
+        let stored = at("stored").expect("a stored event");
+        let measuring = events
+            .iter()
+            .position(|(n, v)| n == "phase" && v["phase"] == "measure")
+            .expect("a measure phase event");
+        let turn = at("turn").expect("a turn event");
+        let frames = at("frames").expect("frames events");
+        assert!(measuring < finished && turn < finished && frames < finished);
+        assert!(finished < stored, "{names:?}");
+        let t = &events[turn].1;
+        assert!(t["e_um"].as_f64().is_some_and(|e| e > 0.0), "{t}");
+        assert!(t["valid_frames"].as_u64().is_some_and(|n| n > 100), "{t}");
+        let f = &events[finished].1;
+        assert_eq!(f["serial"], "PLC-0001", "{f}");
+        assert_eq!(f["result"], "accepted", "{f}");
+        let s = &events[stored].1;
+        assert_eq!(s["serial"], "PLC-0001", "{s}");
+        assert_eq!(s["result"], "accepted", "{s}");
+        let batch = &events.last().unwrap().1;
+        assert!(
+            batch["message"].as_str().unwrap().contains("batch done"),
+            "{batch}"
+        );
+
+        let (status, body) = common::http_get(&web, "/api/parts");
+        assert_eq!(status, 200, "{body}");
+        let parts: serde_json::Value = serde_json::from_str(&body).unwrap();
+        let parts = parts.as_array().unwrap();
+        assert_eq!(parts.len(), 1, "{body}");
+        assert_eq!(parts[0]["part"], s["part"], "{body}");
+        assert_eq!(parts[0]["serial"], "PLC-0001", "{body}");
+        assert_eq!(parts[0]["result"], "accepted", "{body}");
+        // The dashboard stays up after the batch and says it is done.
+        let (status, live) = common::http_get(&web, "/api/live");
+        assert_eq!(status, 200);
+        let live: serde_json::Value = serde_json::from_str(&live).unwrap();
+        assert_eq!(live["phase"], "idle", "{live}");
+    }
+}
+
+#[test]
+fn serve_shows_a_device_error_through_the_plc_and_stays_up() {
+    #[cfg(not(feature = "genicam"))]
+    {
+        println!("skipped: built without the genicam feature");
+    }
+    #[cfg(feature = "genicam")]
+    {
+        if !in_own_netns("serve_shows_a_device_error_through_the_plc_and_stays_up") {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let truth = d.path().join("T.json");
+        let db = d.path().join("r.sqlite").display().to_string();
+        let (mut station, addr, cam) = station(&truth);
+        let (mut serve, web) = serve_plc(&db, &addr, &cam, "3");
+        let mut events = Events::open(&web);
+        // The station dies while the first part is measured.
+        events.until(
+            |(n, v)| n == "phase" && v["phase"] == "measure",
+            Duration::from_secs(60),
+        );
+        station.0.kill().unwrap();
+        let after = events.until(|e| e.0 == "batch", Duration::from_secs(30));
+        let find = |name: &str| {
+            after
+                .iter()
+                .find(|e| e.0 == name)
+                .map(|e| e.1.clone())
+                .unwrap_or_else(|| panic!("no {name} event"))
+        };
+        let f = find("finished");
+        assert_eq!(f["serial"], "PLC-0001", "{f}");
+        assert_eq!(f["result"], "rejected_device_error", "{f}");
+        assert_eq!(find("stored")["result"], "rejected_device_error");
+        let batch = find("batch");
+        let message = batch["message"].as_str().unwrap();
+        assert!(
+            message.contains("stopped after part 1 of 3 (PLC-0001)"),
+            "{message}"
+        );
+        // The dashboard stays up: the part is in the store, the live view idle.
+        assert!(serve.0.try_wait().unwrap().is_none(), "serve ended");
+        let (status, body) = common::http_get(&web, "/api/parts");
+        assert_eq!(status, 200, "{body}");
+        let parts: serde_json::Value = serde_json::from_str(&body).unwrap();
+        let parts = parts.as_array().unwrap();
+        assert_eq!(parts.len(), 1, "{body}");
+        assert_eq!(parts[0]["result"], "rejected_device_error", "{body}");
+        let (_, live) = common::http_get(&web, "/api/live");
+        let live: serde_json::Value = serde_json::from_str(&live).unwrap();
+        assert_eq!(live["phase"], "idle", "{live}");
+    }
+}

@@ -158,3 +158,55 @@ fn another_address_than_loopback_needs_allow_remote() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("expected HOST:PORT"));
 }
+
+#[test]
+fn the_plc_station_needs_its_flags_and_refuses_the_simulations() {
+    let d = tempfile::tempdir().unwrap();
+    let db = d.path().join("r.sqlite").display().to_string();
+    let serve = ["serve", "--db", &db, "--addr", "127.0.0.1:0"];
+    let refused = |extra: &[&str], says: &str| {
+        let o = gonio(&[&serve[..], extra].concat());
+        assert_eq!(o.status.code(), Some(2), "{extra:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.lines().count(), 1, "{extra:?}: {err}");
+        assert!(err.contains(says), "{extra:?}: {err}");
+    };
+    let plc = [
+        "--station",
+        "plc",
+        "--plc",
+        "modbus://127.0.0.1:9",
+        "--camera",
+        "nope",
+    ];
+    refused(&["--station", "plc"], "--station plc needs --plc");
+    refused(
+        &["--station", "plc", "--plc", "modbus://127.0.0.1:9"],
+        "--camera ID",
+    );
+    refused(
+        &[&plc[..], &["--seed", "3"]].concat(),
+        "--seed is for --station sim only",
+    );
+    refused(
+        &[&plc[..], &["--speed", "2", "--resume"]].concat(),
+        "--speed, --resume are for --station sim only",
+    );
+    refused(
+        &["--station", "sim", "--plc", "modbus://127.0.0.1:9"],
+        "for --station plc only",
+    );
+    refused(
+        &[
+            "--station",
+            "plc",
+            "--plc",
+            "127.0.0.1:9",
+            "--camera",
+            "nope",
+        ],
+        "expected modbus://HOST:PORT",
+    );
+    // No such camera (or no GenICam in this build): refused before the dashboard listens.
+    refused(&plc, "--camera nope");
+}

@@ -13,6 +13,7 @@
 //! ```
 
 use crate::station::{PlcStation, TriggeredCamera};
+use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::strategy::Learned;
 use gonio_station::{Controller, PartRecord, PartResult, StationError};
 use serde::Serialize;
@@ -160,6 +161,22 @@ pub fn run_batch<C: TriggeredCamera>(
     parts: usize,
     on_part: &mut dyn FnMut(&PlcPartDone<'_>) -> PartEnd,
 ) -> Result<PlcBatchReport, StationError> {
+    run_batch_observed(station, ctl, parts, &mut NoObserver, on_part)
+}
+
+/// [`run_batch`], telling `observer` what the controller does as it does it (each part's
+/// start, phases, frames, turns, pushes and end: what a live view shows), as
+/// [`Controller::mount_observed`] does for one part.
+///
+/// # Errors
+/// As [`run_batch`].
+pub fn run_batch_observed<C: TriggeredCamera>(
+    station: &PlcStation<C>,
+    ctl: &mut Controller,
+    parts: usize,
+    observer: &mut dyn Observer,
+    on_part: &mut dyn FnMut(&PlcPartDone<'_>) -> PartEnd,
+) -> Result<PlcBatchReport, StationError> {
     let mut out = Vec::with_capacity(parts);
     let mut stopped = None;
     let mut devices = station.devices();
@@ -171,7 +188,7 @@ pub fn run_batch<C: TriggeredCamera>(
                 break;
             }
         };
-        let record = ctl.mount(&mut devices, &format!("PLC-{part:04}"))?;
+        let record = ctl.mount_observed(&mut devices, &format!("PLC-{part:04}"), observer)?;
         let failed = record.device_error.is_some();
         let end = on_part(&PlcPartDone {
             index,

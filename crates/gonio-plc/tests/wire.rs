@@ -63,6 +63,73 @@ fn two_parts_through_the_wire_match_the_truth() {
     server.stop();
 }
 
+/// What an observer was told, in order.
+#[derive(Default)]
+struct Told(Vec<String>);
+
+impl gonio_station::observe::Observer for Told {
+    fn part_started(&mut self, serial: &str) {
+        self.0.push(format!("part {serial}"));
+    }
+    fn phase(&mut self, phase: gonio_station::observe::Phase) {
+        self.0.push(format!("phase {phase:?}"));
+    }
+    fn frame(&mut self, _frame: &gonio_station::observe::LiveFrame) {
+        if self.0.last().map(String::as_str) != Some("frames") {
+            self.0.push("frames".into());
+        }
+    }
+    fn turn(
+        &mut self,
+        _turn: &gonio_station::record::TurnRecord,
+        _fit: Option<&gonio_station::fit::EccentricityFit>,
+    ) {
+        self.0.push("turn".into());
+    }
+    fn push(&mut self, _push: &gonio_station::record::PushRecord) {
+        self.0.push("push".into());
+    }
+    fn part_finished(&mut self, r: &gonio_station::PartRecord) {
+        self.0.push(format!("finished {}", r.serial));
+    }
+}
+
+#[test]
+fn a_batch_tells_its_observer_what_the_controller_does() {
+    use gonio_plc::batch::{PartEnd, run_batch_observed};
+    let (mut server, station) = start(SimConfig::new(11));
+    let mut ctl = Controller::new(Recipe::default(), Strategy::Live);
+    let mut told = Told::default();
+    let mut ended = Vec::new();
+    let report = run_batch_observed(&station, &mut ctl, 1, &mut told, &mut |d| {
+        ended.push(d.record.serial.clone());
+        PartEnd::Continue
+    })
+    .unwrap();
+    server.stop();
+    assert_eq!(ended, ["PLC-0001"]);
+    let rec = &report.parts[0].record;
+    assert_eq!(rec.result, PartResult::Accepted, "{rec:?}");
+    let t = &told.0;
+    assert_eq!(
+        t.first().map(String::as_str),
+        Some("part PLC-0001"),
+        "{t:?}"
+    );
+    assert_eq!(
+        t.last().map(String::as_str),
+        Some("finished PLC-0001"),
+        "{t:?}"
+    );
+    assert!(t.iter().any(|e| e == "phase Focus"), "{t:?}");
+    assert!(t.iter().any(|e| e.starts_with("phase Measure")), "{t:?}");
+    assert!(t.iter().any(|e| e == "frames"), "{t:?}");
+    let turns = t.iter().filter(|e| *e == "turn").count();
+    assert_eq!(turns, rec.turns.len(), "{t:?}");
+    let pushes = t.iter().filter(|e| *e == "push").count();
+    assert_eq!(pushes, rec.pushes as usize, "{t:?}");
+}
+
 /// Mounts one part against a station with `faults`; returns the record and how long the part
 /// took to end after the fault time.
 fn faulted(faults: SimFaults, at_s: f64) -> (gonio_station::PartRecord, f64) {

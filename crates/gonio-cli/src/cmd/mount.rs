@@ -362,42 +362,11 @@ fn print_and_write(
     Ok(())
 }
 
-/// `HOST:PORT` of a `modbus://HOST:PORT` URL.
-fn plc_address(url: &str) -> Result<String> {
-    let rest = url
-        .strip_prefix("modbus://")
-        .ok_or_else(|| anyhow::anyhow!("--plc {url}: expected modbus://HOST:PORT (Modbus TCP)"))?;
-    let rest = rest.trim_end_matches('/');
-    match rest.rsplit_once(':') {
-        Some((h, p)) if !h.is_empty() && p.parse::<u16>().is_ok() => Ok(rest.to_string()),
-        _ => bail!("--plc {url}: expected modbus://HOST:PORT with a port number"),
-    }
-}
-
 /// `gonio mount --plc`: the controller through the PLC and its triggered camera.
 fn run_plc(a: Args, url: &str) -> Result<()> {
-    use gonio_plc::batch::{PartEnd, PlcPartDone, run_batch};
-    use gonio_plc::station::{PlcStation, StationOptions};
     if a.record.is_some() || a.resume || a.fidelity != FidelityArg::Fast {
         bail!("--record, --resume and --fidelity are for --sim; --plc mounts real parts");
     }
-    if !(1..=MAX_PARTS).contains(&a.parts) {
-        bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
-    }
-    let addr = plc_address(url)?;
-    let map = match &a.plc_map {
-        Some(p) => gonio_io::input::load(p, |name, text| {
-            gonio_plc::RegisterMap::from_toml(text).map_err(|e| match e {
-                gonio_plc::map::MapError::Syntax {
-                    line,
-                    column,
-                    message,
-                } => anyhow::anyhow!("{name}:{line}:{column}: {message}"),
-                other => anyhow::anyhow!("{name}: {other}"),
-            })
-        })?,
-        None => gonio_plc::RegisterMap::default(),
-    };
     let recipe = match &a.recipe {
         Some(p) => recipe::load(p)?,
         None => Recipe::default(),
@@ -405,68 +374,42 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     let mut outputs = Outputs::new();
     let json = outputs.optional("--json", a.json.as_deref())?;
     let to_stdout = outputs.to_stdout(json);
-    let camera_id = a.camera.clone().unwrap_or_default();
-    let camera = plc_camera::open(&camera_id, &recipe, map.timing.frame_timeout_ms)?;
-    let link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow::anyhow!("--plc: {e}"))?;
-    let opts = StationOptions {
-        fps: recipe.measure.fps,
-        exposure_s: recipe.measure.exposure_s,
-        um_per_px: recipe.um_per_px,
-    };
-    let st = PlcStation::new(link, camera, opts).map_err(|e| anyhow::anyhow!("--plc: {e}"))?;
-    let mut store = match a.db.as_deref() {
-        Some(db) => {
-            let config = serde_json::to_string(&serde_json::json!({
-                "plc": url,
-                "camera": camera_id,
-                "parts": a.parts,
-                "strategy": gonio_station::Strategy::from(a.strategy).name(),
-                "recipe": recipe,
-            }))?;
-            Some(station::PlcStore::begin(
-                db,
-                &a.station_name,
-                &recipe,
-                &config,
-                a.parts,
-            )?)
-        }
-        None => None,
-    };
-    let mut ctl = gonio_station::Controller::new(recipe, a.strategy.into());
+    let batch = crate::plc::open(crate::plc::Request {
+        url: url.to_string(),
+        camera: a.camera.clone().unwrap_or_default(),
+        plc_map: a.plc_map.clone(),
+        recipe,
+        strategy: a.strategy,
+        parts: a.parts,
+        db: a.db.clone(),
+        station_name: a.station_name.clone(),
+    })?;
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let mut store_error = None;
     let table = !to_stdout;
     if table {
         say!("{}", table_header())?;
     }
     let mut printed: Result<()> = Ok(());
-    let report = run_batch(&st, &mut ctl, a.parts, &mut |d: &PlcPartDone<'_>| {
+    let report = batch.run(&mut NoObserver, &mut |d, _| {
         if table && printed.is_ok() {
             printed = bar.suspend(|| print_row(d.record));
         }
         bar.inc(1);
         bar.set_message(format!("{} {}", d.record.serial, d.record.result.name()));
-        if let Some(s) = store.as_mut()
-            && let Err(e) = s.commit(d.index, d.record, d.learned)
-        {
-            store_error = Some(e);
-            return PartEnd::Stop;
+    });
+    let report = match report {
+        Ok(r) => r,
+        Err(e) => {
+            bar.abandon();
+            return Err(e);
         }
-        PartEnd::Continue
-    })?;
+    };
     bar.finish_and_clear();
     printed?;
-    if let Some(e) = store_error {
-        return Err(e);
-    }
-    if let Some(s) = store.as_mut() {
-        s.end(report.stopped.as_deref())?;
-    }
     if !to_stdout {
         let s = &report.summary;
         say!(
@@ -502,134 +445,4 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         bail!("the batch {why}; the records so far are kept");
     }
     Ok(())
-}
-
-/// The station's camera for `--plc`: a GenICam camera through Aravis (feature `genicam`).
-mod plc_camera {
-    use anyhow::Result;
-    use gonio_station::Recipe;
-
-    #[cfg(feature = "genicam")]
-    pub use with::open;
-    #[cfg(not(feature = "genicam"))]
-    pub use without::open;
-
-    #[cfg(feature = "genicam")]
-    mod with {
-        use super::*;
-        use anyhow::anyhow;
-        use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
-        use gonio_plc::station::{DetectorTriggered, StampedSource};
-        use gonio_vision::{FrameHeader, FrameSource, Optics};
-
-        /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
-        /// on a hardware trigger line).
-        #[derive(Debug)]
-        pub struct ById(AravisSource);
-
-        impl FrameSource for ById {
-            type Error = CameraError;
-            fn next_frame(&mut self, px: &mut Vec<u8>) -> Result<Option<FrameHeader>, CameraError> {
-                let Some(mut h) = self.0.next_frame(px)? else {
-                    return Ok(None);
-                };
-                if let Some(m) = self.0.take_meta(h.stamp.index) {
-                    h.stamp.index = m.frame_id;
-                }
-                Ok(Some(h))
-            }
-        }
-
-        /// The camera: the simulated station's (its frames carry the trigger count) or a real
-        /// one on the PLC's trigger line.
-        pub enum Camera {
-            /// `gonio simulate station`'s camera.
-            Sim(DetectorTriggered<StampedSource<AravisSource>>),
-            /// A camera triggered on line 1.
-            Real(DetectorTriggered<ById>),
-        }
-
-        impl std::fmt::Debug for Camera {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str("Camera")
-            }
-        }
-
-        impl gonio_plc::TriggeredCamera for Camera {
-            type Error = gonio_plc::station::DetectorTriggeredError<CameraError>;
-            fn next_frame(
-                &mut self,
-                timeout: std::time::Duration,
-            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, Self::Error> {
-                match self {
-                    Camera::Sim(c) => c.next_frame(timeout),
-                    Camera::Real(c) => c.next_frame(timeout),
-                }
-            }
-        }
-
-        /// Opens camera `id` for the recipe's window and exposure.
-        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64) -> Result<Camera> {
-            let optics = Optics::default();
-            let sim = id == "Aravis-Fake-GONIOSTATION";
-            let config = CameraConfig {
-                window_size: (optics.window_width_px, optics.window_height_px),
-                exposure_us: Some(recipe.measure.exposure_s * 1e6),
-                // The simulated camera is paced by its PLC's trigger itself.
-                trigger: if sim { Trigger::Free } else { Trigger::Line1 },
-                frame_timeout_ms,
-                ..CameraConfig::default()
-            };
-            let src = AravisSource::open(id, &config).map_err(|e| anyhow!("--camera {id}: {e}"))?;
-            let bad = |e| anyhow!("--camera {id}: {e}");
-            Ok(if sim {
-                Camera::Sim(DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?)
-            } else {
-                Camera::Real(DetectorTriggered::new(ById(src), &optics).map_err(bad)?)
-            })
-        }
-    }
-
-    #[cfg(not(feature = "genicam"))]
-    mod without {
-        use super::*;
-        use anyhow::bail;
-
-        /// A camera that is never built: this gonio has no GenICam support.
-        #[derive(Debug)]
-        pub enum NoCamera {}
-
-        /// Its error (never made either).
-        #[derive(Debug)]
-        pub struct NoCameraError;
-
-        impl std::fmt::Display for NoCameraError {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str("no camera")
-            }
-        }
-
-        impl gonio_station::hal::DeviceError for NoCameraError {
-            fn kind(&self) -> gonio_station::hal::DeviceErrorKind {
-                gonio_station::hal::DeviceErrorKind::Other
-            }
-        }
-
-        impl gonio_plc::TriggeredCamera for NoCamera {
-            type Error = NoCameraError;
-            fn next_frame(
-                &mut self,
-                _timeout: std::time::Duration,
-            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, NoCameraError> {
-                match *self {}
-            }
-        }
-
-        /// Opens camera `id`: never, without GenICam.
-        pub fn open(id: &str, _recipe: &Recipe, _frame_timeout_ms: u64) -> Result<NoCamera> {
-            bail!(
-                "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
-            )
-        }
-    }
 }

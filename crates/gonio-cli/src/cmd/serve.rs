@@ -16,6 +16,9 @@ use std::time::{Duration, Instant};
 pub enum StationArg {
     /// The simulated station (the digital twin), paced to the wall clock.
     Sim,
+    /// A station through its PLC (--plc modbus://HOST:PORT) and its camera (--camera ID), as
+    /// `gonio mount --plc` runs it.
+    Plc,
 }
 
 /// Arguments of `gonio serve`.
@@ -44,10 +47,18 @@ With --station sim, the simulated station mounts --parts parts (seed --seed) in 
 wall clock (--speed times real time), committing each part to --db as it finishes, exactly as
 `gonio mount --sim --db` does; the dashboard stays up after the batch until Ctrl-C.
 
+With --station plc, --parts parts are mounted through the station's PLC (--plc
+modbus://HOST:PORT, register map --plc-map, docs/plc-interface.md) and its GenICam camera
+(--camera ID), at the station's own pace: the same controller, records and store as
+`gonio mount --plc --db`, each part committed as it ends. A device error ends its part
+rejected_device_error and the batch; the dashboard shows why and stays up until Ctrl-C.
+--seed, --fidelity, --speed and --resume are for the simulated station only.
+
 Examples:
   gonio serve --db results.sqlite
   gonio serve --db results.sqlite --station sim --parts 25 --seed 7
   gonio serve --db results.sqlite --station sim --parts 100 --seed 7 --speed 4 --addr 127.0.0.1:9000
+  gonio serve --db results.sqlite --station plc --plc modbus://192.168.0.10:502 --camera Basler-1234 --parts 50
   gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8443 --allow-remote \\
       --tls-cert station.crt --tls-key station.key --token-file dashboard.token --host-name station.lab
   curl --cacert station.crt -H \"Authorization: Bearer $(cat dashboard.token)\" https://station.lab:8443/api/stats")]
@@ -80,24 +91,37 @@ pub struct Args {
     /// Run this station and show it live.
     #[arg(long, value_enum)]
     pub station: Option<StationArg>,
+    /// The station's PLC with --station plc: modbus://HOST:PORT (Modbus TCP,
+    /// docs/plc-interface.md).
+    #[arg(long, value_name = "modbus://HOST:PORT")]
+    pub plc: Option<String>,
+    /// The station's camera with --station plc (a GenICam id, as `gonio camera list` shows
+    /// it), triggered by the PLC.
+    #[arg(long, value_name = "ID")]
+    pub camera: Option<String>,
+    /// The PLC's register map (TOML; default: examples/plc/modbus-map.toml's values).
+    #[arg(long, value_name = "FILE")]
+    pub plc_map: Option<PathBuf>,
     /// Parts the station mounts.
     #[arg(long, default_value_t = 25, requires = "station")]
     pub parts: usize,
-    /// Seed of the simulated station (same seed, same records).
-    #[arg(long, default_value_t = 1, requires = "station")]
-    pub seed: u64,
-    /// Push strategy.
-    #[arg(long, value_enum, default_value = "learned", requires = "station")]
-    pub strategy: StrategyArg,
-    /// Frame fidelity of the simulation.
-    #[arg(long, value_enum, default_value = "fast", requires = "station")]
-    pub fidelity: FidelityArg,
+    /// Seed of the simulated station (same seed, same records) [default: 1].
+    #[arg(long, requires = "station")]
+    pub seed: Option<u64>,
+    /// Push strategy [default: learned with --station sim, live with --station plc (as
+    /// `gonio mount --plc`)].
+    #[arg(long, value_enum, requires = "station")]
+    pub strategy: Option<StrategyArg>,
+    /// Frame fidelity of the simulation [default: fast].
+    #[arg(long, value_enum, requires = "station")]
+    pub fidelity: Option<FidelityArg>,
     /// Recipe (TOML) for the grating type.
     #[arg(long, requires = "station")]
     pub recipe: Option<PathBuf>,
-    /// Simulated seconds per wall-clock second (1: real time, as the station runs).
-    #[arg(long, default_value_t = 1.0, requires = "station")]
-    pub speed: f64,
+    /// Simulated seconds per wall-clock second (1: real time, as the station runs)
+    /// [default: 1].
+    #[arg(long, requires = "station")]
+    pub speed: Option<f64>,
     /// The station's name in the results store.
     #[arg(long, default_value = "sim", value_name = "NAME", requires = "station")]
     pub station_name: String,
@@ -169,13 +193,58 @@ const MIN_SPEED: f64 = 1e-3;
 /// See [`MIN_SPEED`].
 const MAX_SPEED: f64 = 1e6;
 
+/// The flags of the simulated station only that are given (refused with --station plc).
+fn sim_only_flags(a: &Args) -> Vec<&'static str> {
+    [
+        (a.seed.is_some(), "--seed"),
+        (a.fidelity.is_some(), "--fidelity"),
+        (a.speed.is_some(), "--speed"),
+        (a.resume, "--resume"),
+    ]
+    .into_iter()
+    .filter_map(|(given, flag)| given.then_some(flag))
+    .collect()
+}
+
+/// Checks that the station's flags fit the station: --plc and --camera with --station plc
+/// (and only with it), no flag of the simulation with it.
+fn check_station_flags(a: &Args) -> Result<()> {
+    let plc_flags: Vec<&str> = [
+        (a.plc.is_some(), "--plc"),
+        (a.camera.is_some(), "--camera"),
+        (a.plc_map.is_some(), "--plc-map"),
+    ]
+    .into_iter()
+    .filter_map(|(given, flag)| given.then_some(flag))
+    .collect();
+    if a.station == Some(StationArg::Plc) {
+        let sim = sim_only_flags(a);
+        if !sim.is_empty() {
+            bail!(
+                "{} {} for --station sim only: --station plc mounts real parts at the station's own pace",
+                sim.join(", "),
+                if sim.len() == 1 { "is" } else { "are" }
+            );
+        }
+        if a.plc.is_none() || a.camera.is_none() {
+            bail!("--station plc needs --plc modbus://HOST:PORT and --camera ID");
+        }
+    } else if !plc_flags.is_empty() {
+        bail!(
+            "{} {} for --station plc only",
+            plc_flags.join(", "),
+            if plc_flags.len() == 1 { "is" } else { "are" }
+        );
+    }
+    Ok(())
+}
+
 /// Runs `gonio serve`.
 pub fn run(a: Args) -> Result<()> {
-    if !(MIN_SPEED..=MAX_SPEED).contains(&a.speed) {
-        bail!(
-            "--speed {}: expected {MIN_SPEED} to {MAX_SPEED} simulated seconds per second",
-            a.speed
-        );
+    check_station_flags(&a)?;
+    let speed = a.speed.unwrap_or(1.0);
+    if !(MIN_SPEED..=MAX_SPEED).contains(&speed) {
+        bail!("--speed {speed}: expected {MIN_SPEED} to {MAX_SPEED} simulated seconds per second");
     }
     if !(1..=station::MAX_PARTS).contains(&a.parts) {
         bail!("--parts {}: expected 1 to {}", a.parts, station::MAX_PARTS);
@@ -209,14 +278,14 @@ pub fn run(a: Args) -> Result<()> {
         Some(StationArg::Sim) => {
             let cfg = BatchConfig {
                 parts: a.parts,
-                strategy: a.strategy.into(),
-                fidelity: a.fidelity.into(),
+                strategy: a.strategy.unwrap_or(StrategyArg::Learned).into(),
+                fidelity: a.fidelity.unwrap_or(FidelityArg::Fast).into(),
                 recipe,
                 ..BatchConfig::default()
             };
             let prepared = station::prepare(
                 &cfg,
-                a.seed,
+                a.seed.unwrap_or(1),
                 &station::Target {
                     db: Some(&a.db),
                     resume: a.resume,
@@ -225,6 +294,19 @@ pub fn run(a: Args) -> Result<()> {
             )?;
             Some(spawn_station(prepared, cfg, &a, hub.clone()))
         }
+        Some(StationArg::Plc) => Some(spawn_plc(
+            crate::plc::Request {
+                url: a.plc.clone().unwrap_or_default(),
+                camera: a.camera.clone().unwrap_or_default(),
+                plc_map: a.plc_map.clone(),
+                recipe,
+                strategy: a.strategy.unwrap_or(StrategyArg::Live),
+                parts: a.parts,
+                db: Some(a.db.clone()),
+                station_name: a.station_name.clone(),
+            },
+            hub.clone(),
+        )?),
         None => None,
     };
     gonio_cli::note!(
@@ -239,10 +321,14 @@ pub fn run(a: Args) -> Result<()> {
         } else {
             ""
         },
-        if a.station.is_some() {
-            ", simulated station running"
-        } else {
-            ""
+        match a.station {
+            Some(StationArg::Sim) => ", simulated station running".to_string(),
+            Some(StationArg::Plc) => format!(
+                ", station running through {} and camera {}",
+                a.plc.as_deref().unwrap_or_default(),
+                a.camera.as_deref().unwrap_or_default()
+            ),
+            None => String::new(),
         }
     );
     let served = gonio_web::serve_blocking(listener, &a.db, hub, options);
@@ -267,8 +353,8 @@ fn spawn_station(
                 .unwrap_or_default()
         }));
     }
-    let pace = Pace::new(a.speed, timing);
-    let (seed, name) = (a.seed, a.station_name.clone());
+    let pace = Pace::new(a.speed.unwrap_or(1.0), timing);
+    let (seed, name) = (a.seed.unwrap_or(1), a.station_name.clone());
     std::thread::spawn(move || {
         let p = match prepared {
             station::Start::Run(p) => p,
@@ -331,4 +417,54 @@ fn spawn_station(
         gonio_cli::note!("{message}; the dashboard stays up until Ctrl-C");
         hub.batch_finished(&message);
     })
+}
+
+/// Runs the batch through the PLC on a thread of its own (the station's link and camera live
+/// there), publishing to `hub` and committing every part to the store as `gonio mount --plc
+/// --db` does. Returns once the station is open: its setup's error (no PLC, no camera, a bad
+/// map or store) is this function's.
+fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread::JoinHandle<()>> {
+    let (opened, is_open) = std::sync::mpsc::channel::<Result<()>>();
+    let thread = std::thread::spawn(move || {
+        let batch = match crate::plc::open(request) {
+            Ok(b) => {
+                let _ = opened.send(Ok(()));
+                b
+            }
+            Err(e) => {
+                let _ = opened.send(Err(e));
+                return;
+            }
+        };
+        let mut live = LiveObserver::new(hub.clone());
+        let report = batch.run(&mut live, &mut |d, id| {
+            if let Some(id) = id {
+                hub.part_stored(id, &d.record.serial, d.record.result.name());
+            }
+        });
+        let message = match report {
+            Ok(r) => match &r.stopped {
+                Some(why) => format!("the batch {why}; the records so far are kept"),
+                None => format!(
+                    "batch done: {} parts mounted through {}",
+                    r.summary.parts, r.plc
+                ),
+            },
+            Err(e) => {
+                let m = format!("station stopped: {}", gonio_io::input::one_line(&e));
+                gonio_cli::note!("error: {m}");
+                m
+            }
+        };
+        gonio_cli::note!("{message}; the dashboard stays up until Ctrl-C");
+        hub.batch_finished(&message);
+    });
+    match is_open.recv() {
+        Ok(Ok(())) => Ok(thread),
+        Ok(Err(e)) => {
+            let _ = thread.join();
+            Err(e)
+        }
+        Err(_) => bail!("the station's thread ended before the station was open"),
+    }
 }
