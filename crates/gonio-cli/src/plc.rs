@@ -5,8 +5,8 @@
 
 use crate::station::{self, StrategyArg};
 use anyhow::{Result, anyhow, bail};
-use gonio_plc::batch::{PartEnd, PlcBatchReport, PlcPartDone, run_batch_observed};
-use gonio_plc::station::{PlcStation, StationOptions};
+use gonio_plc::batch::{LinkFigures, PartEnd, PlcBatchReport, PlcPartDone, run_batch_observed};
+use gonio_plc::station::{FrameTap, PlcStation, StationOptions};
 use gonio_station::observe::Observer;
 use gonio_station::{Controller, Recipe, Strategy};
 use std::path::PathBuf;
@@ -70,18 +70,19 @@ fn register_map(path: Option<&std::path::Path>) -> Result<gonio_plc::RegisterMap
     })
 }
 
-/// Opens the station: checks the PLC's address, reads the register map, opens the camera,
-/// connects to the PLC and, with a store, begins the batch in it.
+/// Opens the station: checks the PLC's address, reads the register map, opens the camera (with
+/// `tap`, if any, shown every frame it detects: the live view's thumbnail), connects to the PLC
+/// and, with a store, begins the batch in it.
 ///
 /// # Errors
 /// One-line errors naming the flag: a bad address or map, no camera, no PLC, no store.
-pub fn open(r: Request) -> Result<Batch> {
+pub fn open(r: Request, tap: Option<FrameTap>) -> Result<Batch> {
     if !(1..=station::MAX_PARTS).contains(&r.parts) {
         bail!("--parts {}: expected 1 to {}", r.parts, station::MAX_PARTS);
     }
     let addr = plc_address(&r.url)?;
     let map = register_map(r.plc_map.as_deref())?;
-    let camera = plc_camera::open(&r.camera, &r.recipe, map.timing.frame_timeout_ms)?;
+    let camera = plc_camera::open(&r.camera, &r.recipe, map.timing.frame_timeout_ms, tap)?;
     let link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow!("--plc: {e}"))?;
     let opts = StationOptions {
         fps: r.recipe.measure.fps,
@@ -117,6 +118,14 @@ pub fn open(r: Request) -> Result<Batch> {
 }
 
 impl Batch {
+    /// The link's figures as they are when called (requests, round trips, frames paired and
+    /// stale): call it on the batch's thread, between the controller's steps (its observer),
+    /// and after the batch.
+    pub fn link_figures(&self) -> impl Fn() -> LinkFigures + use<> {
+        let station = self.station.clone();
+        move || station.link_figures()
+    }
+
     /// Mounts the parts, telling `observer` what the controller does as it does it and
     /// `on_part` each part as it ends, with its id in the store once committed there. A part
     /// that cannot be stored stops the batch; the batch's end is written to the store.
@@ -181,7 +190,7 @@ mod plc_camera {
         use super::*;
         use anyhow::anyhow;
         use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
-        use gonio_plc::station::{DetectorTriggered, StampedSource};
+        use gonio_plc::station::{DetectorTriggered, FrameTap, StampedSource};
         use gonio_vision::{FrameHeader, FrameSource, Optics};
 
         /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
@@ -230,8 +239,25 @@ mod plc_camera {
             }
         }
 
-        /// Opens camera `id` for the recipe's window and exposure.
-        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64) -> Result<Camera> {
+        /// The camera through the detector, showing its frames to `tap` if any.
+        fn tapped<S: FrameSource>(
+            d: DetectorTriggered<S>,
+            tap: Option<FrameTap>,
+        ) -> DetectorTriggered<S> {
+            match tap {
+                Some(t) => d.with_tap(t),
+                None => d,
+            }
+        }
+
+        /// Opens camera `id` for the recipe's window and exposure, showing every frame it
+        /// detects to `tap` if any.
+        pub fn open(
+            id: &str,
+            recipe: &Recipe,
+            frame_timeout_ms: u64,
+            tap: Option<FrameTap>,
+        ) -> Result<Camera> {
             let optics = Optics::default();
             let sim = id == "Aravis-Fake-GONIOSTATION";
             let config = CameraConfig {
@@ -245,9 +271,13 @@ mod plc_camera {
             let src = AravisSource::open(id, &config).map_err(|e| anyhow!("--camera {id}: {e}"))?;
             let bad = |e| anyhow!("--camera {id}: {e}");
             Ok(if sim {
-                Camera::Sim(DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?)
+                let d = DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?;
+                Camera::Sim(tapped(d, tap))
             } else {
-                Camera::Real(DetectorTriggered::new(ById(src), &optics).map_err(bad)?)
+                Camera::Real(tapped(
+                    DetectorTriggered::new(ById(src), &optics).map_err(bad)?,
+                    tap,
+                ))
             })
         }
     }
@@ -288,7 +318,12 @@ mod plc_camera {
         }
 
         /// Opens camera `id`: never, without GenICam.
-        pub fn open(id: &str, _recipe: &Recipe, _frame_timeout_ms: u64) -> Result<NoCamera> {
+        pub fn open(
+            id: &str,
+            _recipe: &Recipe,
+            _frame_timeout_ms: u64,
+            _tap: Option<gonio_plc::station::FrameTap>,
+        ) -> Result<NoCamera> {
             bail!(
                 "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
             )

@@ -359,6 +359,43 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
             batch["message"].as_str().unwrap().contains("batch done"),
             "{batch}"
         );
+        // The camera's frames, live: a thumbnail of the window (1440 × 540 px) reduced 4 × 4,
+        // with the ring's detected edges, at most every 200 ms while the part was mounted.
+        let image = at("image").expect("an image event");
+        assert!(image < finished, "{names:?}");
+        let images = names.iter().filter(|n| **n == "image").count();
+        println!("{images} thumbnails");
+        let img = &events[image].1;
+        assert_eq!(
+            (img["width"].as_u64(), img["height"].as_u64()),
+            (Some(1440), Some(540))
+        );
+        let png = |src: &serde_json::Value| {
+            use base64::Engine as _;
+            let b64 = src
+                .as_str()
+                .and_then(|s| s.strip_prefix("data:image/png;base64,"))
+                .unwrap_or_else(|| panic!("not a PNG data URL: {src}"));
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(b64)
+                .unwrap();
+            let i = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).unwrap();
+            (i.width(), i.height())
+        };
+        assert_eq!(png(&img["src"]), (360, 135), "the window reduced 4 × 4");
+        // A frame with the ring: its two edges, and the full-resolution strip around it.
+        let ring = events
+            .iter()
+            .find(|(n, v)| n == "image" && v["edges_px"].as_array().is_some_and(|e| e.len() == 2))
+            .map(|e| &e.1)
+            .expect("a thumbnail with the ring's two edges");
+        assert_eq!(png(&ring["zoom_src"]), (360, 135), "{ring}");
+        // Fewer thumbnails than 200 ms slots in the part.
+        let part_s = f["time_s"].as_f64().unwrap();
+        assert!(
+            (images as f64) <= part_s / 0.2 + 10.0,
+            "{images} in {part_s} s"
+        );
 
         let (status, body) = common::http_get(&web, "/api/parts");
         assert_eq!(status, 200, "{body}");
@@ -373,6 +410,24 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
         assert_eq!(status, 200);
         let live: serde_json::Value = serde_json::from_str(&live).unwrap();
         assert_eq!(live["phase"], "idle", "{live}");
+        // `/api/status`: the PLC link's figures after the part (no frame-loop timing: that is
+        // the simulated station's).
+        let (status, body) = common::http_get(&web, "/api/status");
+        assert_eq!(status, 200, "{body}");
+        let st: serde_json::Value = serde_json::from_str(&body).unwrap();
+        println!("/api/status: {st}");
+        assert_eq!(st["station"], true, "{st}");
+        assert_eq!(st["phase"], "idle", "{st}");
+        assert!(st["frame_timing"].is_null(), "{st}");
+        let plc = &st["plc"];
+        assert_eq!(plc["address"], format!("modbus://{addr}"), "{st}");
+        assert!(plc["requests"].as_u64().is_some_and(|n| n > 0), "{st}");
+        let p50 = plc["round_trip_p50_ms"].as_f64().unwrap_or(0.0);
+        let p99 = plc["round_trip_p99_ms"].as_f64().unwrap_or(0.0);
+        assert!(p50 > 0.0 && p99 >= p50, "{st}");
+        let paired = plc["frames_paired"].as_u64().unwrap_or(0);
+        assert!(paired > 100, "{st}");
+        assert!(plc["frames_stale"].is_u64(), "{st}");
     }
 }
 

@@ -216,8 +216,6 @@ pub fn run_batch_observed<C: TriggeredCamera>(
         }
     }
     station.safe_stop();
-    let (p50, p99, n) = station.round_trip_ms();
-    let counts = station.pairing_counts();
     let summary = summarise(&out);
     Ok(PlcBatchReport {
         plc: station.addr(),
@@ -227,12 +225,6 @@ pub fn run_batch_observed<C: TriggeredCamera>(
         parts: out,
         stopped,
         summary,
-        link: LinkFigures {
-            requests: n,
-            round_trip_p50_ms: p50,
-            round_trip_p99_ms: p99,
-            frames_paired: counts.paired,
-            frames_stale: counts.stale,
-        },
+        link: station.link_figures(),
     })
 }

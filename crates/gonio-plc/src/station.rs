@@ -27,7 +27,7 @@ use gonio_station::hal::{
     Servo,
 };
 use gonio_station::interval::AngleSample;
-use gonio_vision::{FrameSource, Optics, SourceDetector, SourceError, VisionError};
+use gonio_vision::{FrameResult, FrameSource, Optics, SourceDetector, SourceError, VisionError};
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
@@ -56,11 +56,41 @@ pub trait TriggeredCamera {
 }
 
 /// A `FrameSource` (e.g. a GigE Vision camera) through the streaming detector: frame numbers
-/// from the source's stamps.
-#[derive(Debug)]
+/// from the source's stamps; optionally every frame shown to a [`FrameTap`].
 pub struct DetectorTriggered<S> {
     det: SourceDetector<S>,
+    tap: Option<FrameTap>,
 }
+
+impl<S: std::fmt::Debug> std::fmt::Debug for DetectorTriggered<S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DetectorTriggered")
+            .field("det", &self.det)
+            .field("tap", &self.tap.is_some())
+            .finish()
+    }
+}
+
+/// One frame as a [`FrameTap`] sees it: the camera window's pixels as the detector saw them
+/// (borrowed from its buffers, no copy) and what it found.
+#[derive(Debug, Clone, Copy)]
+pub struct TappedFrame<'a> {
+    /// The camera's frame number (= the PLC's trigger count).
+    pub frame_id: u64,
+    /// Width, px (the optics' window).
+    pub width: usize,
+    /// Height, px.
+    pub height: usize,
+    /// 8-bit grey pixels, row-major, `width` × `height`.
+    pub pixels: &'a [u8],
+    /// The detector's result (edge columns and `c_px` in the window's pixels).
+    pub result: &'a FrameResult,
+}
+
+/// Told every frame a [`DetectorTriggered`] detects, paired or not, as it is detected (e.g. the
+/// live view's thumbnail). It runs on the camera's thread between frames: it should return at
+/// once for most frames (rate-limit before any work).
+pub type FrameTap = Box<dyn FnMut(&TappedFrame<'_>) + Send>;
 
 impl<S: FrameSource> DetectorTriggered<S> {
     /// The source through the detector for `optics`.
@@ -70,7 +100,15 @@ impl<S: FrameSource> DetectorTriggered<S> {
     pub fn new(source: S, optics: &Optics) -> Result<Self, VisionError> {
         Ok(DetectorTriggered {
             det: SourceDetector::new(source, optics)?,
+            tap: None,
         })
+    }
+
+    /// Shows every frame detected from now on to `tap` (replacing any tap before).
+    #[must_use]
+    pub fn with_tap(mut self, tap: FrameTap) -> Self {
+        self.tap = Some(tap);
+        self
     }
 
     /// The source.
@@ -122,6 +160,16 @@ where
                 return Err(DetectorTriggeredError::Frame { index, error });
             }
         };
+        if let (Some(tap), Some(pixels)) = (self.tap.as_mut(), self.det.window()) {
+            let optics = self.det.optics();
+            tap(&TappedFrame {
+                frame_id: d.stamp.index,
+                width: optics.window_width_px as usize,
+                height: optics.window_height_px as usize,
+                pixels,
+                result: &d.result,
+            });
+        }
         let r = d.result;
         Ok(Some(TriggeredFrame {
             frame_id: d.stamp.index,
@@ -336,6 +384,21 @@ impl<C: TriggeredCamera> PlcStation<C> {
     /// Frames paired and skipped so far.
     pub fn pairing_counts(&self) -> PairingCounts {
         self.0.borrow().counts
+    }
+
+    /// The link's figures so far: [`PlcStation::round_trip_ms`] and
+    /// [`PlcStation::pairing_counts`] together (the round trips are sorted: not for every
+    /// frame).
+    pub fn link_figures(&self) -> crate::batch::LinkFigures {
+        let (p50, p99, n) = self.round_trip_ms();
+        let counts = self.pairing_counts();
+        crate::batch::LinkFigures {
+            requests: n,
+            round_trip_p50_ms: p50,
+            round_trip_p99_ms: p99,
+            frames_paired: counts.paired,
+            frames_stale: counts.stale,
+        }
     }
 }
 
@@ -634,5 +697,84 @@ impl<C: TriggeredCamera> Clock for PlcClock<C> {
             std::thread::sleep((dt - t0.elapsed().min(dt)).min(Duration::from_millis(50)));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gonio_vision::{FrameHeader, FrameStamp};
+    use std::sync::{Arc, Mutex};
+
+    /// Three 96 × 48 frames of a dark ring around column 40, numbered 10, 11, 12.
+    #[derive(Debug)]
+    struct Ring(u64);
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("never")]
+    struct Never;
+
+    impl DeviceError for Never {
+        fn kind(&self) -> DeviceErrorKind {
+            DeviceErrorKind::Other
+        }
+    }
+
+    impl FrameSource for Ring {
+        type Error = Never;
+        fn next_frame(&mut self, px: &mut Vec<u8>) -> Result<Option<FrameHeader>, Never> {
+            if self.0 == 3 {
+                return Ok(None);
+            }
+            px.clear();
+            for _ in 0..48 {
+                px.extend((0..96usize).map(|x| if x.abs_diff(40) <= 5 { 60 } else { 200 }));
+            }
+            self.0 += 1;
+            Ok(Some(FrameHeader {
+                width: 96,
+                height: 48,
+                stamp: FrameStamp {
+                    index: 9 + self.0,
+                    ..FrameStamp::default()
+                },
+            }))
+        }
+    }
+
+    #[test]
+    fn a_tap_sees_every_frame_with_its_window_and_the_detectors_result() {
+        let optics = Optics {
+            window_width_px: 96,
+            window_height_px: 48,
+            ..Optics::default()
+        };
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let s = seen.clone();
+        let mut cam = DetectorTriggered::new(Ring(0), &optics)
+            .unwrap()
+            .with_tap(Box::new(move |f: &TappedFrame<'_>| {
+                let c = f.result.c_px.filter(|_| f.result.valid);
+                s.lock().unwrap().push((
+                    f.frame_id,
+                    f.width,
+                    f.height,
+                    f.pixels[40],
+                    f.pixels.len(),
+                    c,
+                ));
+            }));
+        let mut frames = Vec::new();
+        while let Some(f) = cam.next_frame(Duration::from_secs(1)).unwrap() {
+            frames.push((f.frame_id, f.frame.c_px));
+        }
+        let seen = seen.lock().unwrap();
+        assert_eq!(seen.len(), 3);
+        for ((id, w, h, px, n, c), (fid, fc)) in seen.iter().zip(&frames) {
+            assert_eq!((*id, *w, *h, *px, *n), (*fid, 96, 48, 60, 96 * 48));
+            assert_eq!(c, fc);
+        }
+        assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [10, 11, 12]);
+        assert!(format!("{cam:?}").contains("tap: true"));
     }
 }

@@ -210,6 +210,9 @@ pub struct SourceDetector<S> {
     detector: Detector,
     raw: Vec<u8>,
     scratch: Vec<u8>,
+    /// Where the window of the frame last detected is: `Some(true)` cut into `scratch`,
+    /// `Some(false)` the whole of `raw`, `None` no frame detected since the last read.
+    window_in_scratch: Option<bool>,
 }
 
 impl<S: FrameSource> SourceDetector<S> {
@@ -226,6 +229,7 @@ impl<S: FrameSource> SourceDetector<S> {
             detector,
             raw: Vec::with_capacity(n),
             scratch: Vec::with_capacity(n),
+            window_in_scratch: None,
         })
     }
 
@@ -248,6 +252,7 @@ impl<S: FrameSource> SourceDetector<S> {
     /// # Errors
     /// [`SourceError::Source`] from the source.
     pub fn read_next(&mut self) -> Result<Option<FrameHeader>, SourceError<S::Error>> {
+        self.window_in_scratch = None;
         self.source
             .next_frame(&mut self.raw)
             .map_err(SourceError::Source)
@@ -266,10 +271,26 @@ impl<S: FrameSource> SourceDetector<S> {
             &self.raw,
             &mut self.scratch,
         )?;
+        let window = (
+            self.optics.window_width_px as usize,
+            self.optics.window_height_px as usize,
+        );
+        self.window_in_scratch = Some((hdr.width, hdr.height) != window);
         Ok(Detection {
             stamp: hdr.stamp,
             result,
         })
+    }
+
+    /// The window of the frame last detected, as the detector saw it: 8-bit grey pixels,
+    /// row-major, the optics' window in size (`window_width_px` × `window_height_px`), borrowed
+    /// from the detector's buffers (no copy). `None` before the first detection, after a read
+    /// that was not detected, or after a frame that could not be.
+    pub fn window(&self) -> Option<&[u8]> {
+        match self.window_in_scratch? {
+            true => Some(&self.scratch),
+            false => Some(&self.raw),
+        }
     }
 
     /// The detector (parameters, stage dumps of the last frame).
@@ -566,6 +587,55 @@ mod tests {
             fail_at,
             asked: 0,
         }
+    }
+
+    /// One frame of `w` × `h` pixels numbered by their position, then the end.
+    struct Once(Option<(usize, usize)>);
+
+    impl FrameSource for Once {
+        type Error = Fault;
+        fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, Fault> {
+            let Some((w, h)) = self.0.take() else {
+                return Ok(None);
+            };
+            pixels.clear();
+            pixels.extend((0..w * h).map(|i| (i % 251) as u8));
+            Ok(Some(FrameHeader {
+                width: w,
+                height: h,
+                stamp: FrameStamp::default(),
+            }))
+        }
+    }
+
+    #[test]
+    fn the_window_is_the_last_detected_frame_as_the_detector_saw_it() {
+        // A frame the window's size: the window is the frame.
+        let mut det = SourceDetector::new(source(2, None), &optics()).unwrap();
+        assert!(det.window().is_none());
+        det.detect_next().unwrap().unwrap();
+        let w = det.window().expect("a window").to_vec();
+        assert_eq!(w.len(), 96 * 48);
+        // Frame 0: the ring's 11 dark columns around column 20.
+        assert_eq!(
+            w[14..27],
+            [200, 60, 60, 60, 60, 60, 60, 60, 60, 60, 60, 60, 200]
+        );
+        det.read_next().unwrap().unwrap();
+        assert!(det.window().is_none(), "read, not detected");
+        // A sensor-sized frame: the window cut out of its middle.
+        let o = Optics {
+            sensor_width_px: 100,
+            sensor_height_px: 52,
+            ..optics()
+        };
+        let mut det = SourceDetector::new(Once(Some((100, 52))), &o).unwrap();
+        det.detect_next().unwrap().unwrap();
+        let w = det.window().expect("a window");
+        assert_eq!(w.len(), 96 * 48);
+        assert_eq!(w[0], 202, "row 2, column 2 of the sensor");
+        assert!(det.detect_next().unwrap().is_none());
+        assert!(det.window().is_none());
     }
 
     #[test]

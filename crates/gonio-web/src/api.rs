@@ -246,6 +246,7 @@ async fn api_status(State(st): State<AppState>) -> Response {
         "serial": live.serial,
         "events": live.events,
         "frame_timing": st.hub.station_status(),
+        "plc": st.hub.plc_status(),
     }))
 }
 

@@ -9,8 +9,8 @@
 //!   ids) for paging; `view=summary` for table rows), streamed a page of parts at a time (at
 //!   most 8 such arrays at once: a request holds a page in memory, never the store),
 //!   `/api/parts/{id}`, `/api/stats`, `/api/calibrations`, `/api/calibrations/{id}`,
-//!   `/api/live` (the live view's state), `/api/status` (the station's frame timing),
-//!   `/api/events` (server-sent events).
+//!   `/api/live` (the live view's state), `/api/status` (the station's frame timing, or its
+//!   PLC link's figures), `/api/events` (server-sent events).
 //!
 //! Everything is read-only (only `GET`), and every asset is built into the binary: no CDN, no
 //! network. Errors are JSON (`{"error": "…"}`), bad query strings included. How connections

@@ -45,7 +45,8 @@ pub struct LiveState {
     pub pushes: Vec<Value>,
     /// The last frame's ring column, px (the thumbnail).
     pub c_px: Option<f64>,
-    /// The last frame image with its detected edges (full-fidelity frames only).
+    /// The last frame image with its detected edges (rendered or camera frames; none at the
+    /// simulation's fast fidelity).
     pub image: Option<Value>,
     /// Events published so far.
     pub events: u64,
@@ -77,9 +78,11 @@ pub struct Hub {
     tx: broadcast::Sender<Arc<Event>>,
     state: Mutex<LiveState>,
     status: Mutex<Option<StatusSource>>,
+    plc: Mutex<Option<StatusSource>>,
 }
 
-/// What `/api/status` reports about the station itself.
+/// What `/api/status` reports about the station itself (called for each request: it should
+/// read a snapshot, not the station).
 pub type StatusSource = Box<dyn Fn() -> Value + Send>;
 
 impl std::fmt::Debug for Hub {
@@ -100,6 +103,7 @@ impl Hub {
                 ..LiveState::default()
             }),
             status: Mutex::new(None),
+            plc: Mutex::new(None),
         })
     }
 
@@ -122,7 +126,24 @@ impl Hub {
 
     /// The station's own figures (`null` without a source).
     pub fn station_status(&self) -> Value {
-        self.status
+        Self::read(&self.status)
+    }
+
+    /// Sets where `/api/status` reads the figures of the station's PLC link (`plc`: requests,
+    /// round trips, frames paired and stale) when the station runs through a PLC.
+    pub fn set_plc_source(&self, f: StatusSource) {
+        if let Ok(mut s) = self.plc.lock() {
+            *s = Some(f);
+        }
+    }
+
+    /// The PLC link's figures (`null` without a source: no station through a PLC).
+    pub fn plc_status(&self) -> Value {
+        Self::read(&self.plc)
+    }
+
+    fn read(source: &Mutex<Option<StatusSource>>) -> Value {
+        source
             .lock()
             .ok()
             .and_then(|s| s.as_ref().map(|f| f()))
@@ -159,7 +180,8 @@ impl Hub {
         });
     }
 
-    /// A frame image (full fidelity) with the detector's edges, for the live thumbnail.
+    /// A frame image (the simulation at full fidelity, or a real camera's frame) with the
+    /// detector's edges, for the live thumbnail.
     pub fn image(&self, frame: &FrameImage) {
         let v = serde_json::to_value(frame).unwrap_or(Value::Null);
         self.publish("image", v.clone(), |s| s.image = Some(v));
@@ -401,7 +423,22 @@ pub fn thumbnail(
 
 #[cfg(test)]
 mod tests {
-    use super::thumbnail;
+    use super::{Hub, thumbnail};
+
+    #[test]
+    fn the_status_sources_are_read_when_asked_and_null_without_one() {
+        let hub = Hub::new(true);
+        assert!(hub.station_status().is_null() && hub.plc_status().is_null());
+        let n = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(3));
+        let m = n.clone();
+        hub.set_plc_source(Box::new(
+            move || serde_json::json!({"requests": m.load(std::sync::atomic::Ordering::Relaxed)}),
+        ));
+        assert_eq!(hub.plc_status()["requests"], 3);
+        n.store(5, std::sync::atomic::Ordering::Relaxed);
+        assert_eq!(hub.plc_status()["requests"], 5);
+        assert!(hub.station_status().is_null());
+    }
 
     #[test]
     fn thumbnail_reduces_the_frame_and_clamps_the_strip_to_it() {

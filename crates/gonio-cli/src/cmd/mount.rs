@@ -374,16 +374,19 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     let mut outputs = Outputs::new();
     let json = outputs.optional("--json", a.json.as_deref())?;
     let to_stdout = outputs.to_stdout(json);
-    let batch = crate::plc::open(crate::plc::Request {
-        url: url.to_string(),
-        camera: a.camera.clone().unwrap_or_default(),
-        plc_map: a.plc_map.clone(),
-        recipe,
-        strategy: a.strategy,
-        parts: a.parts,
-        db: a.db.clone(),
-        station_name: a.station_name.clone(),
-    })?;
+    let batch = crate::plc::open(
+        crate::plc::Request {
+            url: url.to_string(),
+            camera: a.camera.clone().unwrap_or_default(),
+            plc_map: a.plc_map.clone(),
+            recipe,
+            strategy: a.strategy,
+            parts: a.parts,
+            db: a.db.clone(),
+            station_name: a.station_name.clone(),
+        },
+        None,
+    )?;
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")

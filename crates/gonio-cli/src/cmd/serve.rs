@@ -3,12 +3,16 @@
 
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
-use gonio_sim::station::{BatchConfig, Fidelity, FrameTap, FrameTiming, Pace, PartDone, SeenFrame};
-use gonio_station::Recipe;
+use gonio_plc::batch::LinkFigures;
+use gonio_plc::station::{FrameTap, TappedFrame};
+use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone, SeenFrame};
+use gonio_station::observe::{LiveFrame, Observer, Phase};
+use gonio_station::{PartRecord, Recipe};
 use gonio_web::live::{Hub, LiveObserver};
+use serde_json::Value;
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// A station to run under the dashboard.
@@ -369,21 +373,9 @@ fn spawn_station(
         }
         let mut live = LiveObserver::new(hub.clone());
         let h = hub.clone();
-        // The live thumbnail: a rendered frame at most every 200 ms (full fidelity only).
-        let mut last: Option<Instant> = None;
-        let th = hub.clone();
-        let mut tap = |f: &SeenFrame<'_>| {
-            if last.is_some_and(|t| t.elapsed() < Duration::from_millis(200)) {
-                return;
-            }
-            last = Some(Instant::now());
-            let edges_px = f.result.edges.iter().map(|e| e.column_px).collect();
-            let img =
-                gonio_web::live::thumbnail(f.width, f.height, f.pixels, edges_px, f.result.c_px);
-            if let Some(img) = img {
-                th.image(&img);
-            }
-        };
+        // The live thumbnail: a rendered frame (full fidelity only).
+        let mut thumbnails = Thumbnails::new(hub.clone());
+        let mut tap = |f: &SeenFrame<'_>| thumbnails.show(f.width, f.height, f.pixels, f.result);
         let frames = cfg.fidelity == Fidelity::Frames;
         let report = station::run(
             *p,
@@ -392,7 +384,7 @@ fn spawn_station(
             station::Run {
                 observer: &mut live,
                 pace: Some(pace),
-                frame_tap: frames.then_some(&mut tap as FrameTap<'_>),
+                frame_tap: frames.then_some(&mut tap as gonio_sim::station::FrameTap<'_>),
                 station: &name,
                 // Every part is in the store as it ends; the report keeps only the summary.
                 discard_parts: true,
@@ -419,14 +411,100 @@ fn spawn_station(
     })
 }
 
+/// Fewest wall-clock time between two live thumbnails.
+const THUMBNAIL_EVERY: Duration = Duration::from_millis(200);
+
+/// The live thumbnail of the frames a station's camera takes: one at most every
+/// [`THUMBNAIL_EVERY`], the rest return at once.
+struct Thumbnails {
+    hub: Arc<Hub>,
+    last: Option<Instant>,
+}
+
+impl Thumbnails {
+    fn new(hub: Arc<Hub>) -> Self {
+        Thumbnails { hub, last: None }
+    }
+
+    /// A frame (`width` × `height` 8-bit grey pixels) and what the detector found in it.
+    fn show(&mut self, width: usize, height: usize, pixels: &[u8], r: &gonio_vision::FrameResult) {
+        if self.last.is_some_and(|t| t.elapsed() < THUMBNAIL_EVERY) {
+            return;
+        }
+        self.last = Some(Instant::now());
+        let edges_px = r.edges.iter().map(|e| e.column_px).collect();
+        if let Some(img) = gonio_web::live::thumbnail(width, height, pixels, edges_px, r.c_px) {
+            self.hub.image(&img);
+        }
+    }
+}
+
+/// Keeps the snapshot of the PLC link's figures that `/api/status` reports (`plc`) up to date:
+/// told what the controller does (an observer on the batch's thread, where the station lives),
+/// it reads the station at most every [`LinkWatch::EVERY`], and at every part's end.
+struct LinkWatch<F> {
+    figures: F,
+    address: String,
+    snapshot: Arc<Mutex<Value>>,
+    last: Option<Instant>,
+}
+
+impl<F: Fn() -> LinkFigures> LinkWatch<F> {
+    /// Fewest wall-clock time between two readings (the round trips are sorted each time).
+    const EVERY: Duration = Duration::from_secs(1);
+
+    /// Reads the figures now if `now` or if the last reading is older than [`Self::EVERY`].
+    fn refresh(&mut self, now: bool) {
+        if !now && self.last.is_some_and(|t| t.elapsed() < Self::EVERY) {
+            return;
+        }
+        self.last = Some(Instant::now());
+        let mut v = serde_json::to_value((self.figures)()).unwrap_or_default();
+        if let Some(o) = v.as_object_mut() {
+            o.insert("address".into(), Value::from(self.address.as_str()));
+        }
+        if let Ok(mut s) = self.snapshot.lock() {
+            *s = v;
+        }
+    }
+}
+
+impl<F: Fn() -> LinkFigures> Observer for LinkWatch<F> {
+    fn part_started(&mut self, _serial: &str) {
+        self.refresh(false);
+    }
+    fn phase(&mut self, _phase: Phase) {
+        self.refresh(false);
+    }
+    fn frame(&mut self, _frame: &LiveFrame) {
+        self.refresh(false);
+    }
+    fn part_finished(&mut self, _record: &PartRecord) {
+        self.refresh(true);
+    }
+}
+
 /// Runs the batch through the PLC on a thread of its own (the station's link and camera live
-/// there), publishing to `hub` and committing every part to the store as `gonio mount --plc
-/// --db` does. Returns once the station is open: its setup's error (no PLC, no camera, a bad
-/// map or store) is this function's.
+/// there), publishing to `hub` (the controller's steps, a thumbnail of the camera's frames, the
+/// link's figures for `/api/status`) and committing every part to the store as `gonio mount
+/// --plc --db` does. Returns once the station is open: its setup's error (no PLC, no camera, a
+/// bad map or store) is this function's.
 fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread::JoinHandle<()>> {
     let (opened, is_open) = std::sync::mpsc::channel::<Result<()>>();
+    let snapshot = Arc::new(Mutex::new(Value::Null));
+    {
+        let snapshot = snapshot.clone();
+        hub.set_plc_source(Box::new(move || {
+            snapshot.lock().map(|s| s.clone()).unwrap_or_default()
+        }));
+    }
+    let address = request.url.clone();
     let thread = std::thread::spawn(move || {
-        let batch = match crate::plc::open(request) {
+        let mut thumbnails = Thumbnails::new(hub.clone());
+        let tap: FrameTap = Box::new(move |f: &TappedFrame<'_>| {
+            thumbnails.show(f.width, f.height, f.pixels, f.result)
+        });
+        let batch = match crate::plc::open(request, Some(tap)) {
             Ok(b) => {
                 let _ = opened.send(Ok(()));
                 b
@@ -436,12 +514,21 @@ fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread:
                 return;
             }
         };
-        let mut live = LiveObserver::new(hub.clone());
+        let mut watch = LinkWatch {
+            figures: batch.link_figures(),
+            address,
+            snapshot,
+            last: None,
+        };
+        watch.refresh(true);
+        let mut live = (LiveObserver::new(hub.clone()), &mut watch);
         let report = batch.run(&mut live, &mut |d, id| {
             if let Some(id) = id {
                 hub.part_stored(id, &d.record.serial, d.record.result.name());
             }
         });
+        // The batch's last requests (the station left safe) included.
+        watch.refresh(true);
         let message = match report {
             Ok(r) => match &r.stopped {
                 Some(why) => format!("the batch {why}; the records so far are kept"),
