@@ -112,10 +112,10 @@ pub struct Args {
     /// Seed of the simulated station (same seed, same records) [default: 1].
     #[arg(long, requires = "station")]
     pub seed: Option<u64>,
-    /// Push strategy [default: learned with --station sim, live with --station plc (as
-    /// `gonio mount --plc`)].
-    #[arg(long, value_enum, requires = "station")]
-    pub strategy: Option<StrategyArg>,
+    /// Push strategy (the default, as in `gonio mount`: the rod watched live through the
+    /// camera).
+    #[arg(long, value_enum, default_value = "live", requires = "station")]
+    pub strategy: StrategyArg,
     /// Frame fidelity of the simulation [default: fast].
     #[arg(long, value_enum, requires = "station")]
     pub fidelity: Option<FidelityArg>,
@@ -282,7 +282,7 @@ pub fn run(a: Args) -> Result<()> {
         Some(StationArg::Sim) => {
             let cfg = BatchConfig {
                 parts: a.parts,
-                strategy: a.strategy.unwrap_or(StrategyArg::Learned).into(),
+                strategy: a.strategy.into(),
                 fidelity: a.fidelity.unwrap_or(FidelityArg::Fast).into(),
                 recipe,
                 ..BatchConfig::default()
@@ -304,7 +304,7 @@ pub fn run(a: Args) -> Result<()> {
                 camera: a.camera.clone().unwrap_or_default(),
                 plc_map: a.plc_map.clone(),
                 recipe,
-                strategy: a.strategy.unwrap_or(StrategyArg::Live),
+                strategy: a.strategy,
                 parts: a.parts,
                 db: Some(a.db.clone()),
                 station_name: a.station_name.clone(),
