@@ -52,18 +52,22 @@ pub struct DirGuard {
     pub install: fn(),
     /// A directory this run created: removed if the run is interrupted.
     pub created_dir: fn(&Path),
-    /// A temporary directory: removed if the run is interrupted.
-    pub temporary_dir: fn(&Path),
+    /// Makes a temporary directory with the given function and registers it (removed if the
+    /// run is interrupted) as one step: a signal between the two cannot leave it behind.
+    pub temporary_dir: fn(&mut TempDirMaker<'_>) -> std::io::Result<tempfile::TempDir>,
     /// A directory no longer to be removed (moved into place, or dropped).
     pub release: fn(&Path),
 }
+
+/// Makes a temporary directory (for [`DirGuard::temporary_dir`]).
+pub type TempDirMaker<'a> = dyn FnMut() -> std::io::Result<tempfile::TempDir> + 'a;
 
 impl DirGuard {
     /// No cleanup: every call does nothing.
     pub const NONE: DirGuard = DirGuard {
         install: || {},
         created_dir: |_| {},
-        temporary_dir: |_| {},
+        temporary_dir: |make| make(),
         release: |_| {},
     };
 }
@@ -127,15 +131,16 @@ impl Recorder {
             first_missing = Some(d.to_path_buf());
             d = d.parent().unwrap_or(Path::new(""));
         }
+        // Registered before it is made: a signal in between removes it (if it is there).
+        if let Some(d) = &first_missing {
+            (plan.guard.created_dir)(d);
+        }
         std::fs::create_dir_all(&plan.dir).with_context(|| {
             format!(
                 "--record {}: cannot create the directory",
                 plan.dir.display()
             )
         })?;
-        if let Some(d) = &first_missing {
-            (plan.guard.created_dir)(d);
-        }
         (plan.guard.install)();
         let next = plan.first_part;
         Ok(Recorder(Rc::new(RefCell::new(State {
@@ -321,12 +326,13 @@ impl Observer for Recorder {
             s.part = None;
             return;
         }
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".part-{:04}-", index + 1))
-            .tempdir_in(&s.plan.dir);
+        let prefix = format!(".part-{:04}-", index + 1);
+        let dir = s.plan.dir.clone();
+        let tmp = (s.plan.guard.temporary_dir)(&mut || {
+            tempfile::Builder::new().prefix(&prefix).tempdir_in(&dir)
+        });
         match tmp {
             Ok(tmp) => {
-                (s.plan.guard.temporary_dir)(tmp.path());
                 if let Some(old) = s.part.take() {
                     (s.plan.guard.release)(old.tmp.path());
                 }

@@ -56,11 +56,21 @@ fn pending_dirs() -> std::sync::MutexGuard<'static, Vec<Dir>> {
     PENDING_DIRS.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Registers the temporary directory `dir` (a part's record being written): if the process is
-/// interrupted (SIGINT, SIGTERM, SIGHUP) before [`release_dir`], it is removed with its content.
-pub fn guard_temporary_dir(dir: &Path) {
+/// Makes a temporary directory with `make` (a part's record being written) and registers it:
+/// if the process is interrupted (SIGINT, SIGTERM, SIGHUP) before [`release_dir`], it is removed
+/// with its content. The registry is locked while the directory is made, so a signal's cleanup
+/// (which takes the same lock) runs before it exists or after it is registered, never between.
+///
+/// # Errors
+/// Those of `make`.
+pub fn guard_temporary_dir(
+    make: &mut gonio_io::recorder::TempDirMaker<'_>,
+) -> std::io::Result<tempfile::TempDir> {
     install_signal_cleanup();
-    pending_dirs().push(Dir::Temporary(dir.to_path_buf()));
+    let mut dirs = pending_dirs();
+    let dir = make()?;
+    dirs.push(Dir::Temporary(dir.path().to_path_buf()));
+    Ok(dir)
 }
 
 /// Registers the directory `dir` that the command has just created: if the process is
