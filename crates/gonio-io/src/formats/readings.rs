@@ -18,7 +18,12 @@ pub const MAX_REPEAT: i64 = 1_000_000;
 /// As [`parse`], and the file cannot be read.
 pub fn read(path: &Path, faces: Option<usize>) -> Result<ReadingSet> {
     let table = CsvTable::read(path)?;
-    from_table(&table, faces)
+    let rows = rows_of(&table, faces)?;
+    // The table (a String per field) is dropped before the set is indexed: with a million
+    // readings the two at once were the peak of the whole calibration.
+    let name = table.name;
+    drop(table.rows);
+    into_set(&name, rows)
 }
 
 /// Parses readings text; `name` names it in errors.
@@ -49,6 +54,18 @@ pub fn check_faces(faces: usize) -> Result<()> {
 /// # Errors
 /// As [`parse`].
 pub fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> {
+    into_set(&table.name, rows_of(table, faces)?)
+}
+
+/// The readings of a validated table, with their lines, and the polygon's face count.
+struct Rows {
+    readings: Vec<Reading>,
+    lines: Vec<u64>,
+    faces: usize,
+}
+
+/// Validates a table's rows (errors name the table's lines and columns).
+fn rows_of(table: &CsvTable, faces: Option<usize>) -> Result<Rows> {
     if let Some(n) = faces {
         check_faces(n)?;
     }
@@ -131,7 +148,20 @@ pub fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> 
             table.header_line
         ));
     }
-    let n = faces.unwrap_or(max_index as usize);
+    Ok(Rows {
+        readings,
+        lines,
+        faces: faces.unwrap_or(max_index as usize),
+    })
+}
+
+/// Indexes validated readings; `name` names the table in errors.
+fn into_set(name: &str, rows: Rows) -> Result<ReadingSet> {
+    let Rows {
+        readings,
+        lines,
+        faces: n,
+    } = rows;
     ReadingSet::new(n, readings).map_err(|e| match e {
         ShiftAngleError::ConflictingDuplicate {
             index,
@@ -141,15 +171,15 @@ pub fn from_table(table: &CsvTable, faces: Option<usize>) -> Result<ReadingSet> 
             ..
         } => anyhow!(
             "{}:{}: conflicting duplicate: reading {value} for the same shift, start_face, step and repeat as line {} ({first_value}); add a repeat column to keep both",
-            table.name,
+            name,
             lines[index],
             lines[first]
         ),
         ShiftAngleError::TooFewFaces { faces } => anyhow!(
             "{}: {faces} faces: expected a polygon with at least 3 faces (largest face/step number in the file, or --faces)",
-            table.name
+            name
         ),
-        e => anyhow!("{}: {e}", table.name),
+        e => anyhow!("{name}: {e}"),
     })
 }
 
