@@ -12,7 +12,11 @@ fn set(faces: usize, shifts: usize, rows: Rows) -> ReadingSet {
         &EncoderModel::default_with_seed(1),
         &ShiftAngleConfig {
             faces,
-            shifts_deg: (0..shifts).map(|s| s as f64).collect(),
+            // Spread over one pitch: shifts a whole pitch apart calibrate the same angles, and
+            // a reading set refuses them.
+            shifts_deg: (0..shifts)
+                .map(|s| s as f64 * 360.0 / (faces * shifts) as f64)
+                .collect(),
             rows,
             seed: 1,
             ..ShiftAngleConfig::default()
