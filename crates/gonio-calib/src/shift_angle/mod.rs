@@ -96,8 +96,8 @@ pub struct Options {
 /// # Errors
 /// [`ShiftAngleError::Undetermined`] when the readings leave unknowns undetermined (it names
 /// them); [`ShiftAngleError::PaperNeeds`] when the paper's algorithm lacks the full matrix or a
-/// complete row it needs; [`ShiftAngleError::NoDegreesOfFreedom`] is never returned: without
-/// residual degrees of freedom and without a given σ the uncertainties are NaN.
+/// complete row it needs. Without residual degrees of freedom and without a given σ it is not an
+/// error: the uncertainties are then NaN (undefined).
 pub fn calibrate(set: &ReadingSet, opts: &Options) -> Result<Calibration, ShiftAngleError> {
     if let Some(s) = opts.sigma_arcsec
         && !(s > 0.0 && s.is_finite())
