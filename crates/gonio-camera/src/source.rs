@@ -13,15 +13,19 @@
 //!
 //! # Timestamps and the station clock
 //! `FrameStamp::start_s` is the camera's timestamp mapped to the host's monotonic clock, s since
-//! [`AravisSource::epoch`]: `start_s = a₀ + (t − t₀)·10⁻⁹`, with t the frame's timestamp (ns,
-//! camera clock), t₀ the first complete frame's, and a₀ its arrival on the host (an incomplete
-//! frame arrives late, after the stream has waited for its missing packets; frames before the
-//! first complete one are mapped provisionally on themselves). The offset is then fixed, so
-//! frame-to-frame intervals are the camera's own (no host
-//! jitter); the whole turn is late by that frame's transfer time (a constant, which cancels
-//! in an eccentricity fit's amplitude) and drifts with the two clocks' rate difference (tens of
-//! ppm: microseconds over a 2 s turn). `exposure_s` is the camera's `ExposureTime` read after
-//! set-up.
+//! [`AravisSource::epoch`]: `start_s = o + (t − t₀)·10⁻⁹`, with t the frame's timestamp (ns,
+//! camera clock), t₀ the first complete frame's, and the offset o the smallest `a − (t − t₀)·10⁻⁹`
+//! over the complete frames so far (a: a frame's arrival on the host). Every frame arrives some
+//! time after its exposure (its transfer, the receiving thread's wake-up, on a loaded machine a
+//! wait for a core); the least delayed frame seen is the best estimate of the offset between the
+//! two clocks, and with it no frame is ever stamped after it arrived. The offset settles within
+//! the first frames of a run (it moves only when a frame arrives sooner after its exposure than
+//! every one before, by the difference); between such moves the intervals are the camera's own
+//! (no host jitter). What remains is the least transfer time (a constant lag, which cancels in an
+//! eccentricity fit's amplitude) and the two clocks' rate difference (tens of ppm: microseconds
+//! over a 2 s turn). Incomplete frames (they arrive late, after the stream has waited for their
+//! missing packets) do not move the offset; frames before the first complete one are mapped
+//! provisionally on themselves. `exposure_s` is the camera's `ExposureTime` read after set-up.
 //!
 //! # Errors
 //! Every error names the camera: not found, refused settings, values out of range, a link
@@ -54,6 +58,8 @@ pub struct AravisSource {
     exposure_s: Option<f64>,
     ids: FrameIds,
     epoch: Instant,
+    /// The clock mapping: the first complete frame's timestamp (ns) and the offset (s, host
+    /// clock at that timestamp; module docs).
     first: Option<(u64, f64)>,
     /// The last slot received.
     last_slot: Option<u64>,
@@ -514,13 +520,16 @@ impl FrameSource for AravisSource {
             } else {
                 self.stats.incomplete += 1;
             }
-            // Anchored at the first complete frame: an incomplete one arrives late (the
-            // stream waits for its missing packets), and anchoring at it would put every
-            // later frame ahead of the host's clock by that wait.
-            let (t0, a0) = if complete {
-                *self.first.get_or_insert((ts, arrival_s))
-            } else {
-                self.first.unwrap_or((ts, arrival_s))
+            // The offset: the least delayed complete frame so far (module docs). An incomplete
+            // one arrives late (the stream waits for its missing packets) and is not used.
+            let (t0, a0) = match (self.first, complete) {
+                (None, false) => (ts, arrival_s),
+                (None, true) => *self.first.insert((ts, arrival_s)),
+                (Some((t0, o)), false) => (t0, o),
+                (Some((t0, o)), true) => {
+                    let here = arrival_s - (ts as f64 - t0 as f64) * 1e-9;
+                    *self.first.insert((t0, o.min(here)))
+                }
             };
             let meta = FrameMeta {
                 slot: step.slot,
