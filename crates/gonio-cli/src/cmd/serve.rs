@@ -62,7 +62,7 @@ Examples:
   gonio serve --db results.sqlite
   gonio serve --db results.sqlite --station sim --parts 25 --seed 7
   gonio serve --db results.sqlite --station sim --parts 100 --seed 7 --speed 4 --addr 127.0.0.1:9000
-  gonio serve --db results.sqlite --station plc --plc modbus://192.168.0.10:502 --camera Basler-1234 --parts 50
+  gonio serve --db results.sqlite --station plc --plc modbus://station-plc:502 --camera Basler-1234 --parts 50
   gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8443 --allow-remote \\
       --tls-cert station.crt --tls-key station.key --token-file dashboard.token --host-name station.lab
   curl --cacert station.crt -H \"Authorization: Bearer $(cat dashboard.token)\" https://station.lab:8443/api/stats")]
