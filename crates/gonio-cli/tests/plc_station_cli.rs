@@ -192,30 +192,14 @@ type Event = (String, serde_json::Value);
 impl Events {
     /// Subscribes to the events of the dashboard at `addr`.
     fn open(addr: &str) -> Events {
-        use std::io::{BufRead, Write};
-        let s = std::net::TcpStream::connect(addr).unwrap();
         // The dashboard sends a keep-alive comment every 15 s: a read never waits longer.
-        s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
-        (&s).write_all(
-            format!("GET /api/events HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n")
-                .as_bytes(),
-        )
-        .unwrap();
-        let mut r = std::io::BufReader::new(s);
-        let mut line = String::new();
-        r.read_line(&mut line).unwrap();
-        assert!(line.contains(" 200 "), "GET /api/events: {line:?}");
+        let (r, status, headers) = common::http_head(addr, "/api/events", Duration::from_secs(60));
+        assert_eq!(status, 200, "GET /api/events");
         let mut chunked = false;
-        loop {
-            let mut h = String::new();
-            r.read_line(&mut h).unwrap();
-            if h.trim().is_empty() {
-                break;
-            }
-            let h = h.to_ascii_lowercase();
-            chunked |= h.starts_with("transfer-encoding:") && h.contains("chunked");
-            if h.starts_with("content-type:") {
-                assert!(h.contains("text/event-stream"), "{h}");
+        for (k, v) in &headers {
+            chunked |= k == "transfer-encoding" && v.contains("chunked");
+            if k == "content-type" {
+                assert!(v.contains("text/event-stream"), "{v}");
             }
         }
         Events {

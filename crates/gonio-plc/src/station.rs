@@ -387,8 +387,8 @@ impl<C: TriggeredCamera> PlcStation<C> {
     }
 
     /// The link's figures so far: [`PlcStation::round_trip_ms`] and
-    /// [`PlcStation::pairing_counts`] together (the round trips are sorted: not for every
-    /// frame).
+    /// [`PlcStation::pairing_counts`] together (a scan of the round trips' histogram: not for
+    /// every frame).
     pub fn link_figures(&self) -> crate::batch::LinkFigures {
         let (p50, p99, n) = self.round_trip_ms();
         let counts = self.pairing_counts();

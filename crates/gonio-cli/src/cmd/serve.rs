@@ -450,7 +450,8 @@ struct LinkWatch<F> {
 }
 
 impl<F: Fn() -> LinkFigures> LinkWatch<F> {
-    /// Fewest wall-clock time between two readings (the round trips are sorted each time).
+    /// Fewest wall-clock time between two readings (each takes the station's lock and scans the
+    /// round trips' histogram).
     const EVERY: Duration = Duration::from_secs(1);
 
     /// Reads the figures now if `now` or if the last reading is older than [`Self::EVERY`].

@@ -165,16 +165,21 @@ pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -
         .unwrap_or_else(|_| panic!("no line with {marker:?} within {limit:?}"))
 }
 
-/// `GET path` on `host:port` over plain HTTP/1.1: (status, body). Reads the body by its
-/// `Content-Length`, or its chunks when it is streamed.
-pub fn http_get(addr: &str, path: &str) -> (u16, String) {
+/// Sends `GET path` to `addr` (`host:port`) over plain HTTP/1.1 and reads the response's head:
+/// the reader, at the body; the status; the headers (names lower-cased, values trimmed). A read
+/// waits at most `timeout`.
+pub fn http_head(
+    addr: &str,
+    path: &str,
+    timeout: Duration,
+) -> (BufReader<TcpStream>, u16, Vec<(String, String)>) {
     let s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
-    s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    s.set_read_timeout(Some(timeout)).unwrap();
     (&s).write_all(
         format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes(),
     )
     .unwrap();
-    let mut r = BufReader::new(&s);
+    let mut r = BufReader::new(s);
     let mut status_line = String::new();
     r.read_line(&mut status_line)
         .unwrap_or_else(|e| panic!("GET {path}: {e}"));
@@ -183,8 +188,7 @@ pub fn http_get(addr: &str, path: &str) -> (u16, String) {
         .nth(1)
         .and_then(|c| c.parse().ok())
         .unwrap_or_else(|| panic!("GET {path}: {status_line:?}"));
-    let mut length = 0usize;
-    let mut chunked = false;
+    let mut headers = Vec::new();
     loop {
         let mut h = String::new();
         r.read_line(&mut h).unwrap();
@@ -192,14 +196,24 @@ pub fn http_get(addr: &str, path: &str) -> (u16, String) {
             break;
         }
         if let Some((k, v)) = h.split_once(':') {
-            if k.eq_ignore_ascii_case("content-length") {
-                length = v.trim().parse().unwrap();
-            }
-            if k.eq_ignore_ascii_case("transfer-encoding") && v.trim() == "chunked" {
-                chunked = true;
-            }
+            headers.push((k.trim().to_ascii_lowercase(), v.trim().to_string()));
         }
     }
+    (r, status, headers)
+}
+
+/// `GET path` on `host:port` over plain HTTP/1.1: (status, body). Reads the body by its
+/// `Content-Length`, or its chunks when it is streamed.
+pub fn http_get(addr: &str, path: &str) -> (u16, String) {
+    let (mut r, status, headers) = http_head(addr, path, Duration::from_secs(20));
+    let header = |k: &str| {
+        headers
+            .iter()
+            .find(|(n, _)| n == k)
+            .map(|(_, v)| v.as_str())
+    };
+    let length: usize = header("content-length").map_or(0, |v| v.parse().unwrap());
+    let chunked = header("transfer-encoding") == Some("chunked");
     let mut body = Vec::new();
     if chunked {
         // A streamed body (`/api/parts`): chunks of a hexadecimal size line, data, CRLF.
