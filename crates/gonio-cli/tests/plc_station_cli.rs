@@ -169,10 +169,15 @@ fn killing_the_station_mid_part_ends_the_mount_as_a_device_error() {
             serde_json::from_str(&std::fs::read_to_string(&m).unwrap()).unwrap();
         let p = &report["parts"][0];
         assert_eq!(p["result"], "rejected_device_error", "{p}");
-        // The table (its JSON refuses the part's unmeasured NaN e).
-        let stored = common::ok(&["parts", "--db", &db.display().to_string()]).0;
+        // Stored: in the table and in the JSON (an unmeasured e is null there).
+        let db = db.display().to_string();
+        let stored = common::ok(&["parts", "--db", &db]).0;
         assert!(stored.contains("PLC-0001"), "{stored}");
         assert!(stored.contains("rejected_device_error"), "{stored}");
+        let json: serde_json::Value =
+            serde_json::from_str(&common::ok(&["parts", "--db", &db, "--json"]).0).unwrap();
+        assert_eq!(json[0]["serial"], "PLC-0001", "{json}");
+        assert_eq!(json[0]["result"], "rejected_device_error", "{json}");
     }
 }
 
