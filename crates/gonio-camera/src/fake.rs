@@ -9,6 +9,12 @@
 //! set that size during its own fill): a client sees it as an incomplete frame. Every later
 //! frame is whole.
 //!
+//! **Aravis's stall, worked around.** Aravis 0.8's fake camera can sleep 100 ms past a frame
+//! (its poll timeout wraps when its thread is late); a watcher thread wakes it with one GVCP
+//! register read (the `wake` module says how and why). [`FakeGvCamera::wakeups`] counts the
+//! reads. The watcher needs an IPv4 address in [`FakeConfig::address`]; a camera served on an
+//! interface's name runs without it.
+//!
 //! One GigE Vision camera can listen on an address's port 3956 at a time: tests give each
 //! camera its own network namespace (`unshare -n`, `ip link set lo up`).
 //!
@@ -29,6 +35,8 @@
 
 use crate::CameraError;
 use crate::ffi::{self, FillFn, RawFill};
+use crate::wake::{Pace, Watcher};
+use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -124,15 +132,7 @@ pub struct FakeGvCamera {
     served: Arc<AtomicU64>,
     last: Arc<Mutex<Option<ServedFrame>>>,
     config: FakeConfig,
-}
-
-impl std::fmt::Debug for FakeGvCamera {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FakeGvCamera")
-            .field("config", &self.config)
-            .field("served", &self.frames_served())
-            .finish_non_exhaustive()
-    }
+    watcher: Option<Watcher>,
 }
 
 impl FakeGvCamera {
@@ -189,9 +189,23 @@ impl FakeGvCamera {
         }
         let served = Arc::new(AtomicU64::new(0));
         let last = Arc::new(Mutex::new(None));
-        let (served2, last2) = (served.clone(), last.clone());
+        let pace = Arc::new(Pace::new());
+        let (served2, last2, pace2) = (served.clone(), last.clone(), pace.clone());
+        // The last intervals between fills, ns: their median is the frame period (a late
+        // frame makes one interval longer and the next shorter, a missed tick one a multiple).
+        let mut intervals = [0u64; 15];
+        let mut seen = 0usize;
         let mut fill = fill;
         let f: Box<FillFn> = Box::new(move |raw: &RawFill, px: &mut [u8]| {
+            let now = pace2.now_ns();
+            if let Some(interval) = pace2.filled(now) {
+                intervals[seen % intervals.len()] = interval;
+                seen += 1;
+                let mut sorted = intervals;
+                let known = &mut sorted[..seen.min(intervals.len())];
+                known.sort_unstable();
+                pace2.set_period_ns(known[known.len() / 2]);
+            }
             let index = served2.load(Ordering::Relaxed);
             let info = FillInfo {
                 frame_id: raw.frame_id,
@@ -215,6 +229,13 @@ impl FakeGvCamera {
             served2.store(index + 1, Ordering::Release);
         });
         let holder = ffi::set_fill(&fake, f);
+        let watcher = match config.address.parse::<Ipv4Addr>() {
+            Ok(ip) => Some(
+                Watcher::start(pace, SocketAddr::from((ip, 3956)))
+                    .map_err(|e| bad(format!("cannot start the stall watcher: {e}")))?,
+            ),
+            Err(_) => None,
+        };
         Ok(FakeGvCamera {
             gv: Some(gv),
             fake: Some(fake),
@@ -222,6 +243,7 @@ impl FakeGvCamera {
             served,
             last,
             config: config.clone(),
+            watcher,
         })
     }
 
@@ -245,6 +267,11 @@ impl FakeGvCamera {
         *self.last.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// GVCP reads sent so far to wake Aravis's thread from a stalled sleep (module docs).
+    pub fn wakeups(&self) -> u64 {
+        self.watcher.as_ref().map_or(0, Watcher::wakeups)
+    }
+
     /// Drops this fraction of the stream's packets from now on (0 … 1).
     pub fn set_lost_ratio(&self, ratio: f64) {
         if let Some(gv) = &self.gv {
@@ -260,7 +287,9 @@ impl FakeGvCamera {
 
 impl Drop for FakeGvCamera {
     fn drop(&mut self) {
-        // The GigE Vision camera joins its thread when finalized; only then may the closure go.
+        // The watcher first (it only sends to the camera); then the GigE Vision camera, which
+        // joins its thread when finalized; only then may the closure go.
+        self.watcher.take();
         self.fake.take();
         self.gv.take();
         self._fill.take();

@@ -61,6 +61,7 @@
 mod config;
 mod error;
 mod ids;
+mod wake;
 
 pub use config::{CameraConfig, FrameMeta, StreamOptions, StreamStats, Trigger, Window};
 pub use error::CameraError;

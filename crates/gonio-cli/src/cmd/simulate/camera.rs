@@ -222,6 +222,7 @@ fn serve(a: Args, per_turn: u64) -> Result<()> {
     let dt = started.elapsed().as_secs_f64();
     let cpu = process_cpu_s() - cpu0;
     let served = cam.frames_served() - served0;
+    let wakeups = cam.wakeups();
     drop(cam);
     let mut fills = fill_s.lock().map(|l| l.clone()).unwrap_or_default();
     fills.sort_by(f64::total_cmp);
@@ -247,7 +248,8 @@ fn serve(a: Args, per_turn: u64) -> Result<()> {
         });
     gonio_cli::note!(
         "served {served} frames in {dt:.1} s ({:.1} frames/s{acquiring}); fill {:.3} ms median, \
-         {:.3} ms 99th percentile; CPU of the whole process {:.3} ms per frame served",
+         {:.3} ms 99th percentile; CPU of the whole process {:.3} ms per frame served; \
+         {wakeups} GVCP reads sent to wake a stalled camera thread",
         served as f64 / dt.max(1e-9),
         q(0.5),
         q(0.99),

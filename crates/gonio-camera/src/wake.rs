@@ -1,0 +1,260 @@
+//! Waking Aravis's fake camera from its stalled sleep (the `fake` module, a `genicam` build).
+//!
+//! Aravis 0.8's GigE Vision fake camera computes its poll timeout as an unsigned difference
+//! (`next frame − now`, µs, then ms): when its thread gets there after the next frame's time (a
+//! loaded machine, or sending a frame ending just before the next frame's time) the difference
+//! wraps, the timeout is clamped to its 100 ms maximum and ten frames are not sent. Any control
+//! packet ends that poll, and the thread then sends the late frame at once. The [`Watcher`]
+//! here is a thread that sends the camera one GVCP register read (the version register, 0x0000:
+//! read-only) when no frame was filled [`STALL_PERIODS`] frame periods after the last one, at
+//! most once a period, and only while frames are being filled (a client acquiring). A read sent
+//! when the camera was merely skipping a tick changes nothing: its thread polls on to its time.
+//!
+//! Written here (std's UDP socket, a thread) because no crate does this: it is a workaround of
+//! one library's bug. Times are ns since the [`Pace`]'s creation. Errors: only starting the
+//! thread and socket can fail (`std::io::Error`); a failed send is not counted and retried a
+//! period later.
+
+// Without `genicam` nothing serves frames; the module stays compiled so its tests run in the
+// default build.
+#![cfg_attr(not(feature = "genicam"), allow(dead_code))]
+
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// A frame this many periods after the last one means the camera's thread sleeps past its
+/// frame's time (a late frame is otherwise sent as soon as its thread runs).
+pub(crate) const STALL_PERIODS: f64 = 1.5;
+/// No frame filled for this long: no client acquires, nothing to wake, ns.
+pub(crate) const IDLE_NS: u64 = 500_000_000;
+/// The longest the watcher sleeps between looks (it stops this soon after it is told to), ns.
+pub(crate) const LOOK_NS: u64 = 20_000_000;
+/// The shortest sleep between looks, ns.
+const MIN_SLEEP_NS: u64 = 100_000;
+
+/// When frames were filled: written by the fill callback, read by the [`Watcher`].
+#[derive(Debug)]
+pub(crate) struct Pace {
+    origin: Instant,
+    /// When the last frame was filled (0: none yet).
+    last_fill_ns: AtomicU64,
+    /// The frame period (0: not known yet).
+    period_ns: AtomicU64,
+    /// Register reads sent to wake the camera.
+    wakeups: AtomicU64,
+    stop: AtomicBool,
+}
+
+impl Pace {
+    /// A pace with no frame filled yet; its clock starts now.
+    pub(crate) fn new() -> Self {
+        Pace {
+            origin: Instant::now(),
+            last_fill_ns: AtomicU64::new(0),
+            period_ns: AtomicU64::new(0),
+            wakeups: AtomicU64::new(0),
+            stop: AtomicBool::new(false),
+        }
+    }
+
+    /// Now, ns since the pace was made (never 0).
+    pub(crate) fn now_ns(&self) -> u64 {
+        (self.origin.elapsed().as_nanos() as u64).max(1)
+    }
+
+    /// Records a frame filled at `now_ns`; returns the interval since the previous one, ns.
+    pub(crate) fn filled(&self, now_ns: u64) -> Option<u64> {
+        let before = self.last_fill_ns.swap(now_ns, Ordering::AcqRel);
+        (before > 0).then(|| now_ns.saturating_sub(before))
+    }
+
+    /// Sets the frame period the watcher expects, ns.
+    pub(crate) fn set_period_ns(&self, period_ns: u64) {
+        self.period_ns.store(period_ns, Ordering::Relaxed);
+    }
+}
+
+/// What the watcher does next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Step {
+    /// Send one register read now, then look again after this many ns.
+    Wake(u64),
+    /// Look again after this many ns.
+    Sleep(u64),
+}
+
+/// The watcher's decision at `now` (ns), the last frame filled at `last_fill` (0: none), the
+/// frame period `period` (0: unknown), the last read sent at `last_wake` (0: none).
+pub(crate) fn step(now: u64, last_fill: u64, period: u64, last_wake: u64) -> Step {
+    if last_fill == 0 || period == 0 || now.saturating_sub(last_fill) >= IDLE_NS {
+        return Step::Sleep(LOOK_NS);
+    }
+    let due = last_fill + (period as f64 * STALL_PERIODS) as u64;
+    let since_wake = now.saturating_sub(last_wake);
+    let sleep = if now < due {
+        due - now
+    } else if last_wake == 0 || since_wake >= period {
+        return Step::Wake(period.clamp(MIN_SLEEP_NS, LOOK_NS));
+    } else {
+        period - since_wake
+    };
+    Step::Sleep(sleep.clamp(MIN_SLEEP_NS, LOOK_NS))
+}
+
+/// GVCP `READREG_CMD` (key 0x42, flags 0, command 0x0080, 4 bytes of payload, request `id`) of
+/// register 0x0000, the device's version.
+pub(crate) fn read_version_packet(id: u16) -> [u8; 12] {
+    let [hi, lo] = id.to_be_bytes();
+    [0x42, 0x00, 0x00, 0x80, 0x00, 0x04, hi, lo, 0, 0, 0, 0]
+}
+
+/// The thread that wakes a stalled fake camera (module docs); stopped and joined when dropped.
+pub(crate) struct Watcher {
+    pace: Arc<Pace>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Watcher {
+    /// Starts watching `pace`, sending reads to the camera's control port `camera` from a
+    /// socket on the same address.
+    pub(crate) fn start(pace: Arc<Pace>, camera: SocketAddr) -> std::io::Result<Watcher> {
+        let socket = UdpSocket::bind((camera.ip(), 0))?;
+        socket.connect(camera)?;
+        socket.set_nonblocking(true)?;
+        let p = pace.clone();
+        let thread = std::thread::Builder::new()
+            .name("gonio-fake-camera-watch".into())
+            .spawn(move || watch(&p, &socket))?;
+        Ok(Watcher {
+            pace,
+            thread: Some(thread),
+        })
+    }
+
+    /// Register reads sent so far.
+    pub(crate) fn wakeups(&self) -> u64 {
+        self.pace.wakeups.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Watcher {
+    fn drop(&mut self) {
+        self.pace.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn watch(pace: &Pace, socket: &UdpSocket) {
+    let mut id: u16 = 0;
+    let mut last_wake = 0u64;
+    let mut reply = [0u8; 64];
+    while !pace.stop.load(Ordering::Relaxed) {
+        // The camera's acknowledgements: read and dropped.
+        while socket.recv(&mut reply).is_ok() {}
+        let now = pace.now_ns();
+        let last_fill = pace.last_fill_ns.load(Ordering::Acquire);
+        let period = pace.period_ns.load(Ordering::Relaxed);
+        let sleep = match step(now, last_fill, period, last_wake) {
+            Step::Wake(sleep) => {
+                id = id.wrapping_add(1).max(1);
+                if socket.send(&read_version_packet(id)).is_ok() {
+                    pace.wakeups.fetch_add(1, Ordering::Relaxed);
+                    last_wake = now;
+                }
+                sleep
+            }
+            Step::Sleep(sleep) => sleep,
+        };
+        std::thread::sleep(Duration::from_nanos(sleep));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: u64 = 1_000_000;
+
+    #[test]
+    fn the_watcher_wakes_only_a_stalled_camera_at_most_once_a_period() {
+        // Nothing filled, or the period unknown: nothing to wake.
+        assert_eq!(step(50 * MS, 0, 10 * MS, 0), Step::Sleep(LOOK_NS));
+        assert_eq!(step(50 * MS, 40 * MS, 0, 0), Step::Sleep(LOOK_NS));
+        // A frame 10 ms ago at 10 ms a frame: sleep until 1.5 periods after it.
+        assert_eq!(step(110 * MS, 100 * MS, 10 * MS, 0), Step::Sleep(5 * MS));
+        // 15 ms after the last frame: wake, then look again a period later.
+        assert_eq!(step(115 * MS, 100 * MS, 10 * MS, 0), Step::Wake(10 * MS));
+        // Woken 3 ms ago and still no frame: wait out the period before the next read.
+        assert_eq!(
+            step(118 * MS, 100 * MS, 10 * MS, 115 * MS),
+            Step::Sleep(7 * MS)
+        );
+        assert_eq!(
+            step(125 * MS, 100 * MS, 10 * MS, 115 * MS),
+            Step::Wake(10 * MS)
+        );
+        // No frame for 0.5 s: the client stopped acquiring.
+        assert_eq!(
+            step(100 * MS + IDLE_NS, 100 * MS, 10 * MS, 590 * MS),
+            Step::Sleep(LOOK_NS)
+        );
+        // A slow camera (1 frame/s): looks are still at most LOOK_NS apart.
+        assert_eq!(step(100 * MS, 100 * MS, 1000 * MS, 0), Step::Sleep(LOOK_NS));
+    }
+
+    #[test]
+    fn the_wake_is_a_gvcp_read_of_the_version_register() {
+        let p = read_version_packet(0x1234);
+        assert_eq!(p[0], 0x42, "GVCP command key");
+        assert_eq!(u16::from_be_bytes([p[2], p[3]]), 0x0080, "READREG_CMD");
+        assert_eq!(u16::from_be_bytes([p[4], p[5]]), 4, "one register address");
+        assert_eq!(u16::from_be_bytes([p[6], p[7]]), 0x1234, "request id");
+        assert_eq!(
+            u32::from_be_bytes([p[8], p[9], p[10], p[11]]),
+            0,
+            "register 0x0000"
+        );
+    }
+
+    /// A camera that stops being filled gets reads on its port until it has been idle 0.5 s,
+    /// no faster than one a period; the watcher stops when dropped.
+    #[test]
+    fn a_stalled_camera_gets_reads_until_idle_and_the_watcher_stops() {
+        let camera = UdpSocket::bind("127.0.0.1:0").unwrap();
+        camera
+            .set_read_timeout(Some(Duration::from_millis(50)))
+            .unwrap();
+        let pace = Arc::new(Pace::new());
+        pace.set_period_ns(10 * MS);
+        let watcher = Watcher::start(pace.clone(), camera.local_addr().unwrap()).unwrap();
+        let stalled_at = pace.now_ns();
+        pace.filled(stalled_at);
+        let mut reads = 0u64;
+        let mut buf = [0u8; 64];
+        let until = Instant::now() + Duration::from_millis(1500);
+        while Instant::now() < until {
+            if let Ok((n, _)) = camera.recv_from(&mut buf) {
+                assert_eq!(&buf[..n][..4], &[0x42, 0x00, 0x00, 0x80]);
+                reads += 1;
+            }
+        }
+        // Between 15 ms and 500 ms after the last fill, at most one read a period (10 ms):
+        // at most 49; at least one.
+        assert!(reads >= 1, "no read sent to a stalled camera");
+        assert!(
+            reads <= 49,
+            "{reads} reads in 485 ms at one a period at most"
+        );
+        assert_eq!(watcher.wakeups(), reads);
+        let t = Instant::now();
+        drop(watcher);
+        assert!(
+            t.elapsed() < Duration::from_millis(500),
+            "the watcher did not stop"
+        );
+    }
+}
