@@ -349,6 +349,55 @@ fn threads_keep_frame_order_and_the_same_bytes() {
     assert_eq!(ms.len(), 4, "{line}");
     assert!(ms[0] > 0.0 && ms[0] <= ms[1] && ms[1] <= ms[2], "{line}");
     assert_eq!(ms[3], 12.0, "{line}");
+    // Each frame on two threads: the same bytes again, and the wall time reported as such.
+    let o = gonio(
+        &[
+            "detect",
+            "--raw",
+            "1440x540",
+            "--timing",
+            "--frame-threads",
+            "2",
+        ],
+        Some(&raw),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.stdout == run("1", false),
+        "--frame-threads 2 changed the output"
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("detector alone, each frame on two threads")),
+        "{err}"
+    );
+}
+
+#[test]
+fn frame_threads_are_one_or_two_and_only_where_frames_go_one_at_a_time() {
+    for n in ["0", "3"] {
+        let o = gonio(
+            &[
+                "detect",
+                "--raw",
+                "1440x540",
+                "--timing",
+                "--frame-threads",
+                n,
+            ],
+            Some(&[]),
+        );
+        assert_eq!(o.status.code(), Some(2), "--frame-threads {n}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains("--frame-threads"));
+    }
+    // Whole frames in parallel (--threads, the default for files and --raw): refused, not
+    // ignored.
+    let o = gonio(
+        &["detect", "--raw", "1440x540", "--frame-threads", "2"],
+        Some(&[]),
+    );
+    assert_error(&o, "--frame-threads");
 }
 
 #[test]

@@ -61,7 +61,7 @@ pub mod source;
 
 pub use error::VisionError;
 pub use optics::{MAX_RING_WIDTH_PX, MAX_SENSOR_PX, MAX_WINDOW_PIXELS, Optics, Params, Polarity};
-pub use pipeline::{Detector, StageImages};
+pub use pipeline::{Detector, LowerHalf, StageImages};
 pub use result::{EdgeLine, FrameResult, InvalidReason};
 pub use source::{
     DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,

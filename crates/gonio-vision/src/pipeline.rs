@@ -33,8 +33,9 @@ use crate::gradient::GradRow;
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::{Optics, Params};
-use crate::rows::{LastSink, RowSink, StageObserver, Then};
+use crate::rows::{LastSink, RowBuf, RowSink, StageObserver, Then};
 use crate::segment::{FILLED, SegmentParams, Segmenter, SparseEdgeRow};
+use std::sync::Arc;
 
 /// Every stage's output for one frame, whole (filled only when dumps are enabled).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -121,9 +122,32 @@ impl StageObserver for StageImages {
     }
 }
 
+/// The row-local stages, from camera rows to segmented edges, chained to `N`.
+type Front<N> = Then<BlackTopHat, Then<Opening, Then<BlurSobel, Then<Segmenter, N>>>>;
+/// The stages that see the whole frame's edges in order: filling and labelling.
+type Back = Then<EdgeFill, Labeller>;
 /// The detector's stages, chained.
-type Cascade =
-    Then<BlackTopHat, Then<Opening, Then<BlurSobel, Then<Segmenter, Then<EdgeFill, Labeller>>>>>;
+type Cascade = Front<Back>;
+
+/// The row-local stages of a detector with parameters `p`, chained to `next`.
+fn front<N>(p: &Params, next: N) -> Front<N> {
+    fn then<S, N>(stage: S, next: N) -> Then<S, N> {
+        Then { stage, next }
+    }
+    let w = p.width;
+    let seg = SegmentParams {
+        low: p.grad_low,
+        high: p.grad_high,
+        tan_q10: p.tan_tolerance_q10,
+    };
+    then(
+        BlackTopHat::new(w, Disk::new(p.close_radius_px)),
+        then(
+            Opening::new(w, Disk::new(p.open_radius_px)),
+            then(BlurSobel::new(w), then(Segmenter::new(w, seg), next)),
+        ),
+    )
+}
 
 /// The streaming baseline detector.
 #[derive(Debug, Clone)]
@@ -161,26 +185,12 @@ impl Detector {
     /// A detector from already derived parameters.
     pub fn from_params(p: Params) -> Self {
         let w = p.width;
-        let seg = SegmentParams {
-            low: p.grad_low,
-            high: p.grad_high,
-            tan_q10: p.tan_tolerance_q10,
-        };
-        fn then<S, N>(stage: S, next: N) -> Then<S, N> {
-            Then { stage, next }
-        }
-        let line = then(
-            BlackTopHat::new(w, Disk::new(p.close_radius_px)),
-            then(
-                Opening::new(w, Disk::new(p.open_radius_px)),
-                then(
-                    BlurSobel::new(w),
-                    then(
-                        Segmenter::new(w, seg),
-                        then(EdgeFill::new(w), labeller(&p, false)),
-                    ),
-                ),
-            ),
+        let line = front(
+            &p,
+            Then {
+                stage: EdgeFill::new(w),
+                next: labeller(&p, false),
+            },
         );
         Detector {
             line,
@@ -288,13 +298,7 @@ impl Detector {
         );
         self.rows += 1;
         let input = self.line.input();
-        if self.p.invert {
-            for (o, &v) in input.iter_mut().zip(row) {
-                *o = 255 - v;
-            }
-        } else {
-            input.copy_from_slice(row);
-        }
+        take_row(input, row, self.p.invert);
         match self.dump.as_deref_mut() {
             Some(d) => {
                 d.input(self.line.input());
@@ -333,6 +337,11 @@ impl Detector {
             Some(d) => self.line.finish(d),
             None => self.line.finish(&mut ()),
         }
+        Ok(self.result())
+    }
+
+    /// The frame's result once every row has reached the labeller.
+    fn result(&mut self) -> FrameResult {
         let (w, h) = (self.p.width, self.p.height);
         let interior = ((w - 2) * (h - 2)) as f64;
         let stats = RawStats {
@@ -348,7 +357,7 @@ impl Detector {
         let (cands, edges) = label.candidates_and_edges();
         let res = baseline_features(cands, count, edges, &self.sat_runs, stats, &self.p);
         self.rows = 0;
-        Ok(res)
+        res
     }
 
     /// Runs a whole frame (row-major, window size) through the detector.
@@ -378,6 +387,242 @@ impl Detector {
             self.feed(row, prev);
         }
         self.finish_frame()
+    }
+
+    /// Rows between a row's arrival and its edges leaving the segmentation: the reach, above
+    /// and below, of the row-local stages (each stage's output row y reads its input rows
+    /// y ± its lag).
+    fn front_lag(&self) -> usize {
+        self.line.lag() - self.line.next.next.next.next.lag()
+    }
+
+    /// The first row [`Detector::detect_split`] leaves to its second thread; `None` when it
+    /// detects on one thread: stage dumps on, or a window shorter than six times the
+    /// row-local stages' lag (the two threads' rows overlap by twice the lag: more than a
+    /// third of the window would be done twice; 60 rows for the station's 11 px ring, whose
+    /// closing batches 16 rows).
+    pub fn seam_row(&self) -> Option<usize> {
+        let (h, lag) = (self.p.height, self.front_lag());
+        let seam = (h as f64 * SEAM_FRACTION).round() as usize;
+        (self.dump.is_none() && 6 * lag <= h && seam >= lag + 2 && seam + lag <= h).then_some(seam)
+    }
+
+    /// The second thread's share of [`Detector::detect_split`], for this detector's window.
+    pub fn lower_half(&self) -> LowerHalf {
+        LowerHalf {
+            front: front(
+                &self.p,
+                EdgeRows {
+                    rows: Vec::new(),
+                    scratch: SparseEdgeRow::new(self.p.width),
+                    width: self.p.width,
+                    n: 0,
+                    skip: 0,
+                    start: 0,
+                },
+            ),
+            focus: RowFocus::default(),
+            sat_runs: Vec::with_capacity(64),
+            saturated: 0,
+            focus_sum: 0,
+            grad_sum: 0,
+            width: self.p.width,
+            pool: rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .thread_name(|_| "gonio-detect-lower".into())
+                .build()
+                .ok()
+                .map(Arc::new),
+        }
+    }
+
+    /// [`Detector::detect`] on two threads, the same result bit for bit: while this thread runs
+    /// the whole cascade over the rows above a seam ([`SEAM_FRACTION`] of the height), a
+    /// scoped second thread runs `lower` (the row-local stages: top-hat to segmentation, and
+    /// the raw statistics) over the rows below it, starting the reach of those stages above
+    /// the seam so that its rows are exactly a single thread's; its edge rows then go on
+    /// through filling and labelling here, in order. With a second core free it takes a
+    /// little over half the time. A frame too short to split (or with stage dumps on) is
+    /// detected on this thread alone.
+    ///
+    /// # Errors
+    /// [`VisionError::FrameSize`] if `frame` is not width × height bytes.
+    pub fn detect_split(
+        &mut self,
+        frame: &[u8],
+        lower: &mut LowerHalf,
+    ) -> Result<FrameResult, VisionError> {
+        let (w, h) = (self.p.width, self.p.height);
+        let lag = self.front_lag();
+        let Some(seam) = self.seam_row() else {
+            return self.detect(frame);
+        };
+        if frame.len() != w * h || lower.width != w {
+            return self.detect(frame);
+        }
+        let Some(pool) = lower.pool.clone() else {
+            return self.detect(frame);
+        };
+        let invert = self.p.invert;
+        self.begin_frame();
+        let mut below = false;
+        pool.in_place_scope(|scope| {
+            let done = &mut below;
+            let lower = &mut *lower;
+            scope.spawn(move |_| {
+                let run = || lower.run(frame, w, seam, seam - lag, invert);
+                *done = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).is_ok();
+            });
+            // Rows above the seam: statistics and the cascade; then the rows the front stages
+            // need to finish the seam's row, through the cascade only.
+            for (y, row) in frame.chunks_exact(w).enumerate().take(seam + lag) {
+                if y < seam {
+                    let prev = (y >= 2)
+                        .then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
+                    crate::simd::dispatch(
+                        #[inline(always)]
+                        || self.raw_stats(row, prev),
+                    );
+                }
+                self.rows += 1;
+                take_row(self.line.input(), row, invert);
+                self.line.pushed(&mut ());
+            }
+        });
+        if !below {
+            // The lower half panicked (it does not, on any frame of the right size): the frame
+            // again on this thread alone.
+            lower.front.reset();
+            return self.detect(frame);
+        }
+        let back = &mut self.line.next.next.next.next;
+        for row in &lower.front.next.next.next.next.rows[..h - seam] {
+            back.input().copy_row(row);
+            back.pushed(&mut ());
+        }
+        back.finish(&mut ());
+        self.saturated += lower.saturated;
+        self.focus_sum += lower.focus_sum;
+        self.grad_sum += lower.grad_sum;
+        self.sat_runs.extend_from_slice(&lower.sat_runs);
+        self.rows = h;
+        Ok(self.result())
+    }
+}
+
+/// Where [`Detector::detect_split`] splits a frame, as a fraction of its height from the top:
+/// the upper rows get the whole cascade, the lower ones only the row-local stages (about
+/// seven tenths of the work) on the second thread, so the two threads finish together.
+pub const SEAM_FRACTION: f64 = 0.43;
+
+/// Copies a camera row into a cascade's input, inverted for a bright ring.
+#[inline(always)]
+fn take_row(input: &mut [u8], row: &[u8], invert: bool) {
+    if invert {
+        for (o, &v) in input.iter_mut().zip(row) {
+            *o = 255 - v;
+        }
+    } else {
+        input.copy_from_slice(row);
+    }
+}
+
+/// The share of a frame a second thread detects in [`Detector::detect_split`]: the row-local
+/// stages (top-hat to segmentation) and the raw statistics of the rows below the seam, and the
+/// thread (one of its own, kept between frames). Made by [`Detector::lower_half`]; allocates
+/// only on its first frame. A clone shares the thread.
+#[derive(Debug, Clone)]
+pub struct LowerHalf {
+    front: Front<EdgeRows>,
+    focus: RowFocus,
+    sat_runs: Vec<SaturatedRun>,
+    saturated: u64,
+    focus_sum: u64,
+    grad_sum: u64,
+    width: usize,
+    /// The second thread, waiting between frames (`None`: none could be started; frames are
+    /// then detected on the calling thread alone).
+    pool: Option<Arc<rayon::ThreadPool>>,
+}
+
+impl LowerHalf {
+    /// Rows `start..` of `frame` (rows of `w` pixels) through the row-local stages, keeping
+    /// the edge rows from `seam` on; the raw statistics of the rows from `seam` on.
+    fn run(&mut self, frame: &[u8], w: usize, seam: usize, start: usize, invert: bool) {
+        self.front.reset();
+        let edges = &mut self.front.next.next.next.next;
+        edges.skip = seam - start;
+        edges.start = start as u16;
+        for row in frame.chunks_exact(w).skip(start) {
+            take_row(self.front.input(), row, invert);
+            self.front.pushed(&mut ());
+        }
+        self.front.finish(&mut ());
+        // The focus sums run from two rows above the seam: row y's sums read rows y − 2, y − 1.
+        (self.saturated, self.focus_sum, self.grad_sum) = (0, 0, 0);
+        self.sat_runs.clear();
+        let from = seam - 2;
+        for (k, row) in frame.chunks_exact(w).enumerate().skip(from) {
+            let prev =
+                (k >= seam).then(|| (&frame[(k - 2) * w..(k - 1) * w], &frame[(k - 1) * w..k * w]));
+            let s = crate::simd::dispatch(
+                #[inline(always)]
+                || self.focus.push(k - from, row, prev),
+            );
+            if k >= seam {
+                if s.saturated > 0 {
+                    self.saturated += u64::from(s.saturated);
+                    saturated_runs(row, k, &mut self.sat_runs);
+                }
+                self.grad_sum += s.abs_sum;
+                self.focus_sum += s.sq_sum;
+            }
+        }
+    }
+}
+
+/// The edge rows a [`LowerHalf`] keeps: those from the seam down, each pixel's row made the
+/// frame's (its segmentation counted rows from where it started).
+#[derive(Debug, Clone)]
+struct EdgeRows {
+    rows: Vec<SparseEdgeRow>,
+    scratch: SparseEdgeRow,
+    width: usize,
+    /// Rows received in this frame.
+    n: usize,
+    /// Rows received before the first kept one (the reach above the seam).
+    skip: usize,
+    /// The frame's row of the first row received.
+    start: u16,
+}
+
+impl RowSink for EdgeRows {
+    type Row = SparseEdgeRow;
+    fn input(&mut self) -> &mut SparseEdgeRow {
+        match self.n.checked_sub(self.skip) {
+            None => &mut self.scratch,
+            Some(k) => {
+                if k == self.rows.len() {
+                    self.rows.push(SparseEdgeRow::new(self.width));
+                }
+                &mut self.rows[k]
+            }
+        }
+    }
+    fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
+        if let Some(k) = self.n.checked_sub(self.skip) {
+            for p in &mut self.rows[k].pixels {
+                p.row += self.start;
+            }
+        }
+        self.n += 1;
+    }
+    fn finish<O: StageObserver + ?Sized>(&mut self, _: &mut O) {}
+    fn reset(&mut self) {
+        self.n = 0;
+    }
+    fn lag(&self) -> usize {
+        0
     }
 }
 

@@ -35,6 +35,7 @@ Examples:
   gonio detect --raw 1440x540 --threads 2 < frames.raw > c.jsonl
   gonio detect frames --dump-stages vectors --frame 17
   gonio detect --raw 1440x540 --timing < frames.raw > /dev/null
+  gonio detect --raw 1440x540 --timing --frame-threads 2 < frames.raw > /dev/null
   gonio detect --camera Aravis-Fake-GONIO01 --frames 200 --speed-deg-s 180 --fps 100
 
 With --camera ID (a build with --features genicam; docs/camera.md) the frames stream from a
@@ -46,14 +47,16 @@ missing is reported with reason incomplete_frame, a frame missing from the id se
 missing_frame line: never valid. The summary on standard error: frames, complete, incomplete,
 missing, resent packets, the latency from a buffer's arrival to its result (p50, p99) and the
 CPU time per frame. A live camera is detected one frame at a time as it comes in (the lowest
-latency; the detector needs about 1 ms of the 10 ms between frames at 100 frames/s); --threads N
-(N ≥ 2) uses the in-order workers of --raw instead, where a result can wait up to a frame period
-to be handed on. Ctrl-C stops acquisition: the lines so far are kept on standard output (a
+latency; the detector needs 1–2 ms of the 10 ms between frames at 100 frames/s; with
+--frame-threads 2 each frame is split across two threads); --threads N (N ≥ 2) uses the
+in-order workers of --raw instead, where a result can wait up to a frame period to be handed
+on. Ctrl-C stops acquisition: the lines so far are kept on standard output (a
 --json-lines file is a set written whole, so it is discarded).
 
 Frames are detected on --threads worker threads (default: all cores) while the main thread
 reads the next ones; the lines come out in frame order, the same bytes whatever the thread
-count. --dump-stages and --timing run on one thread.")]
+count. --dump-stages and --timing run one frame at a time (--timing with --frame-threads 2 splits
+each frame across two threads and also reports the wall time).")]
 pub struct Args {
     /// Image files (PNG, TIFF) or directories of them (read in name order).
     #[arg(
@@ -99,6 +102,19 @@ pub struct Args {
     /// then detected one at a time on the main thread.
     #[arg(long, conflicts_with = "threads")]
     pub timing: bool,
+    /// Threads detecting each frame, 1 (the default) or 2: with 2, a second thread runs the
+    /// row-local stages over the lower part of each frame while this one runs the rest — the
+    /// same results bit for bit, in about three quarters of the time when the second thread
+    /// wakes at once (BENCHMARKS.md: a lower median latency, a longer tail where waking a
+    /// thread is slow). For --camera and --timing (the frames one at a time); --threads runs
+    /// whole frames in parallel instead.
+    #[arg(
+        long,
+        value_name = "N",
+        conflicts_with = "threads",
+        value_parser = clap::value_parser!(u8).range(1..=2)
+    )]
+    pub frame_threads: Option<u8>,
     /// Stream from this GenICam camera (an id of `gonio camera list`; needs a build with
     /// `--features genicam`).
     #[arg(long, value_name = "ID", conflicts_with_all = ["raw", "frames", "dump_stages", "timing"])]
@@ -340,6 +356,12 @@ where
         }
     };
     if a.dump_stages.is_none() && !a.timing {
+        if a.frame_threads.is_some() {
+            bail!(
+                "--frame-threads: only with --timing or --camera, where frames are detected one \
+                 at a time (--threads detects whole frames in parallel)"
+            );
+        }
         let threads = a.threads.map_or_else(
             || std::thread::available_parallelism().map_or(1, |n| n.get()),
             usize::from,
@@ -359,14 +381,17 @@ where
     let mut det = SourceDetector::new(source, optics)?;
     let mut dumped = false;
     let mut cpu_s = Vec::new();
+    let mut wall_s = Vec::new();
+    det.split_frames(a.frame_threads == Some(2));
     loop {
         let want_dump = dump.is_some() && done.frames == a.frame;
         det.detector_mut().set_dump(want_dump);
         let detected = match det.read_next() {
             Ok(Some(hdr)) => {
-                let t0 = thread_cpu_s();
+                let (t0, w0) = (thread_cpu_s(), std::time::Instant::now());
                 let d = det.detect_read(&hdr);
                 cpu_s.push(thread_cpu_s() - t0);
+                wall_s.push(w0.elapsed().as_secs_f64());
                 d
             }
             Ok(None) => break,
@@ -389,7 +414,7 @@ where
         bail!("--frame {}: only {} frames were read", a.frame, done.frames);
     }
     if a.timing {
-        report_timing(&mut cpu_s);
+        report_timing(&mut cpu_s, &mut wall_s, det.splits_frames());
     }
     Ok(done)
 }
@@ -400,23 +425,31 @@ fn thread_cpu_s() -> f64 {
     t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
 }
 
-/// `--timing`: the detector's CPU time per frame, on standard error.
-fn report_timing(cpu_s: &mut [f64]) {
+/// `--timing`: the detector's CPU time per frame (of the calling thread) and, for frames split
+/// across two threads, its wall time, on standard error.
+fn report_timing(cpu_s: &mut [f64], wall_s: &mut [f64], split: bool) {
     if cpu_s.is_empty() {
         gonio_cli::note!("detector timing: no frames");
         return;
     }
-    cpu_s.sort_by(f64::total_cmp);
-    let n = cpu_s.len();
     // Nearest-rank quantiles (the median of an even count is the mean of the middle two).
-    let median = (cpu_s[(n - 1) / 2] + cpu_s[n / 2]) / 2.0;
-    let p99 = cpu_s[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1];
+    let quantiles = |v: &mut [f64]| {
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = (v[(n - 1) / 2] + v[n / 2]) / 2.0;
+        let p99 = v[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1];
+        (median * 1e3, p99 * 1e3, v[n - 1] * 1e3, n)
+    };
+    let (median, p99, max, n) = quantiles(cpu_s);
     gonio_cli::note!(
-        "detector alone (crop + detect, CPU time of the thread): median {:.3} ms/frame, \
-         99th percentile {:.3} ms, max {:.3} ms over {n} frames",
-        median * 1e3,
-        p99 * 1e3,
-        cpu_s[n - 1] * 1e3
+        "detector alone (crop + detect, CPU time of the thread): median {median:.3} ms/frame, \
+         99th percentile {p99:.3} ms, max {max:.3} ms over {n} frames"
+    );
+    let (median, p99, max, _) = quantiles(wall_s);
+    gonio_cli::note!(
+        "detector alone, each frame on {} (crop + detect, wall time): median {median:.3} \
+         ms/frame, 99th percentile {p99:.3} ms, max {max:.3} ms",
+        if split { "two threads" } else { "one thread" }
     );
 }
 
@@ -601,8 +634,10 @@ mod camera_run {
                 Err(e) => return Err(anyhow!(e.to_string())),
             }
         } else {
-            // One frame in flight: each result as soon as its frame is in.
+            // One frame in flight: each result as soon as its frame is in (on two threads with
+            // --frame-threads 2).
             let mut det = SourceDetector::new(&mut src, optics)?;
+            det.split_frames(a.frame_threads == Some(2));
             loop {
                 match det.detect_next() {
                     Ok(Some(d)) => handle(det.source(), Ok(d))?,
