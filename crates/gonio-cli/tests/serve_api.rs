@@ -207,6 +207,18 @@ fn the_plc_station_needs_its_flags_and_refuses_the_simulations() {
         ],
         "expected modbus://HOST:PORT",
     );
-    // No such camera (or no GenICam in this build): refused before the dashboard listens.
+    // No such camera (or no GenICam in this build): refused before the dashboard listens, and
+    // the store this run would have created is not left behind empty.
     refused(&plc, "--camera nope");
+    assert!(
+        !std::path::Path::new(&db).exists(),
+        "a failed station left an empty store"
+    );
+    // A store that existed stays, whatever the station does.
+    std::fs::write(&db, b"").unwrap();
+    refused(&plc, "--camera nope");
+    assert!(
+        std::path::Path::new(&db).exists(),
+        "an existing store was removed"
+    );
 }

@@ -1,6 +1,7 @@
 //! `gonio serve`: the station's dashboard in the browser (live view, history, calibrations,
 //! JSON API), optionally with the simulated station running and publishing to it.
 
+use crate::db::NewStore;
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
 use gonio_plc::batch::LinkFigures;
@@ -267,7 +268,9 @@ pub fn run(a: Args) -> Result<()> {
     let options = serve_options(&a)?;
     let sa = address(&a.addr, a.allow_remote, &missing)?;
     // Open (and migrate) the store before anything listens: a bad --db fails here. Without a
-    // station the dashboard only reads: it never creates a store.
+    // station the dashboard only reads: it never creates a store; with one, a store created
+    // here is removed again if the station cannot be set up.
+    let created = NewStore::before_open(&a.db);
     drop(if a.station.is_some() {
         crate::db::open(&a.db)?
     } else {
@@ -313,6 +316,7 @@ pub fn run(a: Args) -> Result<()> {
         )?),
         None => None,
     };
+    created.keep();
     gonio_cli::note!(
         "gonio dashboard on {}://{bound}/ (read-only{}{}); Ctrl-C stops",
         if options.tls.is_some() {
