@@ -350,17 +350,7 @@ fn threads_keep_frame_order_and_the_same_bytes() {
     assert!(ms[0] > 0.0 && ms[0] <= ms[1] && ms[1] <= ms[2], "{line}");
     assert_eq!(ms[3], 12.0, "{line}");
     // Each frame on two threads: the same bytes again, and the wall time reported as such.
-    let o = gonio(
-        &[
-            "detect",
-            "--raw",
-            "1440x540",
-            "--timing",
-            "--frame-threads",
-            "2",
-        ],
-        Some(&raw),
-    );
+    let o = gonio(&timing_with_frame_threads("2"), Some(&raw));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
         o.stdout == run("1", false),
@@ -374,20 +364,22 @@ fn threads_keep_frame_order_and_the_same_bytes() {
     );
 }
 
+/// `gonio detect --raw 1440x540 --timing --frame-threads N`.
+fn timing_with_frame_threads(n: &str) -> [&str; 6] {
+    [
+        "detect",
+        "--raw",
+        "1440x540",
+        "--timing",
+        "--frame-threads",
+        n,
+    ]
+}
+
 #[test]
 fn frame_threads_are_one_or_two_and_only_where_frames_go_one_at_a_time() {
     for n in ["0", "3"] {
-        let o = gonio(
-            &[
-                "detect",
-                "--raw",
-                "1440x540",
-                "--timing",
-                "--frame-threads",
-                n,
-            ],
-            Some(&[]),
-        );
+        let o = gonio(&timing_with_frame_threads(n), Some(&[]));
         assert_eq!(o.status.code(), Some(2), "--frame-threads {n}");
         assert!(String::from_utf8_lossy(&o.stderr).contains("--frame-threads"));
     }
