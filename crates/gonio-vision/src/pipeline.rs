@@ -28,7 +28,7 @@ use crate::VisionError;
 use crate::blur_sobel::BlurSobel;
 use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, saturated_runs};
 use crate::fill::EdgeFill;
-use crate::focus::RowFocus;
+use crate::focus::{RowFocus, RowStats};
 use crate::gradient::GradRow;
 use crate::label::{Component, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
@@ -157,14 +157,57 @@ pub struct Detector {
     /// Raw rows y−2, y−1 for the focus measure.
     raw_prev: [Vec<u8>; 2],
     rows: usize,
+    /// The raw statistics of the rows so far.
+    raw: RawSums,
+    /// The per-row focus sums' state.
+    focus: RowFocus,
+    dump: Option<Box<StageImages>>,
+}
+
+/// A frame's raw statistics (saturation and focus sums), added up row by row: integer sums
+/// and runs in row order, so two threads' shares of a frame add up to one thread's.
+#[derive(Debug, Clone, Default)]
+struct RawSums {
     saturated: u64,
     /// Runs of saturated pixels, row by row.
     sat_runs: Vec<SaturatedRun>,
     focus_sum: u64,
     grad_sum: u64,
-    /// The per-row focus sums' state.
-    focus: RowFocus,
-    dump: Option<Box<StageImages>>,
+}
+
+impl RawSums {
+    fn clear(&mut self) {
+        self.saturated = 0;
+        self.sat_runs.clear();
+        self.focus_sum = 0;
+        self.grad_sum = 0;
+    }
+
+    /// Adds row `y` (its pixels `row`, its sums `s`).
+    #[inline(always)]
+    fn add(&mut self, s: RowStats, row: &[u8], y: usize) {
+        if s.saturated > 0 {
+            self.saturated += u64::from(s.saturated);
+            saturated_runs(row, y, &mut self.sat_runs);
+        }
+        self.grad_sum += s.abs_sum;
+        self.focus_sum += s.sq_sum;
+    }
+
+    /// Adds the rows of `below`, all of them after these.
+    fn append(&mut self, below: &RawSums) {
+        self.saturated += below.saturated;
+        self.sat_runs.extend_from_slice(&below.sat_runs);
+        self.focus_sum += below.focus_sum;
+        self.grad_sum += below.grad_sum;
+    }
+}
+
+/// Rows y − 2 and y − 1 of a whole frame of rows `w` wide (what the focus measure of row y
+/// reads), `None` for the first two rows.
+#[inline(always)]
+fn rows_above(frame: &[u8], w: usize, y: usize) -> Option<(&[u8], &[u8])> {
+    (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]))
 }
 
 fn labeller(p: &Params, record_all: bool) -> Labeller {
@@ -196,10 +239,10 @@ impl Detector {
             line,
             raw_prev: [vec![0; w], vec![0; w]],
             rows: 0,
-            saturated: 0,
-            sat_runs: Vec::with_capacity(64),
-            focus_sum: 0,
-            grad_sum: 0,
+            raw: RawSums {
+                sat_runs: Vec::with_capacity(64),
+                ..RawSums::default()
+            },
             focus: RowFocus::default(),
             dump: None,
             p,
@@ -239,10 +282,7 @@ impl Detector {
     pub fn begin_frame(&mut self) {
         self.line.reset();
         self.rows = 0;
-        self.sat_runs.clear();
-        self.saturated = 0;
-        self.focus_sum = 0;
-        self.grad_sum = 0;
+        self.raw.clear();
         if let Some(d) = self.dump.as_deref_mut() {
             *d = StageImages {
                 width: self.p.width,
@@ -296,9 +336,14 @@ impl Detector {
             #[inline(always)]
             || self.raw_stats(row, prev),
         );
+        self.cascade_row(row);
+    }
+
+    /// A row into the cascade (inverted for a bright ring), counted.
+    #[inline(always)]
+    fn cascade_row(&mut self, row: &[u8]) {
         self.rows += 1;
-        let input = self.line.input();
-        take_row(input, row, self.p.invert);
+        take_row(self.line.input(), row, self.p.invert);
         match self.dump.as_deref_mut() {
             Some(d) => {
                 d.input(self.line.input());
@@ -312,12 +357,7 @@ impl Detector {
     #[inline(always)]
     fn raw_stats(&mut self, row: &[u8], prev: Option<(&[u8], &[u8])>) {
         let s = self.focus.push(self.rows, row, prev);
-        if s.saturated > 0 {
-            self.saturated += u64::from(s.saturated);
-            saturated_runs(row, self.rows, &mut self.sat_runs);
-        }
-        self.grad_sum += s.abs_sum;
-        self.focus_sum += s.sq_sum;
+        self.raw.add(s, row, self.rows);
     }
 
     /// Ends the frame: flushes the stages and computes the result.
@@ -345,9 +385,9 @@ impl Detector {
         let (w, h) = (self.p.width, self.p.height);
         let interior = ((w - 2) * (h - 2)) as f64;
         let stats = RawStats {
-            saturated_px: self.saturated,
-            focus: self.focus_sum as f64 / interior / 4.0,
-            mean_gradient: self.grad_sum as f64 / interior / 2.0,
+            saturated_px: self.raw.saturated,
+            focus: self.raw.focus_sum as f64 / interior / 4.0,
+            mean_gradient: self.raw.grad_sum as f64 / interior / 2.0,
         };
         let label = self.line.last_sink();
         if let Some(d) = self.dump.as_deref_mut() {
@@ -355,7 +395,7 @@ impl Detector {
         }
         let count = label.component_count();
         let (cands, edges) = label.candidates_and_edges();
-        let res = baseline_features(cands, count, edges, &self.sat_runs, stats, &self.p);
+        let res = baseline_features(cands, count, edges, &self.raw.sat_runs, stats, &self.p);
         self.rows = 0;
         res
     }
@@ -378,8 +418,7 @@ impl Detector {
         // y − 2 and y − 1 read from the frame (no copy), the frame started once.
         self.begin_frame();
         for (y, row) in frame.chunks_exact(w).enumerate() {
-            let prev =
-                (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
+            let prev = rows_above(frame, w, y);
             // The next row is read first by the raw statistics, a whole row's work from now.
             if let Some(next) = frame.get((y + 1) * w..(y + 2) * w) {
                 crate::simd::prefetch(next);
@@ -422,11 +461,8 @@ impl Detector {
                 },
             ),
             focus: RowFocus::default(),
-            sat_runs: Vec::with_capacity(64),
-            saturated: 0,
-            focus_sum: 0,
-            grad_sum: 0,
-            width: self.p.width,
+            raw: RawSums::default(),
+            p: self.p.clone(),
             pool: rayon::ThreadPoolBuilder::new()
                 .num_threads(1)
                 .thread_name(|_| "gonio-detect-lower".into())
@@ -453,58 +489,47 @@ impl Detector {
         lower: &mut LowerHalf,
     ) -> Result<FrameResult, VisionError> {
         let (w, h) = (self.p.width, self.p.height);
-        let lag = self.front_lag();
-        let Some(seam) = self.seam_row() else {
+        let (Some(seam), Some(pool)) = (self.seam_row(), lower.pool.clone()) else {
             return self.detect(frame);
         };
-        if frame.len() != w * h || lower.width != w {
+        // A lower half made for other parameters, or a frame of the wrong size (the error).
+        if frame.len() != w * h || lower.p != self.p {
             return self.detect(frame);
         }
-        let Some(pool) = lower.pool.clone() else {
-            return self.detect(frame);
-        };
-        let invert = self.p.invert;
+        let lag = self.front_lag();
         self.begin_frame();
         let mut below = false;
         pool.in_place_scope(|scope| {
             let done = &mut below;
             let lower = &mut *lower;
             scope.spawn(move |_| {
-                let run = || lower.run(frame, w, seam, seam - lag, invert);
+                let run = || lower.run(frame, seam, seam - lag);
                 *done = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).is_ok();
             });
             // Rows above the seam: statistics and the cascade; then the rows the front stages
             // need to finish the seam's row, through the cascade only.
             for (y, row) in frame.chunks_exact(w).enumerate().take(seam + lag) {
                 if y < seam {
-                    let prev = (y >= 2)
-                        .then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
                     crate::simd::dispatch(
                         #[inline(always)]
-                        || self.raw_stats(row, prev),
+                        || self.raw_stats(row, rows_above(frame, w, y)),
                     );
                 }
-                self.rows += 1;
-                take_row(self.line.input(), row, invert);
-                self.line.pushed(&mut ());
+                self.cascade_row(row);
             }
         });
         if !below {
             // The lower half panicked (it does not, on any frame of the right size): the frame
             // again on this thread alone.
-            lower.front.reset();
             return self.detect(frame);
         }
         let back = &mut self.line.next.next.next.next;
-        for row in &lower.front.next.next.next.next.rows[..h - seam] {
+        for row in &lower.front.last_sink().rows[..h - seam] {
             back.input().copy_row(row);
             back.pushed(&mut ());
         }
         back.finish(&mut ());
-        self.saturated += lower.saturated;
-        self.focus_sum += lower.focus_sum;
-        self.grad_sum += lower.grad_sum;
-        self.sat_runs.extend_from_slice(&lower.sat_runs);
+        self.raw.append(&lower.raw);
         self.rows = h;
         Ok(self.result())
     }
@@ -536,47 +561,40 @@ fn take_row(input: &mut [u8], row: &[u8], invert: bool) {
 pub struct LowerHalf {
     front: Front<EdgeRows>,
     focus: RowFocus,
-    sat_runs: Vec<SaturatedRun>,
-    saturated: u64,
-    focus_sum: u64,
-    grad_sum: u64,
-    width: usize,
+    raw: RawSums,
+    /// The detector's parameters it was made for.
+    p: Params,
     /// The second thread, waiting between frames (`None`: none could be started; frames are
     /// then detected on the calling thread alone).
     pool: Option<Arc<rayon::ThreadPool>>,
 }
 
 impl LowerHalf {
-    /// Rows `start..` of `frame` (rows of `w` pixels) through the row-local stages, keeping
-    /// the edge rows from `seam` on; the raw statistics of the rows from `seam` on.
-    fn run(&mut self, frame: &[u8], w: usize, seam: usize, start: usize, invert: bool) {
+    /// Rows `start..` of `frame` through the row-local stages, keeping the edge rows from
+    /// `seam` on; the raw statistics of the rows from `seam` on.
+    fn run(&mut self, frame: &[u8], seam: usize, start: usize) {
+        let w = self.p.width;
         self.front.reset();
-        let edges = &mut self.front.next.next.next.next;
+        let edges = self.front.last_sink();
         edges.skip = seam - start;
         edges.start = start as u16;
         for row in frame.chunks_exact(w).skip(start) {
-            take_row(self.front.input(), row, invert);
+            take_row(self.front.input(), row, self.p.invert);
             self.front.pushed(&mut ());
         }
         self.front.finish(&mut ());
-        // The focus sums run from two rows above the seam: row y's sums read rows y − 2, y − 1.
-        (self.saturated, self.focus_sum, self.grad_sum) = (0, 0, 0);
-        self.sat_runs.clear();
+        // The focus sums' state starts two rows above the seam (as at a frame's top: rows
+        // 0 and 1 have no sums of their own); from the seam on, the sums are a whole frame's.
+        self.raw.clear();
         let from = seam - 2;
-        for (k, row) in frame.chunks_exact(w).enumerate().skip(from) {
-            let prev =
-                (k >= seam).then(|| (&frame[(k - 2) * w..(k - 1) * w], &frame[(k - 1) * w..k * w]));
+        for (y, row) in frame.chunks_exact(w).enumerate().skip(from) {
+            let prev = (y >= seam).then(|| rows_above(frame, w, y)).flatten();
             let s = crate::simd::dispatch(
                 #[inline(always)]
-                || self.focus.push(k - from, row, prev),
+                || self.focus.push(y - from, row, prev),
             );
-            if k >= seam {
-                if s.saturated > 0 {
-                    self.saturated += u64::from(s.saturated);
-                    saturated_runs(row, k, &mut self.sat_runs);
-                }
-                self.grad_sum += s.abs_sum;
-                self.focus_sum += s.sq_sum;
+            if y >= seam {
+                self.raw.add(s, row, y);
             }
         }
     }
@@ -595,6 +613,13 @@ struct EdgeRows {
     skip: usize,
     /// The frame's row of the first row received.
     start: u16,
+}
+
+impl LastSink for EdgeRows {
+    type Sink = EdgeRows;
+    fn last_sink(&mut self) -> &mut EdgeRows {
+        self
+    }
 }
 
 impl RowSink for EdgeRows {

@@ -238,8 +238,8 @@ impl<S: FrameSource> SourceDetector<S> {
     }
 
     /// Detects each frame on two threads ([`Detector::detect_split`]: the same results, in
-    /// about half the time when a second core is free) or, `false` (the default), on the
-    /// calling thread alone.
+    /// about three quarters of the time when the second thread wakes at once) or, `false`
+    /// (the default), on the calling thread alone.
     pub fn split_frames(&mut self, on: bool) {
         self.lower = on.then(|| self.detector.lower_half());
     }
