@@ -35,7 +35,7 @@
 
 use crate::CameraError;
 use crate::ffi::{self, FillFn, RawFill};
-use crate::wake::{Pace, Watcher};
+use crate::wake::{Pace, Period, Watcher};
 use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -135,6 +135,16 @@ pub struct FakeGvCamera {
     watcher: Option<Watcher>,
 }
 
+impl std::fmt::Debug for FakeGvCamera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FakeGvCamera")
+            .field("config", &self.config)
+            .field("served", &self.frames_served())
+            .field("wakeups", &self.wakeups())
+            .finish_non_exhaustive()
+    }
+}
+
 impl FakeGvCamera {
     /// Starts serving on `config.address` with `fill` drawing every frame.
     ///
@@ -191,21 +201,10 @@ impl FakeGvCamera {
         let last = Arc::new(Mutex::new(None));
         let pace = Arc::new(Pace::new());
         let (served2, last2, pace2) = (served.clone(), last.clone(), pace.clone());
-        // The last intervals between fills, ns: their median is the frame period (a late
-        // frame makes one interval longer and the next shorter, a missed tick one a multiple).
-        let mut intervals = [0u64; 15];
-        let mut seen = 0usize;
+        let mut period = Period::default();
         let mut fill = fill;
         let f: Box<FillFn> = Box::new(move |raw: &RawFill, px: &mut [u8]| {
-            let now = pace2.now_ns();
-            if let Some(interval) = pace2.filled(now) {
-                intervals[seen % intervals.len()] = interval;
-                seen += 1;
-                let mut sorted = intervals;
-                let known = &mut sorted[..seen.min(intervals.len())];
-                known.sort_unstable();
-                pace2.set_period_ns(known[known.len() / 2]);
-            }
+            period.filled(&pace2, pace2.now_ns());
             let index = served2.load(Ordering::Relaxed);
             let info = FillInfo {
                 frame_id: raw.frame_id,

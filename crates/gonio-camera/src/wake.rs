@@ -65,7 +65,7 @@ impl Pace {
     }
 
     /// Records a frame filled at `now_ns`; returns the interval since the previous one, ns.
-    pub(crate) fn filled(&self, now_ns: u64) -> Option<u64> {
+    fn filled(&self, now_ns: u64) -> Option<u64> {
         let before = self.last_fill_ns.swap(now_ns, Ordering::AcqRel);
         (before > 0).then(|| now_ns.saturating_sub(before))
     }
@@ -73,6 +73,32 @@ impl Pace {
     /// Sets the frame period the watcher expects, ns.
     pub(crate) fn set_period_ns(&self, period_ns: u64) {
         self.period_ns.store(period_ns, Ordering::Relaxed);
+    }
+}
+
+/// The frame period as the fills show it, kept by the fill callback (its thread only): the
+/// median of the last 15 intervals between fills (a late frame makes one interval longer and
+/// the next shorter, a missed tick one a multiple; the median is neither).
+#[derive(Debug, Default)]
+pub(crate) struct Period {
+    intervals: [u64; 15],
+    seen: usize,
+}
+
+impl Period {
+    /// A frame is being filled at `now_ns` ([`Pace::now_ns`]): records it in `pace`, with the
+    /// period it shows.
+    pub(crate) fn filled(&mut self, pace: &Pace, now_ns: u64) {
+        let Some(interval) = pace.filled(now_ns) else {
+            return;
+        };
+        let n = self.intervals.len();
+        self.intervals[self.seen % n] = interval;
+        self.seen += 1;
+        let mut sorted = self.intervals;
+        let known = &mut sorted[..self.seen.min(n)];
+        known.sort_unstable();
+        pace.set_period_ns(known[known.len() / 2]);
     }
 }
 
@@ -204,6 +230,21 @@ mod tests {
         );
         // A slow camera (1 frame/s): looks are still at most LOOK_NS apart.
         assert_eq!(step(100 * MS, 100 * MS, 1000 * MS, 0), Step::Sleep(LOOK_NS));
+    }
+
+    #[test]
+    fn the_period_is_the_median_interval_late_frames_and_missed_ticks_aside() {
+        let pace = Pace::new();
+        let mut period = Period::default();
+        let mut at = MS;
+        period.filled(&pace, at);
+        // 10 ms a frame, one frame 4 ms late (14 then 6 ms), one tick missed (20 ms).
+        for dt in [10, 10, 14, 6, 10, 20, 10, 10, 10] {
+            at += dt * MS;
+            period.filled(&pace, at);
+        }
+        assert_eq!(pace.period_ns.load(Ordering::Relaxed), 10 * MS);
+        assert_eq!(pace.last_fill_ns.load(Ordering::Relaxed), at);
     }
 
     #[test]
