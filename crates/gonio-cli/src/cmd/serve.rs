@@ -198,48 +198,52 @@ const MIN_SPEED: f64 = 1e-3;
 /// See [`MIN_SPEED`].
 const MAX_SPEED: f64 = 1e6;
 
-/// The flags of the simulated station only that are given (refused with --station plc).
-fn sim_only_flags(a: &Args) -> Vec<&'static str> {
-    [
-        (a.seed.is_some(), "--seed"),
-        (a.fidelity.is_some(), "--fidelity"),
-        (a.speed.is_some(), "--speed"),
-        (a.resume, "--resume"),
-    ]
-    .into_iter()
-    .filter_map(|(given, flag)| given.then_some(flag))
-    .collect()
+impl Args {
+    /// `--speed`, 1 (real time) when not given.
+    fn speed(&self) -> f64 {
+        self.speed.unwrap_or(1.0)
+    }
+
+    /// `--seed`, 1 when not given.
+    fn seed(&self) -> u64 {
+        self.seed.unwrap_or(1)
+    }
+}
+
+/// The flags given, of `flags` (whether given, name), said as the subject of a sentence:
+/// "--seed is", "--speed, --resume are"; `None` when none is given.
+fn given(flags: &[(bool, &str)]) -> Option<String> {
+    let names: Vec<&str> = flags.iter().filter(|f| f.0).map(|f| f.1).collect();
+    (!names.is_empty()).then(|| {
+        let verb = if names.len() == 1 { "is" } else { "are" };
+        format!("{} {verb}", names.join(", "))
+    })
 }
 
 /// Checks that the station's flags fit the station: --plc and --camera with --station plc
 /// (and only with it), no flag of the simulation with it.
 fn check_station_flags(a: &Args) -> Result<()> {
-    let plc_flags: Vec<&str> = [
-        (a.plc.is_some(), "--plc"),
-        (a.camera.is_some(), "--camera"),
-        (a.plc_map.is_some(), "--plc-map"),
-    ]
-    .into_iter()
-    .filter_map(|(given, flag)| given.then_some(flag))
-    .collect();
     if a.station == Some(StationArg::Plc) {
-        let sim = sim_only_flags(a);
-        if !sim.is_empty() {
+        let sim = given(&[
+            (a.seed.is_some(), "--seed"),
+            (a.fidelity.is_some(), "--fidelity"),
+            (a.speed.is_some(), "--speed"),
+            (a.resume, "--resume"),
+        ]);
+        if let Some(sim) = sim {
             bail!(
-                "{} {} for --station sim only: --station plc mounts real parts at the station's own pace",
-                sim.join(", "),
-                if sim.len() == 1 { "is" } else { "are" }
+                "{sim} for --station sim only: --station plc mounts real parts at the station's own pace"
             );
         }
         if a.plc.is_none() || a.camera.is_none() {
             bail!("--station plc needs --plc modbus://HOST:PORT and --camera ID");
         }
-    } else if !plc_flags.is_empty() {
-        bail!(
-            "{} {} for --station plc only",
-            plc_flags.join(", "),
-            if plc_flags.len() == 1 { "is" } else { "are" }
-        );
+    } else if let Some(plc) = given(&[
+        (a.plc.is_some(), "--plc"),
+        (a.camera.is_some(), "--camera"),
+        (a.plc_map.is_some(), "--plc-map"),
+    ]) {
+        bail!("{plc} for --station plc only");
     }
     Ok(())
 }
@@ -247,7 +251,7 @@ fn check_station_flags(a: &Args) -> Result<()> {
 /// Runs `gonio serve`.
 pub fn run(a: Args) -> Result<()> {
     check_station_flags(&a)?;
-    let speed = a.speed.unwrap_or(1.0);
+    let speed = a.speed();
     if !(MIN_SPEED..=MAX_SPEED).contains(&speed) {
         bail!("--speed {speed}: expected {MIN_SPEED} to {MAX_SPEED} simulated seconds per second");
     }
@@ -292,7 +296,7 @@ pub fn run(a: Args) -> Result<()> {
             };
             let prepared = station::prepare(
                 &cfg,
-                a.seed.unwrap_or(1),
+                a.seed(),
                 &station::Target {
                     db: Some(&a.db),
                     resume: a.resume,
@@ -361,8 +365,8 @@ fn spawn_station(
                 .unwrap_or_default()
         }));
     }
-    let pace = Pace::new(a.speed.unwrap_or(1.0), timing);
-    let (seed, name) = (a.seed.unwrap_or(1), a.station_name.clone());
+    let pace = Pace::new(a.speed(), timing);
+    let (seed, name) = (a.seed(), a.station_name.clone());
     std::thread::spawn(move || {
         let p = match prepared {
             station::Start::Run(p) => p,
@@ -399,20 +403,26 @@ fn spawn_station(
                 }
             },
         );
-        let message = match report {
-            Ok(r) => match &r.stopped {
+        batch_finished(
+            &hub,
+            report.map(|r| match &r.stopped {
                 Some(why) => format!("the batch {why} (recipe on_device_error = \"stop\")"),
                 None => format!("batch done: {} parts mounted", r.summary.parts),
-            },
-            Err(e) => {
-                let m = format!("station stopped: {}", gonio_io::input::one_line(&e));
-                gonio_cli::note!("error: {m}");
-                m
-            }
-        };
-        gonio_cli::note!("{message}; the dashboard stays up until Ctrl-C");
-        hub.batch_finished(&message);
+            }),
+        );
     })
+}
+
+/// Says how the batch ended (its message, or the error that stopped the station) on standard
+/// error and to the dashboard, which stays up.
+fn batch_finished(hub: &Hub, ended: Result<String>) {
+    let message = ended.unwrap_or_else(|e| {
+        let m = format!("station stopped: {}", gonio_io::input::one_line(&e));
+        gonio_cli::note!("error: {m}");
+        m
+    });
+    gonio_cli::note!("{message}; the dashboard stays up until Ctrl-C");
+    hub.batch_finished(&message);
 }
 
 /// Fewest wall-clock time between two live thumbnails.
@@ -534,22 +544,16 @@ fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread:
         });
         // The batch's last requests (the station left safe) included.
         watch.refresh(true);
-        let message = match report {
-            Ok(r) => match &r.stopped {
+        batch_finished(
+            &hub,
+            report.map(|r| match &r.stopped {
                 Some(why) => format!("the batch {why}; the records so far are kept"),
                 None => format!(
                     "batch done: {} parts mounted through {}",
                     r.summary.parts, r.plc
                 ),
-            },
-            Err(e) => {
-                let m = format!("station stopped: {}", gonio_io::input::one_line(&e));
-                gonio_cli::note!("error: {m}");
-                m
-            }
-        };
-        gonio_cli::note!("{message}; the dashboard stays up until Ctrl-C");
-        hub.batch_finished(&message);
+            }),
+        );
     });
     match is_open.recv() {
         Ok(Ok(())) => Ok(thread),
