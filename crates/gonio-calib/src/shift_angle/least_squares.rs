@@ -47,6 +47,7 @@
 //! 1,000-face polygon at 10 shifts (full matrix at the first, 1,009,000 readings) solves in about
 //! a second where the dense 2N × 2N factorisations took 15 s.
 
+use super::data::Obs;
 use super::result::{max_listed_order, residual_stats};
 use super::{
     Calibration, CovarianceLevel, FullCovariance, Method, Options, ReadingSet, SetupError,
@@ -97,6 +98,13 @@ pub(crate) fn gamma_index(face1: usize, n: usize) -> Option<usize> {
     (face1 < n).then(|| face1 - 1)
 }
 
+/// The γ index of reading `o`'s face at the autocollimator (face i + j + 1 in the layout's
+/// 0-based step and start face, wrapped to 1..N), None for face N.
+#[inline]
+fn gamma_of(o: &Obs, n: usize) -> Option<usize> {
+    gamma_index(wrap1((o.i + o.j + 1) as i64, n), n)
+}
+
 /// B(m) from the γ vector: B(0) = B(N) = 0.
 #[inline]
 pub(crate) fn big_b(gamma: &DVector<f64>, m: usize, n: usize) -> f64 {
@@ -129,7 +137,7 @@ pub(crate) fn accumulate(set: &ReadingSet, lay: &[ShiftLayout]) -> Normal {
     for o in &set.obs {
         let (s, i) = (o.s, o.i);
         let v = lay[s].v_index[o.j];
-        let gi = gamma_index(wrap1((o.i + o.j + 1) as i64, n), n);
+        let gi = gamma_of(o, n);
         let am = &mut a[s];
         am[(i, i)] += 1.0;
         rhs_local[s][i] += o.value;
@@ -204,7 +212,7 @@ impl ShiftBlocks {
             let o = &set.obs[k];
             let i = o.i;
             let v = lay.v_index[o.j].map(|x| x - n);
-            let gi = gamma_index(wrap1((o.i + o.j + 1) as i64, n), n);
+            let gi = gamma_of(o, n);
             b.d_alpha[i] += 1.0;
             b.r_alpha[i] += o.value;
             if let Some(v) = v {
@@ -227,22 +235,23 @@ impl ShiftBlocks {
         self.d_alpha.iter().all(|&d| d > 0.0)
     }
 
+    /// D_α⁻¹·`m`: `m`'s row i divided by the readings of step i.
+    fn over_d_alpha(&self, m: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut out = m.clone();
+        for (i, &d) in self.d_alpha.iter().enumerate() {
+            out.row_mut(i).scale_mut(1.0 / d);
+        }
+        out
+    }
+
     /// G = D_α⁻¹·C (N × R).
     fn g(&self) -> DMatrix<f64> {
-        let mut g = self.c.clone();
-        for (i, &d) in self.d_alpha.iter().enumerate() {
-            g.row_mut(i).scale_mut(1.0 / d);
-        }
-        g
+        self.over_d_alpha(&self.c)
     }
 
     /// P = D_α⁻¹·B_α (N × (N−1)).
     fn p(&self) -> DMatrix<f64> {
-        let mut p = self.b_alpha.clone();
-        for (i, &d) in self.d_alpha.iter().enumerate() {
-            p.row_mut(i).scale_mut(1.0 / d);
-        }
-        p
+        self.over_d_alpha(&self.b_alpha)
     }
 }
 
@@ -286,7 +295,7 @@ pub(crate) fn solve(set: &ReadingSet, opts: &Options) -> Result<Calibration, Shi
     let mut rhs = DVector::zeros(g);
     for (k, o) in set.obs.iter().enumerate() {
         by_shift[o.s].push(k);
-        if let Some(gi) = gamma_index(wrap1((o.i + o.j + 1) as i64, n), n) {
+        if let Some(gi) = gamma_of(o, n) {
             schur[(gi, gi)] += 1.0;
             rhs[gi] += o.value;
         }
