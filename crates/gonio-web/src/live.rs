@@ -119,9 +119,7 @@ impl Hub {
 
     /// Sets where `/api/status` reads the station's own figures (its frame timing).
     pub fn set_status_source(&self, f: StatusSource) {
-        if let Ok(mut s) = self.status.lock() {
-            *s = Some(f);
-        }
+        Self::put(&self.status, f);
     }
 
     /// The station's own figures (`null` without a source).
@@ -132,14 +130,18 @@ impl Hub {
     /// Sets where `/api/status` reads the figures of the station's PLC link (`plc`: requests,
     /// round trips, frames paired and stale) when the station runs through a PLC.
     pub fn set_plc_source(&self, f: StatusSource) {
-        if let Ok(mut s) = self.plc.lock() {
-            *s = Some(f);
-        }
+        Self::put(&self.plc, f);
     }
 
     /// The PLC link's figures (`null` without a source: no station through a PLC).
     pub fn plc_status(&self) -> Value {
         Self::read(&self.plc)
+    }
+
+    fn put(source: &Mutex<Option<StatusSource>>, f: StatusSource) {
+        if let Ok(mut s) = source.lock() {
+            *s = Some(f);
+        }
     }
 
     fn read(source: &Mutex<Option<StatusSource>>) -> Value {
