@@ -22,10 +22,11 @@
 //! wrapper that takes a proof of the CPU's features.
 //!
 //! [`Detector`] chains them into one cascade ([`rows::Then`]); [`Optics`] derives every parameter
-//! and cuts the window out of a sensor frame; [`source`] brings frames in ([`FrameSource`]: files,
-//! raw standard input, the renderer, a camera) and [`SourceDetector`] runs them through the
-//! detector, the one path from a frame to its result ([`detect_in_order`]: the same path on
-//! several threads, results in the stream's order); [`reference`](mod@reference) holds the
+//! and cuts the window out of a sensor frame; [`frame_source`] brings frames in ([`FrameSource`]:
+//! files, [`raw_frames`] on standard input, the renderer, a camera) and [`source`]'s
+//! [`SourceDetector`] runs them through the detector, the one path from a frame to its result
+//! ([`in_order`]'s [`detect_in_order`]: the same path on several threads, results in the
+//! stream's order); [`reference`](mod@reference) holds the
 //! whole-frame implementations the streaming ones equal bit for bit; [`simd`] chooses the hot
 //! loops' code path (baseline, AVX2, AVX-512: the same bits).
 //!
@@ -44,12 +45,15 @@ pub mod error;
 pub mod features;
 pub mod fill;
 pub mod focus;
+pub mod frame_source;
 pub mod gaussian;
 pub mod gradient;
+pub mod in_order;
 pub mod label;
 pub mod morphology;
 pub mod optics;
 pub mod pipeline;
+pub mod raw_frames;
 pub mod reference;
 pub mod result;
 pub mod row_types;
@@ -58,12 +62,14 @@ pub mod segment;
 pub mod select;
 pub mod simd;
 pub mod source;
+#[cfg(test)]
+mod test_frames;
 
 pub use error::VisionError;
+pub use frame_source::{FrameHeader, FrameSource, FrameStamp};
+pub use in_order::{DetectInOrderError, detect_in_order};
 pub use optics::{MAX_RING_WIDTH_PX, MAX_SENSOR_PX, MAX_WINDOW_PIXELS, Optics, Params, Polarity};
 pub use pipeline::{Detector, LowerHalf, StageImages};
+pub use raw_frames::{RawFrames, RawFramesError};
 pub use result::{EdgeLine, FrameResult, InvalidReason};
-pub use source::{
-    DetectInOrderError, Detection, FrameHeader, FrameSource, FrameStamp, RawFrames, RawFramesError,
-    SourceDetector, SourceError, detect_in_order,
-};
+pub use source::{Detection, SourceDetector, SourceError};
