@@ -27,9 +27,11 @@
 
 mod combine;
 mod contribution;
+mod graph;
 mod model;
 mod set;
 mod shared;
+mod single;
 
 pub use combine::{
     Combined, Term, combine, deserialize_dof, deserialize_opt_dof, en, gum_for_model,
@@ -37,7 +39,8 @@ pub use combine::{
 };
 pub use contribution::{Contribution, Source};
 pub use model::LinearModel;
-pub use set::{Budget, BudgetResult, BudgetSet, Correlation, Row};
+pub use set::{BudgetResult, BudgetSet, Row};
+pub use single::{Budget, Correlation};
 
 #[cfg(test)]
 mod tests;

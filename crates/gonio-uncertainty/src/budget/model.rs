@@ -7,7 +7,7 @@
 //! flattening therefore visits each budget once: a diamond of 60 levels, each referring twice to
 //! the next, gives one leaf, not 2⁶⁰ copies.
 
-use super::set::postorder;
+use super::graph::postorder;
 use super::{BudgetSet, Contribution, Source};
 use crate::UncertaintyError;
 use crate::montecarlo::{InputDistribution, McConfig, McResult, max_trials, monte_carlo_linear};

@@ -1,5 +1,5 @@
-//! Budgets and sets of budgets that refer to each other by name: evaluation of every budget,
-//! nested references resolved first.
+//! Sets of budgets that refer to each other by name: evaluation of every budget (and of one
+//! budget alone), nested references resolved first; the evaluated rows and results.
 //!
 //! Everything here is linear in the size of the set: names are looked up through hash maps, the
 //! reference graph is walked without recursion (no stack overflow on a chain of 10,000 nested
@@ -8,37 +8,13 @@
 //! checked through the envelope of their matrix ([`crate::limits`]).
 
 use super::combine::finish;
+use super::graph::{References, postorder};
 use super::shared::shared_u_c;
-use super::{Contribution, Source, Term, combine, deserialize_dof, serialize_dof};
-use crate::envelope::Envelope;
-use crate::limits::{MAX_BUDGETS, MAX_CORRELATION_ENVELOPE, MAX_CORRELATIONS, MAX_ROWS};
+use super::{Budget, Source, Term, combine, deserialize_dof, serialize_dof};
+use crate::limits::{MAX_BUDGETS, MAX_ROWS};
 use crate::{UncertaintyError, check_coverage, short};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
-
-/// A correlation coefficient r between two contributions of the same budget, by name.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Correlation {
-    /// First contribution's name.
-    pub a: String,
-    /// Second contribution's name.
-    pub b: String,
-    /// Correlation coefficient, −1 ≤ r ≤ 1.
-    pub r: f64,
-}
-
-/// A named list of contributions and their correlations.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Budget {
-    /// Name (used by nested references and `--budget`).
-    pub name: String,
-    /// Unit of the result, e.g. `arcsec` or `nm` (free text; shown in tables and JSON).
-    pub unit: Option<String>,
-    /// The rows.
-    pub contributions: Vec<Contribution>,
-    /// Correlations between rows (by name).
-    pub correlations: Vec<Correlation>,
-}
 
 /// One evaluated row of a budget table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -95,30 +71,6 @@ pub struct BudgetResult {
 }
 
 impl Budget {
-    /// An empty budget.
-    pub fn new(name: &str) -> Budget {
-        Budget {
-            name: name.to_string(),
-            ..Budget::default()
-        }
-    }
-
-    /// Adds a row.
-    pub fn push(&mut self, c: Contribution) -> &mut Budget {
-        self.contributions.push(c);
-        self
-    }
-
-    /// Adds a correlation coefficient between two rows (by name).
-    pub fn correlate(&mut self, a: &str, b: &str, r: f64) -> &mut Budget {
-        self.correlations.push(Correlation {
-            a: a.to_string(),
-            b: b.to_string(),
-            r,
-        });
-        self
-    }
-
     /// Evaluates a budget without nested references at coverage p.
     ///
     /// # Errors
@@ -131,94 +83,6 @@ impl Budget {
         }
         .evaluate(Some(&self.name), None)
     }
-
-    /// Indices of the correlations `(i, j, r)`, validated: both names exist, i ≠ j, |r| ≤ 1, no
-    /// pair twice, and together they form a valid (positive semi-definite) correlation matrix.
-    pub(crate) fn correlation_indices(&self) -> Result<Vec<(usize, usize, f64)>, UncertaintyError> {
-        self.resolve_correlations().map_err(|(_, e)| e)
-    }
-
-    /// As [`correlation_indices`](Self::correlation_indices), with the position in
-    /// `correlations` of the one that is wrong (`None`: the matrix as a whole, or their number).
-    pub(crate) fn resolve_correlations(
-        &self,
-    ) -> Result<Vec<(usize, usize, f64)>, LocatedCorrelationError> {
-        if self.correlations.is_empty() {
-            return Ok(Vec::new());
-        }
-        if self.correlations.len() > MAX_CORRELATIONS {
-            return Err((
-                None,
-                UncertaintyError::TooLarge {
-                    budget: Some(self.name.clone()),
-                    what: format!("budget '{}': correlations", short(&self.name)),
-                    found: self.correlations.len() as u64,
-                    limit: MAX_CORRELATIONS as u64,
-                    hint: String::new(),
-                },
-            ));
-        }
-        let mut index: HashMap<&str, usize> = HashMap::with_capacity(self.contributions.len());
-        for (i, c) in self.contributions.iter().enumerate() {
-            index.entry(c.name.as_str()).or_insert(i);
-        }
-        let mut seen = HashSet::with_capacity(self.correlations.len());
-        let mut out = Vec::with_capacity(self.correlations.len());
-        for (k, cor) in self.correlations.iter().enumerate() {
-            let bad = |what: String| {
-                (
-                    Some(k),
-                    UncertaintyError::BadCorrelation {
-                        budget: self.name.clone(),
-                        a: cor.a.clone(),
-                        b: cor.b.clone(),
-                        what,
-                    },
-                )
-            };
-            let i = *index
-                .get(cor.a.as_str())
-                .ok_or_else(|| bad(format!("no contribution '{}'", short(&cor.a))))?;
-            let j = *index
-                .get(cor.b.as_str())
-                .ok_or_else(|| bad(format!("no contribution '{}'", short(&cor.b))))?;
-            if i == j {
-                return Err(bad("a contribution cannot be correlated with itself".into()));
-            }
-            if cor.r.is_nan() || cor.r.abs() > 1.0 {
-                return Err(bad(format!("r must be within [-1, 1], found {}", cor.r)));
-            }
-            if !seen.insert((i.min(j), i.max(j))) {
-                return Err(bad("given twice".into()));
-            }
-            out.push((i, j, cor.r));
-        }
-        let mut m = Envelope::correlation(self.contributions.len(), &out, MAX_CORRELATION_ENVELOPE)
-            .map_err(|entries| {
-                (
-                    None,
-                    UncertaintyError::TooLarge {
-                        budget: Some(self.name.clone()),
-                        what: format!(
-                            "budget '{}': the correlation matrix's envelope (for each correlated row, the entries from its first correlated row to itself)",
-                            short(&self.name)
-                        ),
-                        found: entries as u64,
-                        limit: MAX_CORRELATION_ENVELOPE as u64,
-                        hint: "; list correlated rows next to each other".into(),
-                    },
-                )
-            })?;
-        if m.cholesky().is_none() {
-            return Err((
-                None,
-                UncertaintyError::NotPositiveDefinite {
-                    context: format!("budget '{}'", short(&self.name)),
-                },
-            ));
-        }
-        Ok(out)
-    }
 }
 
 /// Several budgets that may refer to each other by name (the last one is the result by default),
@@ -230,12 +94,6 @@ pub struct BudgetSet {
     /// The budgets in file order.
     pub budgets: Vec<Budget>,
 }
-
-/// A correlation error with the position of the wrong correlation (`None`: all of them).
-pub(crate) type LocatedCorrelationError = (Option<usize>, UncertaintyError);
-
-/// For each budget, for each row, the index of the budget the row refers to (`from`), if any.
-pub(crate) type References = Vec<Vec<Option<usize>>>;
 
 impl BudgetSet {
     /// Finds a budget by name, or the last one.
@@ -378,7 +236,7 @@ impl BudgetSet {
         let refs = self.references()?;
         let p = check_coverage(coverage.unwrap_or(self.coverage))?;
         let order = postorder(&refs, 0..self.budgets.len());
-        let exact = shared_u_c(self, &refs, &order)?;
+        let exact = shared_u_c(&self.budgets, &refs, &order)?;
         let mut results: Vec<Option<BudgetResult>> = vec![None; self.budgets.len()];
         for i in order {
             results[i] = Some(self.eval_one(i, &refs[i], exact[i], p, &results)?);
@@ -400,7 +258,7 @@ impl BudgetSet {
         let p = check_coverage(coverage.unwrap_or(self.coverage))?;
         let root = self.position(name)?;
         let order = postorder(&refs, std::iter::once(root));
-        let exact = shared_u_c(self, &refs, &order)?;
+        let exact = shared_u_c(&self.budgets, &refs, &order)?;
         let mut results: Vec<Option<BudgetResult>> = vec![None; self.budgets.len()];
         for i in order {
             results[i] = Some(self.eval_one(i, &refs[i], exact[i], p, &results)?);
@@ -569,38 +427,6 @@ impl BudgetSet {
                 .collect(),
         })
     }
-}
-
-/// The budgets reachable from `roots` (in that order), each once, every budget after the budgets
-/// it refers to (depth-first post-order, rows in order, without recursion). `refs` must be
-/// acyclic ([`BudgetSet::references`]).
-pub(crate) fn postorder(refs: &References, roots: impl Iterator<Item = usize>) -> Vec<usize> {
-    let mut done = vec![false; refs.len()];
-    let mut out = Vec::with_capacity(refs.len());
-    let mut path: Vec<(usize, usize)> = Vec::new();
-    for root in roots {
-        if done[root] {
-            continue;
-        }
-        done[root] = true;
-        path.push((root, 0));
-        while let Some(top) = path.last_mut() {
-            let (b, row) = *top;
-            if row == refs[b].len() {
-                out.push(b);
-                path.pop();
-                continue;
-            }
-            top.1 += 1;
-            if let Some(sub) = refs[b][row]
-                && !done[sub]
-            {
-                done[sub] = true;
-                path.push((sub, 0));
-            }
-        }
-    }
-    out
 }
 
 /// `a -> b -> a` with shortened names; long cycles show their first budgets and the count.

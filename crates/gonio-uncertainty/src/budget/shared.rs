@@ -19,19 +19,19 @@
 //! The work is linear in the number of budgets when no budget is referred to twice (the usual
 //! case: nothing is done). Otherwise it is bounded by [`MAX_SHARED_ENTRIES`].
 
-use super::BudgetSet;
-use super::set::References;
+use super::Budget;
+use super::graph::References;
 use crate::limits::MAX_SHARED_ENTRIES;
 use crate::{UncertaintyError, short};
 
 /// For each budget in `order` (every budget after those it refers to), the exact combined
 /// standard uncertainty when two of its rows depend on a common budget; `None` for the others.
 pub(crate) fn shared_u_c(
-    set: &BudgetSet,
+    budgets: &[Budget],
     refs: &References,
     order: &[usize],
 ) -> Result<Vec<Option<f64>>, UncertaintyError> {
-    let nb = set.budgets.len();
+    let nb = budgets.len();
     let mut out = vec![None; nb];
     // Nothing is shared unless some budget is referred to more than once.
     let mut referred = vec![0u32; nb];
@@ -78,24 +78,24 @@ pub(crate) fn shared_u_c(
     let mut total = 0usize;
     for (b, o) in offset.iter_mut().enumerate() {
         *o = total;
-        total += set.budgets[b].contributions.len();
+        total += budgets[b].contributions.len();
     }
     // Leaf coefficient vectors g, sorted by leaf id, in post-order, and the correlations.
     let mut g: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nb];
     let mut cors: Vec<Vec<(usize, usize, f64)>> = vec![Vec::new(); nb];
     let mut entries = 0usize;
     let too_large = |b: usize, entries: usize| UncertaintyError::TooLarge {
-        budget: Some(set.budgets[b].name.clone()),
+        budget: Some(budgets[b].name.clone()),
         what: format!(
             "budget '{}': the leaf coefficients and correlations of budgets referred to more than once",
-            short(&set.budgets[b].name)
+            short(&budgets[b].name)
         ),
         found: entries as u64,
         limit: MAX_SHARED_ENTRIES as u64,
         hint: "; refer to each budget once, or use fewer rows".into(),
     };
     for &b in order.iter().filter(|&&b| is_needed(b)) {
-        let budget = &set.budgets[b];
+        let budget = &budgets[b];
         let mut v: Vec<(usize, f64)> = Vec::new();
         for (r, (c, sub)) in budget.contributions.iter().zip(&refs[b]).enumerate() {
             match sub {
@@ -134,7 +134,7 @@ pub(crate) fn shared_u_c(
     // Leaf u of each leaf id.
     let leaf_u = |l: usize| {
         let b = offset.partition_point(|&o| o <= l) - 1;
-        set.budgets[b].contributions[l - offset[b]].u
+        budgets[b].contributions[l - offset[b]].u
     };
     for b in (0..nb).filter(|&b| shares[b]) {
         let gb = &g[b];
@@ -165,7 +165,7 @@ pub(crate) fn shared_u_c(
         let u_c = s * var.max(0.0).sqrt();
         if !u_c.is_finite() {
             return Err(UncertaintyError::NonFinite {
-                budget: set.budgets[b].name.clone(),
+                budget: budgets[b].name.clone(),
                 contribution: None,
                 quantity: "u_c = √(gᵀ·C·g) over the leaf inputs".into(),
             });
