@@ -4,8 +4,10 @@
 //! station that serves the same registers (`docs/plc-interface.md`).
 //!
 //! - [`map`]: the register map as data (`examples/plc/modbus-map.toml`), units and scaling.
+//! - [`protocol`]: the status word's bits, fault codes, commands and the status block.
 //! - [`link`]: the blocking Modbus TCP link: command word and sequence counter, status word,
-//!   heartbeat both ways with a watchdog, round-trip times.
+//!   heartbeat both ways with a watchdog; [`round_trips`]: its round-trip times.
+//! - [`error`]: [`PlcError`], every error of the station over the wire.
 //! - [`pairing`]: a frame's angle from the latch ring, or interpolated in timestamped samples.
 //! - [`contact`]: contact when the ring's column starts to move.
 //! - [`station`]: the five devices over one link and one triggered camera.
@@ -35,12 +37,16 @@
 
 pub mod batch;
 pub mod contact;
+pub mod error;
 pub mod link;
 pub mod map;
 pub mod pairing;
+pub mod protocol;
+pub mod round_trips;
 pub mod sim;
 pub mod station;
 
-pub use link::{Link, PlcError};
+pub use error::PlcError;
+pub use link::Link;
 pub use map::RegisterMap;
 pub use station::{PlcStation, StationOptions, TriggeredCamera};
