@@ -6,7 +6,8 @@
 use crate::station::{self, StrategyArg};
 use anyhow::{Result, anyhow, bail};
 use gonio_plc::batch::{LinkFigures, PartEnd, PlcBatchReport, PlcPartDone, run_batch_observed};
-use gonio_plc::station::{FrameTap, PlcStation, StationOptions};
+use gonio_plc::station::{PlcStation, StationOptions};
+use gonio_plc::triggered::FrameTap;
 use gonio_station::observe::Observer;
 use gonio_station::{Controller, Recipe, Strategy};
 use std::path::PathBuf;
@@ -190,7 +191,8 @@ mod plc_camera {
         use super::*;
         use anyhow::anyhow;
         use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
-        use gonio_plc::station::{DetectorTriggered, FrameTap, StampedSource};
+        use gonio_plc::sim::StampedSource;
+        use gonio_plc::triggered::{DetectorTriggered, FrameTap};
         use gonio_vision::{FrameHeader, FrameSource, Optics};
 
         /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
@@ -227,11 +229,11 @@ mod plc_camera {
         }
 
         impl gonio_plc::TriggeredCamera for Camera {
-            type Error = gonio_plc::station::DetectorTriggeredError<CameraError>;
+            type Error = gonio_plc::triggered::DetectorTriggeredError<CameraError>;
             fn next_frame(
                 &mut self,
                 timeout: std::time::Duration,
-            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, Self::Error> {
+            ) -> Result<Option<gonio_plc::triggered::TriggeredFrame>, Self::Error> {
                 match self {
                     Camera::Sim(c) => c.next_frame(timeout),
                     Camera::Real(c) => c.next_frame(timeout),
@@ -312,7 +314,7 @@ mod plc_camera {
             fn next_frame(
                 &mut self,
                 _timeout: std::time::Duration,
-            ) -> Result<Option<gonio_plc::station::TriggeredFrame>, NoCameraError> {
+            ) -> Result<Option<gonio_plc::triggered::TriggeredFrame>, NoCameraError> {
                 match *self {}
             }
         }
@@ -322,7 +324,7 @@ mod plc_camera {
             id: &str,
             _recipe: &Recipe,
             _frame_timeout_ms: u64,
-            _tap: Option<gonio_plc::station::FrameTap>,
+            _tap: Option<gonio_plc::triggered::FrameTap>,
         ) -> Result<NoCamera> {
             bail!(
                 "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"

@@ -12,7 +12,9 @@
 //! # }
 //! ```
 
-use crate::station::{PlcStation, TriggeredCamera};
+pub use crate::station::LinkFigures;
+use crate::station::PlcStation;
+use crate::triggered::TriggeredCamera;
 use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::strategy::Learned;
 use gonio_station::{Controller, PartRecord, PartResult, StationError};
@@ -65,21 +67,6 @@ pub struct PlcSummary {
     pub mean_measure_s: f64,
     /// Mean push time per part, s.
     pub mean_push_s: f64,
-}
-
-/// The link's figures over the batch.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LinkFigures {
-    /// Modbus requests timed.
-    pub requests: usize,
-    /// Median round trip, ms.
-    pub round_trip_p50_ms: f64,
-    /// 99th percentile round trip, ms.
-    pub round_trip_p99_ms: f64,
-    /// Frames paired with a latched angle.
-    pub frames_paired: u64,
-    /// Frames skipped (triggered before the last motion finished).
-    pub frames_stale: u64,
 }
 
 /// The batch's result.

@@ -10,7 +10,9 @@
 //! - [`error`]: [`PlcError`], every error of the station over the wire.
 //! - [`pairing`]: a frame's angle from the latch ring, or interpolated in timestamped samples.
 //! - [`contact`]: contact when the ring's column starts to move.
-//! - [`station`]: the five devices over one link and one triggered camera.
+//! - [`triggered`]: the camera the PLC triggers, through the detector.
+//! - [`station`]: the station core: one link and one triggered camera, each frame paired with
+//!   its latched angle; [`devices`]: its five device handles for the controller.
 //! - [`batch`]: a batch of parts through the PLC, with the part handshake.
 //! - [`sim`]: the station as a Modbus TCP server with the twin's plant.
 //!
@@ -37,6 +39,7 @@
 
 pub mod batch;
 pub mod contact;
+pub mod devices;
 pub mod error;
 pub mod link;
 pub mod map;
@@ -45,8 +48,10 @@ pub mod protocol;
 pub mod round_trips;
 pub mod sim;
 pub mod station;
+pub mod triggered;
 
 pub use error::PlcError;
 pub use link::Link;
 pub use map::RegisterMap;
-pub use station::{PlcStation, StationOptions, TriggeredCamera};
+pub use station::{PlcStation, StationOptions};
+pub use triggered::TriggeredCamera;

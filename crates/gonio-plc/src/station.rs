@@ -1,19 +1,13 @@
 //! The station over the wire: one [`PlcStation`] (the Modbus link, the triggered camera and the
-//! angle pairing) behind five thin device handles that implement `gonio_station::hal`, so the
-//! controller mounts through a PLC exactly as it does on its twin.
+//! angle pairing) whose device handles ([`crate::devices`]) implement `gonio_station::hal`, so
+//! the controller mounts through a PLC exactly as it does on its twin.
 //!
-//! - [`PlcServo`]: moves, turns and stops through commands; its angle log is the latched
-//!   (mid-exposure time, angle) of every frame the camera gave, so each frame is stamped with
-//!   its own latched angle.
-//! - [`PlcCamera`]: the next frame triggered after the last motion finished, paired with its
-//!   latched angle (a frame with none ends the part: `device_error`).
-//! - [`PlcFocus`]: the focus drive through commands.
-//! - [`PlcRod`]: approach with contact seen in the ring's column ([`crate::contact`]), push,
-//!   retract.
-//! - [`PlcClock`]: the PLC's clock (every time the controller sees is PLC time).
-//!
-//! The frames come from a [`TriggeredCamera`]: a GigE Vision camera's frames through the
-//! detector ([`DetectorTriggered`] over any `FrameSource`), or a test's stand-in.
+//! - Every frame the camera gives ([`crate::triggered`]) is paired with the servo angle the PLC
+//!   latched at its trigger (or interpolated in its angle samples, [`crate::pairing`]); a frame
+//!   triggered before the last motion finished is skipped as stale; the servo's angle log is the
+//!   latched (mid-exposure time, angle) of every frame delivered.
+//! - Contact is seen in the ring's column ([`crate::contact`]) while the rod creeps.
+//! - Every time the controller sees is PLC time, s; angles in degrees, lengths in µm.
 //!
 //! Errors: [`PlcError`].
 
@@ -21,196 +15,13 @@ use crate::contact::{ContactDetector, Verdict};
 use crate::link::{Command, Link, PlcError, Status, bits};
 use crate::map::{LATCH_ENTRY_REGS, Pairing, SAMPLE_ENTRY_REGS, words_i32, words_u32, words_u64};
 use crate::pairing::{AnglePairing, Interpolated, LatchedRing};
-use gonio_station::Devices;
-use gonio_station::hal::{
-    ApproachSpeed, Camera, CameraFrame, Clock, DeviceError, DeviceErrorKind, FocusDrive, PushRod,
-    Servo,
-};
+use crate::triggered::TriggeredCamera;
+use gonio_station::hal::{ApproachSpeed, CameraFrame, DeviceError, DeviceErrorKind};
 use gonio_station::interval::AngleSample;
-use gonio_vision::{FrameResult, FrameSource, Optics, SourceDetector, SourceError, VisionError};
+use serde::Serialize;
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
-
-/// One frame of a triggered camera, through the detector.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TriggeredFrame {
-    /// The camera's frame number (= the PLC's trigger count).
-    pub frame_id: u64,
-    /// The camera's timestamp of the exposure start, s, on the PLC's clock when the clocks are
-    /// synchronised (`None`: unknown).
-    pub timestamp_s: Option<f64>,
-    /// The detector's result; `start_s` is replaced by the paired PLC time.
-    pub frame: CameraFrame,
-}
-
-/// A camera triggered by the PLC: frames in order, each with its number.
-pub trait TriggeredCamera {
-    /// The camera's error.
-    type Error: DeviceError + std::fmt::Display;
-    /// The next frame, waiting at most `timeout`; `Ok(None)` when none came in time.
-    ///
-    /// # Errors
-    /// The camera failed.
-    fn next_frame(&mut self, timeout: Duration) -> Result<Option<TriggeredFrame>, Self::Error>;
-}
-
-/// A `FrameSource` (e.g. a GigE Vision camera) through the streaming detector: frame numbers
-/// from the source's stamps; optionally every frame shown to a [`FrameTap`].
-pub struct DetectorTriggered<S> {
-    det: SourceDetector<S>,
-    tap: Option<FrameTap>,
-}
-
-impl<S: std::fmt::Debug> std::fmt::Debug for DetectorTriggered<S> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("DetectorTriggered")
-            .field("det", &self.det)
-            .field("tap", &self.tap.is_some())
-            .finish()
-    }
-}
-
-/// One frame as a [`FrameTap`] sees it: the camera window's pixels as the detector saw them
-/// (borrowed from its buffers, no copy) and what it found.
-#[derive(Debug, Clone, Copy)]
-pub struct TappedFrame<'a> {
-    /// The camera's frame number (= the PLC's trigger count).
-    pub frame_id: u64,
-    /// Width, px (the optics' window).
-    pub width: usize,
-    /// Height, px.
-    pub height: usize,
-    /// 8-bit grey pixels, row-major, `width` × `height`.
-    pub pixels: &'a [u8],
-    /// The detector's result (edge columns and `c_px` in the window's pixels).
-    pub result: &'a FrameResult,
-}
-
-/// Told every frame a [`DetectorTriggered`] detects, paired or not, as it is detected (e.g. the
-/// live view's thumbnail). It runs on the camera's thread between frames: it should return at
-/// once for most frames (rate-limit before any work).
-pub type FrameTap = Box<dyn FnMut(&TappedFrame<'_>) + Send>;
-
-impl<S: FrameSource> DetectorTriggered<S> {
-    /// The source through the detector for `optics`.
-    ///
-    /// # Errors
-    /// Invalid optics.
-    pub fn new(source: S, optics: &Optics) -> Result<Self, VisionError> {
-        Ok(DetectorTriggered {
-            det: SourceDetector::new(source, optics)?,
-            tap: None,
-        })
-    }
-
-    /// Shows every frame detected from now on to `tap` (replacing any tap before).
-    #[must_use]
-    pub fn with_tap(mut self, tap: FrameTap) -> Self {
-        self.tap = Some(tap);
-        self
-    }
-
-    /// The source.
-    pub fn source_mut(&mut self) -> &mut S {
-        self.det.source_mut()
-    }
-}
-
-/// An error of [`DetectorTriggered`].
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum DetectorTriggeredError<E: std::error::Error + 'static> {
-    /// The source failed.
-    #[error(transparent)]
-    Source(E),
-    /// A frame could not be run through the detector.
-    #[error("frame {index}: {error}")]
-    Frame {
-        /// The frame.
-        index: u64,
-        /// Why.
-        error: VisionError,
-    },
-}
-
-impl<E: std::error::Error + DeviceError + 'static> DeviceError for DetectorTriggeredError<E> {
-    fn kind(&self) -> DeviceErrorKind {
-        match self {
-            DetectorTriggeredError::Source(e) => e.kind(),
-            DetectorTriggeredError::Frame { .. } => DeviceErrorKind::Fault,
-        }
-    }
-}
-
-impl<S> TriggeredCamera for DetectorTriggered<S>
-where
-    S: FrameSource,
-    S::Error: DeviceError,
-{
-    type Error = DetectorTriggeredError<S::Error>;
-
-    fn next_frame(&mut self, _timeout: Duration) -> Result<Option<TriggeredFrame>, Self::Error> {
-        // The source's own timeout bounds the wait (a GigE source ends with an error).
-        let d = match self.det.detect_next() {
-            Ok(Some(d)) => d,
-            Ok(None) => return Ok(None),
-            Err(SourceError::Source(e)) => return Err(DetectorTriggeredError::Source(e)),
-            Err(SourceError::Frame { index, error }) => {
-                return Err(DetectorTriggeredError::Frame { index, error });
-            }
-        };
-        if let (Some(tap), Some(pixels)) = (self.tap.as_mut(), self.det.window()) {
-            let optics = self.det.optics();
-            tap(&TappedFrame {
-                frame_id: d.stamp.index,
-                width: optics.window_width_px as usize,
-                height: optics.window_height_px as usize,
-                pixels,
-                result: &d.result,
-            });
-        }
-        let r = d.result;
-        Ok(Some(TriggeredFrame {
-            frame_id: d.stamp.index,
-            timestamp_s: d.stamp.start_s,
-            frame: CameraFrame {
-                start_s: d.stamp.start_s.unwrap_or(f64::NAN),
-                exposure_s: d.stamp.exposure_s.unwrap_or(0.0),
-                c_px: r.c_px.filter(|_| r.valid),
-                invalid_reason: if r.valid { None } else { r.reason },
-                focus_measure: r.focus,
-            },
-        }))
-    }
-}
-
-/// A frame source whose frames carry their trigger count in their first pixels (the simulated
-/// camera's embedded counter, [`crate::sim::stamp_trigger`]): each frame's stamp index becomes
-/// its trigger count, for [`DetectorTriggered`].
-#[derive(Debug)]
-pub struct StampedSource<S>(pub S);
-
-impl<S: FrameSource> FrameSource for StampedSource<S> {
-    type Error = S::Error;
-    fn next_frame(
-        &mut self,
-        pixels: &mut Vec<u8>,
-    ) -> Result<Option<gonio_vision::FrameHeader>, S::Error> {
-        let Some(mut h) = self.0.next_frame(pixels)? else {
-            return Ok(None);
-        };
-        if let Some(k) = crate::sim::read_trigger(pixels) {
-            h.stamp.index = k;
-            // The counter's pixels back to their neighbours' grey, for the detector.
-            let fill = pixels.get(crate::sim::STAMP_PIXELS).copied().unwrap_or(0);
-            for p in pixels.iter_mut().take(crate::sim::STAMP_PIXELS) {
-                *p = fill;
-            }
-        }
-        Ok(Some(h))
-    }
-}
 
 /// Settings of the station besides the register map.
 #[derive(Debug, Clone, PartialEq)]
@@ -232,20 +43,21 @@ pub struct PairingCounts {
     pub stale: u64,
 }
 
-struct Inner<C> {
-    link: Link,
-    camera: C,
-    latched: LatchedRing,
-    samples: Interpolated,
-    sample_read: u64,
-    log: Vec<AngleSample>,
-    fresh_after_s: f64,
-    opts: StationOptions,
-    counts: PairingCounts,
+/// The station's state behind its handles: the link, the camera, the angle pairing.
+pub(crate) struct Inner<C> {
+    pub(crate) link: Link,
+    pub(crate) camera: C,
+    pub(crate) latched: LatchedRing,
+    pub(crate) samples: Interpolated,
+    pub(crate) sample_read: u64,
+    pub(crate) log: Vec<AngleSample>,
+    pub(crate) fresh_after_s: f64,
+    pub(crate) opts: StationOptions,
+    pub(crate) counts: PairingCounts,
 }
 
 /// The station behind the PLC; clone the device handles out with [`PlcStation::devices`].
-pub struct PlcStation<C>(Rc<RefCell<Inner<C>>>);
+pub struct PlcStation<C>(pub(crate) Rc<RefCell<Inner<C>>>);
 
 impl<C> Clone for PlcStation<C> {
     fn clone(&self) -> Self {
@@ -259,24 +71,20 @@ impl<C> std::fmt::Debug for PlcStation<C> {
     }
 }
 
-/// The servo through the PLC.
-pub type PlcServo<C> = PlcStation<C>;
-
-/// A device handle: which device the trait methods drive.
-#[derive(Debug)]
-pub struct Handle<C, const D: u8>(PlcStation<C>);
-
-/// The camera handle.
-pub type PlcCamera<C> = Handle<C, 1>;
-/// The focus-drive handle.
-pub type PlcFocus<C> = Handle<C, 2>;
-/// The push-rod handle.
-pub type PlcRod<C> = Handle<C, 3>;
-/// The clock handle.
-pub type PlcClock<C> = Handle<C, 4>;
-
-/// The controller's devices over one PLC station.
-pub type PlcDevices<C> = Devices<PlcServo<C>, PlcCamera<C>, PlcFocus<C>, PlcRod<C>, PlcClock<C>>;
+/// The link's figures over a batch.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinkFigures {
+    /// Modbus requests timed.
+    pub requests: usize,
+    /// Median round trip, ms.
+    pub round_trip_p50_ms: f64,
+    /// 99th percentile round trip, ms.
+    pub round_trip_p99_ms: f64,
+    /// Frames paired with a latched angle.
+    pub frames_paired: u64,
+    /// Frames skipped (triggered before the last motion finished).
+    pub frames_stale: u64,
+}
 
 impl<C: TriggeredCamera> PlcStation<C> {
     /// A station over a connected link and a camera: clears a latched fault and starts the
@@ -306,17 +114,6 @@ impl<C: TriggeredCamera> PlcStation<C> {
             opts,
             counts: PairingCounts::default(),
         }))))
-    }
-
-    /// The five device handles for the controller.
-    pub fn devices(&self) -> PlcDevices<C> {
-        Devices {
-            servo: self.clone(),
-            camera: Handle(self.clone()),
-            focus: Handle(self.clone()),
-            rod: Handle(self.clone()),
-            clock: Handle(self.clone()),
-        }
     }
 
     /// The PLC's address.
@@ -389,10 +186,10 @@ impl<C: TriggeredCamera> PlcStation<C> {
     /// The link's figures so far: [`PlcStation::round_trip_ms`] and
     /// [`PlcStation::pairing_counts`] together (a scan of the round trips' histogram: not for
     /// every frame).
-    pub fn link_figures(&self) -> crate::batch::LinkFigures {
+    pub fn link_figures(&self) -> LinkFigures {
         let (p50, p99, n) = self.round_trip_ms();
         let counts = self.pairing_counts();
-        crate::batch::LinkFigures {
+        LinkFigures {
             requests: n,
             round_trip_p50_ms: p50,
             round_trip_p99_ms: p99,
@@ -403,7 +200,12 @@ impl<C: TriggeredCamera> PlcStation<C> {
 }
 
 impl<C: TriggeredCamera> Inner<C> {
-    fn motion(&mut self, cmd: Command, arg0: i32, arg1: i32) -> Result<Status, PlcError> {
+    pub(crate) fn motion(
+        &mut self,
+        cmd: Command,
+        arg0: i32,
+        arg1: i32,
+    ) -> Result<Status, PlcError> {
         let s = self.link.command(cmd, arg0, arg1)?;
         self.fresh_after_s = s.time_s;
         Ok(s)
@@ -468,7 +270,7 @@ impl<C: TriggeredCamera> Inner<C> {
     }
 
     /// The next frame triggered after the last motion, with its PLC time and angle.
-    fn capture(&mut self) -> Result<CameraFrame, PlcError> {
+    pub(crate) fn capture(&mut self) -> Result<CameraFrame, PlcError> {
         let timeout = Duration::from_millis(self.link.map.timing.frame_timeout_ms);
         let half = 0.5 * self.opts.exposure_s;
         let pairing = self.link.map.pairing;
@@ -573,7 +375,7 @@ impl<C: TriggeredCamera> Inner<C> {
         }
     }
 
-    fn approach(&mut self, speed: ApproachSpeed) -> Result<(), PlcError> {
+    pub(crate) fn approach(&mut self, speed: ApproachSpeed) -> Result<(), PlcError> {
         let rod = self.link.map.rod.clone();
         let mut det = ContactDetector::new(
             rod.baseline_frames,
@@ -615,166 +417,5 @@ impl<C: TriggeredCamera> Inner<C> {
         Err(PlcError::NoContact {
             message: format!("no contact seen in {max_frames} frames"),
         })
-    }
-}
-
-impl<C: TriggeredCamera> Servo for PlcStation<C> {
-    type Error = PlcError;
-    fn angle_deg(&mut self) -> Result<f64, PlcError> {
-        Ok(self.0.borrow_mut().link.status()?.angle_deg)
-    }
-    fn move_to_deg(&mut self, target_deg: f64) -> Result<(), PlcError> {
-        let mut i = self.0.borrow_mut();
-        let a = i.link.map.angle_counts(target_deg);
-        i.motion(Command::MoveServo, a, 0).map(|_| ())
-    }
-    fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), PlcError> {
-        let mut i = self.0.borrow_mut();
-        let v = i.link.map.speed_counts(speed_deg_per_s);
-        i.motion(Command::Turn, v, 0).map(|_| ())
-    }
-    fn stop(&mut self) -> Result<(), PlcError> {
-        self.0
-            .borrow_mut()
-            .motion(Command::StopServo, 0, 0)
-            .map(|_| ())
-    }
-    fn angle_log(&mut self, since_s: f64) -> Result<Vec<AngleSample>, PlcError> {
-        let i = self.0.borrow();
-        let k = i.log.partition_point(|s| s.t_s < since_s);
-        Ok(i.log[k..].to_vec())
-    }
-}
-
-impl<C: TriggeredCamera> Camera for PlcCamera<C> {
-    type Error = PlcError;
-    fn capture(&mut self) -> Result<CameraFrame, PlcError> {
-        self.0.0.borrow_mut().capture()
-    }
-}
-
-impl<C: TriggeredCamera> FocusDrive for PlcFocus<C> {
-    type Error = PlcError;
-    fn position_um(&mut self) -> Result<f64, PlcError> {
-        Ok(self.0.0.borrow_mut().link.status()?.focus_um)
-    }
-    fn move_to_um(&mut self, z_um: f64) -> Result<(), PlcError> {
-        let mut i = self.0.0.borrow_mut();
-        let z = i.link.map.length_counts(z_um);
-        i.motion(Command::MoveFocus, z, 0).map(|_| ())
-    }
-}
-
-impl<C: TriggeredCamera> PushRod for PlcRod<C> {
-    type Error = PlcError;
-    fn approach(&mut self, speed: ApproachSpeed) -> Result<(), PlcError> {
-        self.0.0.borrow_mut().approach(speed)
-    }
-    fn push_um(&mut self, d_um: f64) -> Result<(), PlcError> {
-        let mut i = self.0.0.borrow_mut();
-        let d = i.link.map.length_counts(d_um.max(0.0));
-        i.motion(Command::Push, d, 0).map(|_| ())
-    }
-    fn retract(&mut self) -> Result<(), PlcError> {
-        self.0
-            .0
-            .borrow_mut()
-            .motion(Command::Retract, 0, 0)
-            .map(|_| ())
-    }
-}
-
-impl<C: TriggeredCamera> Clock for PlcClock<C> {
-    type Error = PlcError;
-    fn now_s(&mut self) -> Result<f64, PlcError> {
-        Ok(self.0.0.borrow_mut().link.status()?.time_s)
-    }
-    fn wait_s(&mut self, dt_s: f64) -> Result<(), PlcError> {
-        let t0 = Instant::now();
-        let dt = Duration::from_secs_f64(dt_s.clamp(0.0, 3600.0));
-        while t0.elapsed() < dt {
-            self.0.0.borrow_mut().link.heartbeat(false)?;
-            std::thread::sleep((dt - t0.elapsed().min(dt)).min(Duration::from_millis(50)));
-        }
-        Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use gonio_vision::{FrameHeader, FrameStamp};
-    use std::sync::{Arc, Mutex};
-
-    /// Three 96 × 48 frames of a dark ring around column 40, numbered 10, 11, 12.
-    #[derive(Debug)]
-    struct Ring(u64);
-
-    #[derive(Debug, thiserror::Error)]
-    #[error("never")]
-    struct Never;
-
-    impl DeviceError for Never {
-        fn kind(&self) -> DeviceErrorKind {
-            DeviceErrorKind::Other
-        }
-    }
-
-    impl FrameSource for Ring {
-        type Error = Never;
-        fn next_frame(&mut self, px: &mut Vec<u8>) -> Result<Option<FrameHeader>, Never> {
-            if self.0 == 3 {
-                return Ok(None);
-            }
-            px.clear();
-            for _ in 0..48 {
-                px.extend((0..96usize).map(|x| if x.abs_diff(40) <= 5 { 60 } else { 200 }));
-            }
-            self.0 += 1;
-            Ok(Some(FrameHeader {
-                width: 96,
-                height: 48,
-                stamp: FrameStamp {
-                    index: 9 + self.0,
-                    ..FrameStamp::default()
-                },
-            }))
-        }
-    }
-
-    #[test]
-    fn a_tap_sees_every_frame_with_its_window_and_the_detectors_result() {
-        let optics = Optics {
-            window_width_px: 96,
-            window_height_px: 48,
-            ..Optics::default()
-        };
-        let seen = Arc::new(Mutex::new(Vec::new()));
-        let s = seen.clone();
-        let mut cam = DetectorTriggered::new(Ring(0), &optics)
-            .unwrap()
-            .with_tap(Box::new(move |f: &TappedFrame<'_>| {
-                let c = f.result.c_px.filter(|_| f.result.valid);
-                s.lock().unwrap().push((
-                    f.frame_id,
-                    f.width,
-                    f.height,
-                    f.pixels[40],
-                    f.pixels.len(),
-                    c,
-                ));
-            }));
-        let mut frames = Vec::new();
-        while let Some(f) = cam.next_frame(Duration::from_secs(1)).unwrap() {
-            frames.push((f.frame_id, f.frame.c_px));
-        }
-        let seen = seen.lock().unwrap();
-        assert_eq!(seen.len(), 3);
-        for ((id, w, h, px, n, c), (fid, fc)) in seen.iter().zip(&frames) {
-            assert_eq!((*id, *w, *h, *px, *n), (*fid, 96, 48, 60, 96 * 48));
-            assert_eq!(c, fc);
-        }
-        assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), [10, 11, 12]);
-        assert!(format!("{cam:?}").contains("tap: true"));
     }
 }

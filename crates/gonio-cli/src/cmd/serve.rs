@@ -5,7 +5,7 @@ use crate::db::NewStore;
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
 use gonio_plc::batch::LinkFigures;
-use gonio_plc::station::{FrameTap, TappedFrame};
+use gonio_plc::triggered::{FrameTap, TappedFrame};
 use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone, SeenFrame};
 use gonio_station::observe::{LiveFrame, Observer, Phase};
 use gonio_station::{PartRecord, Recipe};

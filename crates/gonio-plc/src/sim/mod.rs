@@ -20,8 +20,9 @@ pub mod plc;
 
 pub use plc::{Plc, SimConfig, SimExposure, SimFaults, TruthPart};
 
-use crate::station::{TriggeredCamera, TriggeredFrame};
+use crate::triggered::{TriggeredCamera, TriggeredFrame};
 use gonio_station::hal::{DeviceError, DeviceErrorKind};
+use gonio_vision::{FrameHeader, FrameSource};
 use std::future::Future;
 use std::net::SocketAddr;
 use std::pin::Pin;
@@ -329,6 +330,30 @@ pub fn stamp_trigger(pixels: &mut [u8], k: u64) {
 pub fn read_trigger(pixels: &[u8]) -> Option<u64> {
     (pixels.len() >= STAMP_PIXELS)
         .then(|| u32::from_be_bytes([pixels[0], pixels[1], pixels[2], pixels[3]]) as u64)
+}
+
+/// A frame source whose frames carry their trigger count in their first pixels (the simulated
+/// camera's embedded counter, [`stamp_trigger`]): each frame's stamp index becomes
+/// its trigger count, for [`DetectorTriggered`](crate::triggered::DetectorTriggered).
+#[derive(Debug)]
+pub struct StampedSource<S>(pub S);
+
+impl<S: FrameSource> FrameSource for StampedSource<S> {
+    type Error = S::Error;
+    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, S::Error> {
+        let Some(mut h) = self.0.next_frame(pixels)? else {
+            return Ok(None);
+        };
+        if let Some(k) = read_trigger(pixels) {
+            h.stamp.index = k;
+            // The counter's pixels back to their neighbours' grey, for the detector.
+            let fill = pixels.get(STAMP_PIXELS).copied().unwrap_or(0);
+            for p in pixels.iter_mut().take(STAMP_PIXELS) {
+                *p = fill;
+            }
+        }
+        Ok(Some(h))
+    }
 }
 
 /// The simulated camera's sensor: waits for the PLC's next trigger and renders the grating as
