@@ -4,7 +4,7 @@
 //!
 //! ```no_run
 //! use gonio_plc::batch::{run_batch, PartEnd};
-//! # fn f(station: gonio_plc::PlcStation<gonio_plc::sim::SimTriggered>) {
+//! # fn f(station: gonio_plc::PlcStation<impl gonio_plc::TriggeredCamera>) {
 //! use gonio_station::{Controller, Recipe, Strategy};
 //! let mut ctl = Controller::new(Recipe::default(), Strategy::Live);
 //! let report = run_batch(&station, &mut ctl, 3, &mut |_p| PartEnd::Continue).unwrap();

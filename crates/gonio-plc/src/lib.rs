@@ -1,7 +1,8 @@
 //! The mounting station over real protocols: gonio-station's `Servo`, `FocusDrive`, `PushRod`
 //! and `Clock` through a PLC's Modbus TCP registers, every camera frame paired with the servo
-//! angle the PLC latched at its trigger, contact seen in the ring's column, and a simulated
-//! station that serves the same registers (`docs/plc-interface.md`).
+//! angle the PLC latched at its trigger, contact seen in the ring's column
+//! (`docs/plc-interface.md`); beside it, behind the feature `sim`, a simulated station that
+//! serves the same registers.
 //!
 //! - [`map`]: the register map as data (`examples/plc/modbus-map.toml`), units and scaling.
 //! - [`protocol`]: the status word's bits, fault codes, commands and the status block.
@@ -14,26 +15,27 @@
 //! - [`station`]: the station core: one link and one triggered camera, each frame paired with
 //!   its latched angle; [`devices`]: its five device handles for the controller.
 //! - [`batch`]: a batch of parts through the PLC, with the part handshake.
-//! - [`sim`]: the station as a Modbus TCP server with the twin's plant.
+//! - `sim` (cargo feature `sim`, off by default): the station as a Modbus TCP server with the
+//!   twin's plant, and its camera's frame stamp. Nothing above it depends on it: the real
+//!   station compiles and runs without any simulation code.
 //!
 //! ```no_run
-//! use gonio_plc::link::Link;
-//! use gonio_plc::map::RegisterMap;
-//! use gonio_plc::sim::{SimConfig, SimServer, SimTriggered};
-//! use gonio_plc::station::{PlcStation, StationOptions};
+//! use gonio_plc::{Link, PlcStation, RegisterMap, StationOptions, TriggeredCamera};
 //! use gonio_station::{Controller, Recipe, Strategy};
 //! use std::time::Duration;
-//! let mut server = SimServer::start(SimConfig::new(3), "127.0.0.1:0".parse().unwrap()).unwrap();
-//! let camera = SimTriggered::new(server.take_frames().unwrap());
-//! let link = Link::connect(&server.addr().to_string(), RegisterMap::default()).unwrap();
-//! let recipe = Recipe::default();
-//! let opts = StationOptions { fps: recipe.measure.fps, exposure_s: recipe.measure.exposure_s,
-//!                             um_per_px: recipe.um_per_px };
-//! let station = PlcStation::new(link, camera, opts).unwrap();
-//! let part = station.wait_part(Duration::from_secs(5)).unwrap();
-//! let mut ctl = Controller::new(recipe, Strategy::Live);
-//! let rec = ctl.mount(&mut station.devices(), &format!("PLC-{part:04}")).unwrap();
-//! println!("{:?} µm", rec.final_e_um); // None when the part was not measured
+//! /// Mounts the part on the shaft through the PLC at `addr`, with its triggered camera.
+//! fn mount_one(addr: &str, camera: impl TriggeredCamera) -> Result<(), Box<dyn std::error::Error>> {
+//!     let link = Link::connect(addr, RegisterMap::default())?;
+//!     let recipe = Recipe::default();
+//!     let opts = StationOptions { fps: recipe.measure.fps, exposure_s: recipe.measure.exposure_s,
+//!                                 um_per_px: recipe.um_per_px };
+//!     let station = PlcStation::new(link, camera, opts)?;
+//!     let part = station.wait_part(Duration::from_secs(5))?;
+//!     let mut ctl = Controller::new(recipe, Strategy::Live);
+//!     let rec = ctl.mount(&mut station.devices(), &format!("PLC-{part:04}"))?;
+//!     println!("{:?} µm", rec.final_e_um); // None when the part was not measured
+//!     Ok(())
+//! }
 //! ```
 #![deny(missing_docs)]
 
@@ -46,6 +48,7 @@ pub mod map;
 pub mod pairing;
 pub mod protocol;
 pub mod round_trips;
+#[cfg(feature = "sim")]
 pub mod sim;
 pub mod station;
 pub mod triggered;
