@@ -35,7 +35,7 @@
 
 use crate::CameraError;
 use crate::ffi::{self, FillFn, RawFill};
-use crate::wake::{Pace, Period, Watcher};
+use crate::wake::{Fills, Period, Watcher};
 use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -199,12 +199,12 @@ impl FakeGvCamera {
         }
         let served = Arc::new(AtomicU64::new(0));
         let last = Arc::new(Mutex::new(None));
-        let pace = Arc::new(Pace::new());
-        let (served2, last2, pace2) = (served.clone(), last.clone(), pace.clone());
+        let fills = Arc::new(Fills::new());
+        let (served2, last2, fills2) = (served.clone(), last.clone(), fills.clone());
         let mut period = Period::default();
         let mut fill = fill;
         let f: Box<FillFn> = Box::new(move |raw: &RawFill, px: &mut [u8]| {
-            period.filled(&pace2, pace2.now_ns());
+            period.filled(&fills2, fills2.now_ns());
             let index = served2.load(Ordering::Relaxed);
             let info = FillInfo {
                 frame_id: raw.frame_id,
@@ -230,7 +230,7 @@ impl FakeGvCamera {
         let holder = ffi::set_fill(&fake, f);
         let watcher = match config.address.parse::<Ipv4Addr>() {
             Ok(ip) => Some(
-                Watcher::start(pace, SocketAddr::from((ip, 3956)))
+                Watcher::start(fills, SocketAddr::from((ip, 3956)))
                     .map_err(|e| bad(format!("cannot start the stall watcher: {e}")))?,
             ),
             Err(_) => None,

@@ -16,7 +16,8 @@
 //!   [`DeviceError`](gonio_station::hal::DeviceError), so
 //!   `gonio_station::camera::DetectorCamera<AravisSource>` is the station's
 //!   [`Camera`](gonio_station::hal::Camera) (use it with `deliver_incomplete: false`).
-//! - [`FakeGvCamera::start`]`(&`[`FakeConfig`]`, fill)` serves a GigE Vision camera (Aravis's
+//! - With the feature `fake` (the simulated camera, beside the real path):
+//!   [`FakeGvCamera::start`]`(&`[`FakeConfig`]`, fill)` serves a GigE Vision camera (Aravis's
 //!   `GvFakeCamera`) whose every frame is drawn by `fill`, a [`FrameFill`] (any
 //!   `FnMut(&FillInfo, &mut [u8]) + Send + 'static`), called per frame on Aravis's streaming
 //!   thread with [`FillInfo`] { `frame_id`, `timestamp_ns`, `index`, `width`, `height`, `mono8`,
@@ -55,8 +56,9 @@
 //! # Ok(()) }
 //! ```
 #![deny(missing_docs)]
-// The links above name the items of the `genicam` build; without it they do not exist.
-#![cfg_attr(not(feature = "genicam"), allow(rustdoc::broken_intra_doc_links))]
+// The links above name the items of the `genicam` and `fake` builds; without them they do not
+// exist.
+#![cfg_attr(not(feature = "fake"), allow(rustdoc::broken_intra_doc_links))]
 
 mod config;
 mod error;
@@ -70,18 +72,23 @@ pub use ids::{FrameIds, IdStep};
 /// True when built with the `genicam` feature (cameras through Aravis).
 pub const ENABLED: bool = cfg!(feature = "genicam");
 
-#[cfg(feature = "genicam")]
+#[cfg(feature = "fake")]
 pub mod fake;
+// The fake camera's fill callback is the larger part of the boundary; a `genicam` build without
+// `fake` uses only the device list and the buffers' bytes.
 #[cfg(feature = "genicam")]
+#[cfg_attr(not(feature = "fake"), allow(dead_code))]
 mod ffi;
 #[cfg(feature = "genicam")]
 mod list;
 #[cfg(feature = "genicam")]
 pub mod source;
 
-#[cfg(feature = "genicam")]
+#[cfg(feature = "fake")]
 pub use fake::{FakeConfig, FakeGvCamera, FillInfo, FrameFill, ServedFrame};
+#[cfg(feature = "fake")]
+pub use list::enable_fake_interface;
 #[cfg(feature = "genicam")]
-pub use list::{CameraInfo, enable_fake_interface, list_cameras};
+pub use list::{CameraInfo, list_cameras};
 #[cfg(feature = "genicam")]
 pub use source::AravisSource;

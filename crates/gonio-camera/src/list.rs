@@ -38,6 +38,7 @@ pub fn list_cameras() -> Vec<CameraInfo> {
 
 /// Enables Aravis's in-process `Fake` interface (a simulated camera with no network, id
 /// `Fake_1`), for tests.
+#[cfg(feature = "fake")]
 pub fn enable_fake_interface() {
     ffi::enable_interface("Fake");
 }

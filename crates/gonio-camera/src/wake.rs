@@ -1,4 +1,4 @@
-//! Waking Aravis's fake camera from its stalled sleep (the `fake` module, a `genicam` build).
+//! Waking Aravis's fake camera from its stalled sleep (the `fake` module, feature `fake`).
 //!
 //! Aravis 0.8's GigE Vision fake camera computes its poll timeout as an unsigned difference
 //! (`next frame − now`, µs, then ms): when its thread gets there after the next frame's time (a
@@ -11,13 +11,13 @@
 //! when the camera was merely skipping a tick changes nothing: its thread polls on to its time.
 //!
 //! Written here (std's UDP socket, a thread) because no crate does this: it is a workaround of
-//! one library's bug. Times are ns since the [`Pace`]'s creation. Errors: only starting the
+//! one library's bug. Times are ns since its [`Fills`] record was made. Errors: only starting the
 //! thread and socket can fail (`std::io::Error`); a failed send is not counted and retried a
 //! period later.
 
-// Without `genicam` nothing serves frames; the module stays compiled so its tests run in the
+// Without `fake` nothing serves frames; the module stays compiled so its tests run in the
 // default build.
-#![cfg_attr(not(feature = "genicam"), allow(dead_code))]
+#![cfg_attr(not(feature = "fake"), allow(dead_code))]
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::Arc;
@@ -36,7 +36,7 @@ const MIN_SLEEP_NS: u64 = 100_000;
 
 /// When frames were filled: written by the fill callback, read by the [`Watcher`].
 #[derive(Debug)]
-pub(crate) struct Pace {
+pub(crate) struct Fills {
     origin: Instant,
     /// When the last frame was filled (0: none yet).
     last_fill_ns: AtomicU64,
@@ -47,10 +47,10 @@ pub(crate) struct Pace {
     stop: AtomicBool,
 }
 
-impl Pace {
-    /// A pace with no frame filled yet; its clock starts now.
+impl Fills {
+    /// No frame filled yet; its clock starts now.
     pub(crate) fn new() -> Self {
-        Pace {
+        Fills {
             origin: Instant::now(),
             last_fill_ns: AtomicU64::new(0),
             period_ns: AtomicU64::new(0),
@@ -59,7 +59,7 @@ impl Pace {
         }
     }
 
-    /// Now, ns since the pace was made (never 0).
+    /// Now, ns since the record was made (never 0).
     pub(crate) fn now_ns(&self) -> u64 {
         (self.origin.elapsed().as_nanos() as u64).max(1)
     }
@@ -86,10 +86,10 @@ pub(crate) struct Period {
 }
 
 impl Period {
-    /// A frame is being filled at `now_ns` ([`Pace::now_ns`]): records it in `pace`, with the
+    /// A frame is being filled at `now_ns` ([`Fills::now_ns`]): records it in `fills`, with the
     /// period it shows.
-    pub(crate) fn filled(&mut self, pace: &Pace, now_ns: u64) {
-        let Some(interval) = pace.filled(now_ns) else {
+    pub(crate) fn filled(&mut self, fills: &Fills, now_ns: u64) {
+        let Some(interval) = fills.filled(now_ns) else {
             return;
         };
         let n = self.intervals.len();
@@ -98,7 +98,7 @@ impl Period {
         let mut sorted = self.intervals;
         let known = &mut sorted[..self.seen.min(n)];
         known.sort_unstable();
-        pace.set_period_ns(known[known.len() / 2]);
+        fills.set_period_ns(known[known.len() / 2]);
     }
 }
 
@@ -138,57 +138,57 @@ pub(crate) fn read_version_packet(id: u16) -> [u8; 12] {
 
 /// The thread that wakes a stalled fake camera (module docs); stopped and joined when dropped.
 pub(crate) struct Watcher {
-    pace: Arc<Pace>,
+    fills: Arc<Fills>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Watcher {
-    /// Starts watching `pace`, sending reads to the camera's control port `camera` from a
+    /// Starts watching `fills`, sending reads to the camera's control port `camera` from a
     /// socket on the same address.
-    pub(crate) fn start(pace: Arc<Pace>, camera: SocketAddr) -> std::io::Result<Watcher> {
+    pub(crate) fn start(fills: Arc<Fills>, camera: SocketAddr) -> std::io::Result<Watcher> {
         let socket = UdpSocket::bind((camera.ip(), 0))?;
         socket.connect(camera)?;
         socket.set_nonblocking(true)?;
-        let p = pace.clone();
+        let p = fills.clone();
         let thread = std::thread::Builder::new()
             .name("gonio-fake-camera-watch".into())
             .spawn(move || watch(&p, &socket))?;
         Ok(Watcher {
-            pace,
+            fills,
             thread: Some(thread),
         })
     }
 
     /// Register reads sent so far.
     pub(crate) fn wakeups(&self) -> u64 {
-        self.pace.wakeups.load(Ordering::Relaxed)
+        self.fills.wakeups.load(Ordering::Relaxed)
     }
 }
 
 impl Drop for Watcher {
     fn drop(&mut self) {
-        self.pace.stop.store(true, Ordering::Relaxed);
+        self.fills.stop.store(true, Ordering::Relaxed);
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
     }
 }
 
-fn watch(pace: &Pace, socket: &UdpSocket) {
+fn watch(fills: &Fills, socket: &UdpSocket) {
     let mut id: u16 = 0;
     let mut last_wake = 0u64;
     let mut reply = [0u8; 64];
-    while !pace.stop.load(Ordering::Relaxed) {
+    while !fills.stop.load(Ordering::Relaxed) {
         // The camera's acknowledgements: read and dropped.
         while socket.recv(&mut reply).is_ok() {}
-        let now = pace.now_ns();
-        let last_fill = pace.last_fill_ns.load(Ordering::Acquire);
-        let period = pace.period_ns.load(Ordering::Relaxed);
+        let now = fills.now_ns();
+        let last_fill = fills.last_fill_ns.load(Ordering::Acquire);
+        let period = fills.period_ns.load(Ordering::Relaxed);
         let sleep = match step(now, last_fill, period, last_wake) {
             Step::Wake(sleep) => {
                 id = id.wrapping_add(1).max(1);
                 if socket.send(&read_version_packet(id)).is_ok() {
-                    pace.wakeups.fetch_add(1, Ordering::Relaxed);
+                    fills.wakeups.fetch_add(1, Ordering::Relaxed);
                     last_wake = now;
                 }
                 sleep
@@ -234,17 +234,17 @@ mod tests {
 
     #[test]
     fn the_period_is_the_median_interval_late_frames_and_missed_ticks_aside() {
-        let pace = Pace::new();
+        let fills = Fills::new();
         let mut period = Period::default();
         let mut at = MS;
-        period.filled(&pace, at);
+        period.filled(&fills, at);
         // 10 ms a frame, one frame 4 ms late (14 then 6 ms), one tick missed (20 ms).
         for dt in [10, 10, 14, 6, 10, 20, 10, 10, 10] {
             at += dt * MS;
-            period.filled(&pace, at);
+            period.filled(&fills, at);
         }
-        assert_eq!(pace.period_ns.load(Ordering::Relaxed), 10 * MS);
-        assert_eq!(pace.last_fill_ns.load(Ordering::Relaxed), at);
+        assert_eq!(fills.period_ns.load(Ordering::Relaxed), 10 * MS);
+        assert_eq!(fills.last_fill_ns.load(Ordering::Relaxed), at);
     }
 
     #[test]
@@ -269,11 +269,11 @@ mod tests {
         camera
             .set_read_timeout(Some(Duration::from_millis(50)))
             .unwrap();
-        let pace = Arc::new(Pace::new());
-        pace.set_period_ns(10 * MS);
-        let watcher = Watcher::start(pace.clone(), camera.local_addr().unwrap()).unwrap();
-        let stalled_at = pace.now_ns();
-        pace.filled(stalled_at);
+        let fills = Arc::new(Fills::new());
+        fills.set_period_ns(10 * MS);
+        let watcher = Watcher::start(fills.clone(), camera.local_addr().unwrap()).unwrap();
+        let stalled_at = fills.now_ns();
+        fills.filled(stalled_at);
         let mut reads = 0u64;
         let mut buf = [0u8; 64];
         let until = Instant::now() + Duration::from_millis(1500);
