@@ -4,7 +4,20 @@
 use anyhow::{Result, anyhow};
 use gonio_store::Store;
 
-pub use gonio_sim::station::store::{open, software_version};
+pub use gonio_store::writer::software_version;
+
+/// Opens the store at `location` (a SQLite path or a `postgres://` URL), migrating it.
+///
+/// # Errors
+/// The store cannot be opened (`results store LOCATION: …`).
+pub fn open(location: &str) -> Result<Box<dyn Store>> {
+    gonio_store::open(location).map_err(|e| {
+        anyhow!(
+            "results store {}: {e}",
+            gonio_store::display_location(location)
+        )
+    })
+}
 
 /// Opens the existing store at `location` for a command that only reads (`parts`, `serve`
 /// without a station): a SQLite path that does not exist is an error naming it, never a new

@@ -8,6 +8,7 @@ mod db;
 mod plc;
 mod station;
 mod table;
+mod twin;
 
 use clap::{Parser, Subcommand};
 

@@ -8,8 +8,9 @@ use anyhow::{Result, anyhow, bail};
 use gonio_plc::batch::{LinkFigures, PartEnd, PlcBatchReport, PlcPartDone, run_batch_observed};
 use gonio_plc::station::{PlcStation, StationOptions};
 use gonio_plc::triggered::FrameTap;
-use gonio_station::observe::Observer;
+use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::{Controller, Recipe, Strategy};
+use gonio_store::writer::{BatchSpec, BatchWriter};
 use std::path::PathBuf;
 
 /// What a batch through the PLC is asked for: the flags `mount` and `serve` share.
@@ -38,7 +39,8 @@ pub struct Request {
 pub struct Batch {
     station: PlcStation<plc_camera::Camera>,
     ctl: Controller,
-    store: Option<station::PlcStore>,
+    store: Option<BatchWriter>,
+    location: String,
     parts: usize,
 }
 
@@ -100,20 +102,30 @@ pub fn open(r: Request, tap: Option<FrameTap>) -> Result<Batch> {
                 "strategy": Strategy::from(r.strategy).name(),
                 "recipe": r.recipe,
             }))?;
-            Some(station::PlcStore::begin(
-                db,
-                &r.station_name,
-                &r.recipe,
-                &config,
-                r.parts,
-            )?)
+            let spec = BatchSpec {
+                station: &r.station_name,
+                seed: None,
+                config_json: &config,
+                parts: r.parts,
+                recipe: &r.recipe,
+                simulated: false,
+            };
+            let loc = gonio_store::display_location(db);
+            let w = BatchWriter::begin(crate::db::open(db)?, &spec)
+                .map_err(|e| anyhow!("{loc}: {e}"))?;
+            Some((w, loc))
         }
         None => None,
+    };
+    let (store, location) = match store {
+        Some((w, loc)) => (Some(w), loc),
+        None => (None, String::new()),
     };
     Ok(Batch {
         station: st,
         ctl: Controller::new(r.recipe, r.strategy.into()),
         store,
+        location,
         parts: r.parts,
     })
 }
@@ -141,19 +153,27 @@ impl Batch {
     ) -> Result<PlcBatchReport> {
         let mut store_error = None;
         let store = &mut self.store;
+        let location = &self.location;
+        let mut clock = store.as_ref().map(BatchWriter::clock);
+        let mut none = NoObserver;
+        let clock: &mut dyn Observer = match clock.as_mut() {
+            Some(c) => c,
+            None => &mut none,
+        };
+        let mut both = (clock, observer);
         let report = run_batch_observed(
             &self.station,
             &mut self.ctl,
             self.parts,
-            observer,
+            &mut both,
             &mut |d: &PlcPartDone<'_>| {
                 let id = match store
                     .as_mut()
-                    .map(|s| s.commit(d.index, d.record, d.learned))
+                    .map(|s| s.commit(d.index, d.record, d.learned, None))
                 {
                     Some(Ok(id)) => Some(id),
                     Some(Err(e)) => {
-                        store_error = Some(e);
+                        store_error = Some(anyhow!("{location}: storing {}: {e}", d.record.serial));
                         None
                     }
                     None => None,
@@ -170,7 +190,8 @@ impl Batch {
             return Err(e);
         }
         if let Some(s) = self.store.as_mut() {
-            s.end(report.stopped.as_deref())?;
+            s.end(report.stopped.as_deref())
+                .map_err(|e| anyhow!("{}: {e}", self.location))?;
         }
         Ok(report)
     }

@@ -1,12 +1,15 @@
-//! The station commands' flags (`--strategy`, `--fidelity`, `--recipe`); the batch committed to
-//! the results store part by part, the one path of `gonio mount` and `gonio serve`, is
-//! [`gonio_sim::station::store`].
+//! The station commands' flags (`--strategy`, `--fidelity`, `--recipe`, `--parts`); the twin's
+//! batch committed to the results store part by part, the one path of `gonio mount --sim` and
+//! `gonio serve --station sim`, is [`crate::twin`].
 
+pub use crate::twin::{Run, Start, Target, prepare, run};
 use anyhow::Result;
 use gonio_sim::station::Fidelity;
-pub use gonio_sim::station::store::{MAX_PARTS, PlcStore, Run, Start, Target, prepare, run};
 use gonio_station::{Recipe, Strategy};
 use std::path::Path;
+
+/// Most parts in one batch: one limit for `gonio mount` and `gonio serve --station`.
+pub const MAX_PARTS: usize = 1_000_000;
 
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

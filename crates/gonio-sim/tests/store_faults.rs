@@ -159,6 +159,7 @@ fn run(fault: Fault, policy: DeviceErrorPolicy) -> (Vec<StoredPart>, String, usi
                     record: &d.part.record,
                     learned: d.learned,
                     truth: Some((d.part.true_initial_e_um, d.part.true_final_e_um)),
+                    simulated: true,
                 })
                 .unwrap();
             // The ring/focus faults strike once per part; the rod's once per batch.

@@ -27,6 +27,7 @@ pub mod scratch;
 mod sql;
 mod sqlite;
 pub mod time;
+pub mod writer;
 
 pub use error::StoreError;
 pub use record::{

@@ -111,6 +111,8 @@ pub struct NewPart<'a> {
     pub learned: &'a Learned,
     /// True initial and final eccentricity of a simulated part, µm.
     pub truth: Option<(f64, f64)>,
+    /// Whether the part came from the digital twin.
+    pub simulated: bool,
 }
 
 /// One measuring turn as stored.
@@ -157,6 +159,8 @@ pub struct StoredPart {
     pub serial: String,
     /// The station.
     pub station: String,
+    /// Whether the part came from the digital twin (`false`: a real station).
+    pub simulated: bool,
     /// The batch's id.
     pub batch: i64,
     /// 0-based position in the batch.
@@ -216,6 +220,8 @@ pub struct PartSummary {
     pub serial: String,
     /// The station.
     pub station: String,
+    /// Whether the part came from the digital twin (`false`: a real station).
+    pub simulated: bool,
     /// The batch.
     pub batch: i64,
     /// 0-based position in the batch.

@@ -172,7 +172,8 @@ fn part_filter(q: &PartQuery) -> Result<(String, Vec<Value>), StoreError> {
 macro_rules! summary_cols {
     () => {
         "id, serial, station, batch_id, batch_index, recipe_name, strategy, started_at, ended_at, \
-         initial_e_um, final_e_um, pushes, time_s, result, verdict, reject_reason, remeasured_turns"
+         initial_e_um, final_e_um, pushes, time_s, result, verdict, reject_reason, remeasured_turns, \
+         simulated"
     };
 }
 
@@ -205,16 +206,16 @@ fn verdict_of(s: &str, key: i64) -> Result<Verdict, StoreError> {
 fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
     let r = Row::new(v, "parts");
     let key = r.key;
-    let device_error = match r.opt_text(23) {
+    let device_error = match r.opt_text(24) {
         Some(device) => Some(DeviceFault {
             device,
             kind: parse_name::<DeviceErrorKind>(
-                &r.text(24, "device_error_kind")?,
+                &r.text(25, "device_error_kind")?,
                 "parts",
                 key,
                 "device_error_kind",
             )?,
-            message: r.opt_text(25).unwrap_or_default(),
+            message: r.opt_text(26).unwrap_or_default(),
         }),
         None => None,
     };
@@ -223,12 +224,13 @@ fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
         part: s.part,
         serial: s.serial,
         station: s.station,
+        simulated: s.simulated,
         batch: s.batch,
         batch_index: s.batch_index,
         recipe: s.recipe,
-        recipe_hash: r.text(17, "recipe_hash")?,
+        recipe_hash: r.text(18, "recipe_hash")?,
         strategy: s.strategy,
-        software_version: r.text(18, "software_version")?,
+        software_version: r.text(19, "software_version")?,
         started_at: s.started_at,
         ended_at: s.ended_at,
         initial_e_um: s.initial_e_um,
@@ -239,23 +241,23 @@ fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
         verdict: s.verdict,
         reject_reason: s.reject_reason,
         remeasured_turns: s.remeasured_turns,
-        focus_um: r.opt_real(19),
+        focus_um: r.opt_real(20),
         phase_times: PhaseTimes {
-            focus_s: r.real(20),
-            measure_s: r.real(21),
-            push_s: r.real(22),
+            focus_s: r.real(21),
+            measure_s: r.real(22),
+            push_s: r.real(23),
         },
         device_error,
         turns: Vec::new(),
         push_log: Vec::new(),
         learned: Learned {
-            gain: r.real(26),
-            offset_deg: r.real(27),
-            gain_observations: r.count(28, "learned_gain_observations")? as u32,
-            offset_observations: r.count(29, "learned_offset_observations")? as u32,
+            gain: r.real(27),
+            offset_deg: r.real(28),
+            gain_observations: r.count(29, "learned_gain_observations")? as u32,
+            offset_observations: r.count(30, "learned_offset_observations")? as u32,
         },
-        true_initial_e_um: r.opt_real(30),
-        true_final_e_um: r.opt_real(31),
+        true_initial_e_um: r.opt_real(31),
+        true_final_e_um: r.opt_real(32),
     })
 }
 
@@ -281,6 +283,7 @@ fn summary_row(v: &[Value]) -> Result<PartSummary, StoreError> {
         verdict: verdict_of(&r.text(14, "verdict")?, key)?,
         reject_reason: r.opt_text(15),
         remeasured_turns: r.count(16, "remeasured_turns")? as u32,
+        simulated: r.int(17, "simulated")? != 0,
     })
 }
 
@@ -523,13 +526,15 @@ fn insert_part_in(db: &mut dyn Backend, p: &NewPart<'_>) -> Result<i64, StoreErr
         p.learned.offset_observations.into(),
         p.truth.map(|t| t.0).into(),
         p.truth.map(|t| t.1).into(),
+        p.simulated.into(),
     ];
     let placeholders: Vec<String> = (1..=params.len()).map(|i| format!("${i}")).collect();
     let cols = "batch_id, batch_index, station, serial, recipe_name, recipe_hash, strategy, \
         software_version, started_at, ended_at, initial_e_um, final_e_um, pushes, time_s, result, \
         verdict, reject_reason, remeasured_turns, focus_um, focus_s, measure_s, push_s, device, \
         device_error_kind, device_error_message, learned_gain, learned_offset_deg, \
-        learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um";
+        learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um, \
+        simulated";
     let id = db
         .query(
             &format!(

@@ -5,7 +5,7 @@
 mod common;
 
 use gonio_store::StoreError;
-use gonio_store::migrate::{MIGRATIONS, Migration};
+use gonio_store::migrate::{MIGRATIONS, Migration, latest_version};
 
 #[test]
 fn parts_round_trip_with_filters_and_resume_state() {
@@ -18,31 +18,76 @@ fn migrations_apply_once_in_order_and_a_newer_database_is_refused() {
     let d = tempfile::tempdir().unwrap();
     let path = d.path().join("m.sqlite");
     let loc = path.to_str().unwrap();
-    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), 1);
+    let latest = latest_version();
+    assert_eq!(latest, MIGRATIONS.len() as u32);
+    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), latest);
     // Opening again applies nothing (the tables exist: a second apply would fail).
-    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), 1);
+    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), latest);
     // A later version: only it is applied, on the existing data.
-    let mut v2: Vec<Migration> = MIGRATIONS.to_vec();
-    v2.push(Migration {
-        version: 2,
+    let mut next: Vec<Migration> = MIGRATIONS.to_vec();
+    next.push(Migration {
+        version: latest + 1,
         name: "operator",
         sql: "ALTER TABLE parts ADD COLUMN operator TEXT;",
     });
     assert_eq!(
-        gonio_store::open_with(loc, &v2).unwrap().schema_version(),
-        2
+        gonio_store::open_with(loc, &next).unwrap().schema_version(),
+        latest + 1
     );
-    // This software (version 1) refuses the newer database rather than misreading it.
+    // This software refuses the newer database rather than misreading it.
     let e = gonio_store::open(loc).err().expect("refused");
     assert!(
         matches!(
             e,
-            StoreError::SchemaTooNew {
-                expected: 1,
-                found: 2
-            }
+            StoreError::SchemaTooNew { expected, found } if expected == latest && found == latest + 1
         ),
         "{e}"
+    );
+}
+
+#[test]
+fn parts_stored_before_the_simulated_column_are_the_twins_exactly_when_they_carry_its_truth() {
+    let d = tempfile::tempdir().unwrap();
+    let path = d.path().join("v1.sqlite");
+    let loc = path.to_str().unwrap();
+    // A store of schema version 1 with a simulated part (its truth stored) and a real one.
+    drop(gonio_store::open_with(loc, &MIGRATIONS[..1]).unwrap());
+    let db = rusqlite::Connection::open(&path).unwrap();
+    db.execute_batch(
+        "INSERT INTO recipes (hash, name, recipe_json) VALUES ('h', 'default', '{}');
+         INSERT INTO batches (station, config_json, config_hash, parts_planned, software_version,
+                              started_at, status)
+             VALUES ('line-3', '{}', 'c', 2, 'gonio 0.1.0', '2026-05-20T08:00:00Z', 'complete');",
+    )
+    .unwrap();
+    for (i, truth) in [(0, Some(120.0)), (1, None)] {
+        db.execute(
+            "INSERT INTO parts (batch_id, batch_index, station, serial, recipe_name, recipe_hash,
+                 strategy, software_version, started_at, ended_at, pushes, result, verdict,
+                 remeasured_turns, learned_gain, learned_offset_deg, learned_gain_observations,
+                 learned_offset_observations, true_initial_e_um)
+             VALUES (1, ?1, 'line-3', ?2, 'default', 'h', 'live', 'gonio 0.1.0',
+                 '2026-05-20T08:00:00Z', '2026-05-20T08:00:15Z', 0, 'accepted', 'pass', 0,
+                 1.0, 0.0, 0, 0, ?3)",
+            rusqlite::params![i, format!("P-{i}"), truth],
+        )
+        .unwrap();
+    }
+    drop(db);
+    let mut s = gonio_store::open(loc).unwrap();
+    assert_eq!(s.schema_version(), latest_version());
+    let parts = s.parts(&gonio_store::PartQuery::default()).unwrap();
+    let simulated: Vec<(&str, bool)> = parts
+        .iter()
+        .map(|p| (p.serial.as_str(), p.simulated))
+        .collect();
+    assert_eq!(simulated, [("P-0", true), ("P-1", false)]);
+    let summaries = s
+        .part_summaries(&gonio_store::PartQuery::default())
+        .unwrap();
+    assert_eq!(
+        summaries.iter().map(|p| p.simulated).collect::<Vec<_>>(),
+        [true, false]
     );
 }
 

@@ -245,7 +245,6 @@ pub fn run(a: Args) -> Result<()> {
             },
             pace: None,
             frame_tap: recorder.is_some().then_some(&mut tap as FrameTap<'_>),
-            station: &a.station_name,
             discard_parts: json.is_none(),
         },
         &mut |d: &PartDone, _| {

@@ -11,11 +11,11 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Without --json or --csv, prints a table. --json prints a JSON array of part records: part (the
-id), serial, station, batch, batch_index, recipe, recipe_hash, strategy, software_version,
-started_at and ended_at (UTC), initial_e_um, final_e_um, pushes, time_s, result, verdict (pass or
-reject), reject_reason, remeasured_turns, focus_um, phase_times, device_error, turns (each with
-its samples (θ, c), fit and quality verdict), push_log, learned, and for simulated parts
-true_initial_e_um and true_final_e_um. Numbers not determined are null. --csv writes one row per
+id), serial, station, simulated (true for a part of the digital twin), batch, batch_index,
+recipe, recipe_hash, strategy, software_version, started_at and ended_at (UTC), initial_e_um,
+final_e_um, pushes, time_s, result, verdict (pass or reject), reject_reason, remeasured_turns,
+focus_um, phase_times, device_error, turns (each with its samples (θ, c), fit and quality
+verdict), push_log, learned, and for simulated parts true_initial_e_um and true_final_e_um. Numbers not determined are null. --csv writes one row per
 part (no turns or pushes).
 
 Examples:

@@ -366,7 +366,7 @@ fn spawn_station(
         }));
     }
     let pace = Pace::new(a.speed(), timing);
-    let (seed, name) = (a.seed(), a.station_name.clone());
+    let seed = a.seed();
     std::thread::spawn(move || {
         let p = match prepared {
             station::Start::Run(p) => p,
@@ -393,7 +393,6 @@ fn spawn_station(
                 observer: &mut live,
                 pace: Some(pace),
                 frame_tap: frames.then_some(&mut tap as gonio_sim::station::FrameTap<'_>),
-                station: &name,
                 // Every part is in the store as it ends; the report keeps only the summary.
                 discard_parts: true,
             },

@@ -15,15 +15,11 @@
 //! let again = run_batch(&cfg, 7, &mut |_, _, _| {}).unwrap();
 //! assert_eq!(report.summary, again.summary);
 //! ```
-//!
-//! A batch committed to the results store part by part (the one path of `gonio mount` and
-//! `gonio serve`), and a batch through a PLC in the store, are in [`store`].
 
 pub mod batch;
 pub mod frames;
 pub mod pace;
 pub mod plant;
-pub mod store;
 pub mod twin;
 
 pub use batch::{

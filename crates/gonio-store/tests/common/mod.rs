@@ -84,6 +84,7 @@ fn store_part(
         record: rec,
         learned,
         truth: Some((121.0, 2.0)),
+        simulated: true,
     })
 }
 
@@ -135,6 +136,7 @@ pub fn round_trip(loc: &str) {
     assert_eq!(p.turns[0].focus_um, Some(-3.5));
     assert_eq!(p.push_log, a.push_log);
     assert_eq!(p.true_initial_e_um, Some(121.0));
+    assert!(p.simulated, "stored as the twin's");
     assert_eq!(p.recipe_hash.len(), 64);
     let q = &all[1];
     assert!(q.final_e_um.is_none());
@@ -145,6 +147,7 @@ pub fn round_trip(loc: &str) {
     assert_eq!(j["part"], id2);
     assert!(j["final_e_um"].is_null());
     assert_eq!(j["verdict"], "reject");
+    assert_eq!(j["simulated"], true);
 
     // Filters.
     let rej = s
