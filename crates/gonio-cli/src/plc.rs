@@ -7,8 +7,8 @@ use crate::station::{self, StrategyArg};
 use anyhow::{Result, anyhow, bail};
 use gonio_plc::batch::{LinkFigures, PartEnd, PlcBatchReport, PlcPartDone, run_batch_observed};
 use gonio_plc::station::{PlcStation, StationOptions};
-use gonio_plc::triggered::FrameTap;
 use gonio_station::observe::{NoObserver, Observer};
+use gonio_station::tap::FrameTap;
 use gonio_station::{Controller, Recipe, Strategy};
 use gonio_store::writer::{BatchSpec, BatchWriter};
 use std::path::PathBuf;
@@ -79,13 +79,13 @@ fn register_map(path: Option<&std::path::Path>) -> Result<gonio_plc::RegisterMap
 ///
 /// # Errors
 /// One-line errors naming the flag: a bad address or map, no camera, no PLC, no store.
-pub fn open(r: Request, tap: Option<FrameTap>) -> Result<Batch> {
+pub fn open(r: Request, tap: Option<FrameTap<'static>>) -> Result<Batch> {
     if !(1..=station::MAX_PARTS).contains(&r.parts) {
         bail!("--parts {}: expected 1 to {}", r.parts, station::MAX_PARTS);
     }
     let addr = plc_address(&r.url)?;
     let map = register_map(r.plc_map.as_deref())?;
-    let camera = plc_camera::open(&r.camera, &r.recipe, map.timing.frame_timeout_ms, tap)?;
+    let camera = plc_camera::open(&r.camera, &r.recipe, map.timing.frame_timeout_ms)?;
     let link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow!("--plc: {e}"))?;
     let opts = StationOptions {
         fps: r.recipe.measure.fps,
@@ -93,6 +93,9 @@ pub fn open(r: Request, tap: Option<FrameTap>) -> Result<Batch> {
         um_per_px: r.recipe.um_per_px,
     };
     let st = PlcStation::new(link, camera, opts).map_err(|e| anyhow!("--plc: {e}"))?;
+    if let Some(tap) = tap {
+        st.set_tap(tap);
+    }
     let store = match r.db.as_deref() {
         Some(db) => {
             let config = serde_json::to_string(&serde_json::json!({
@@ -213,7 +216,8 @@ mod plc_camera {
         use anyhow::anyhow;
         use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
         use gonio_plc::sim::StampedSource;
-        use gonio_plc::triggered::{DetectorTriggered, FrameTap};
+        use gonio_plc::triggered::DetectorTriggered;
+        use gonio_station::tap::SeenFrame;
         use gonio_vision::{FrameHeader, FrameSource, Optics};
 
         /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
@@ -250,7 +254,7 @@ mod plc_camera {
         }
 
         impl gonio_plc::TriggeredCamera for Camera {
-            type Error = gonio_plc::triggered::DetectorTriggeredError<CameraError>;
+            type Error = gonio_vision::SourceError<CameraError>;
             fn next_frame(
                 &mut self,
                 timeout: std::time::Duration,
@@ -260,27 +264,16 @@ mod plc_camera {
                     Camera::Real(c) => c.next_frame(timeout),
                 }
             }
-        }
-
-        /// The camera through the detector, showing its frames to `tap` if any.
-        fn tapped<S: FrameSource>(
-            d: DetectorTriggered<S>,
-            tap: Option<FrameTap>,
-        ) -> DetectorTriggered<S> {
-            match tap {
-                Some(t) => d.with_tap(t),
-                None => d,
+            fn seen(&self) -> Option<SeenFrame<'_>> {
+                match self {
+                    Camera::Sim(c) => c.seen(),
+                    Camera::Real(c) => c.seen(),
+                }
             }
         }
 
-        /// Opens camera `id` for the recipe's window and exposure, showing every frame it
-        /// detects to `tap` if any.
-        pub fn open(
-            id: &str,
-            recipe: &Recipe,
-            frame_timeout_ms: u64,
-            tap: Option<FrameTap>,
-        ) -> Result<Camera> {
+        /// Opens camera `id` for the recipe's window and exposure.
+        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64) -> Result<Camera> {
             let optics = Optics::default();
             let sim = id == "Aravis-Fake-GONIOSTATION";
             let config = CameraConfig {
@@ -294,13 +287,9 @@ mod plc_camera {
             let src = AravisSource::open(id, &config).map_err(|e| anyhow!("--camera {id}: {e}"))?;
             let bad = |e| anyhow!("--camera {id}: {e}");
             Ok(if sim {
-                let d = DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?;
-                Camera::Sim(tapped(d, tap))
+                Camera::Sim(DetectorTriggered::new(StampedSource(src), &optics).map_err(bad)?)
             } else {
-                Camera::Real(tapped(
-                    DetectorTriggered::new(ById(src), &optics).map_err(bad)?,
-                    tap,
-                ))
+                Camera::Real(DetectorTriggered::new(ById(src), &optics).map_err(bad)?)
             })
         }
     }
@@ -341,12 +330,7 @@ mod plc_camera {
         }
 
         /// Opens camera `id`: never, without GenICam.
-        pub fn open(
-            id: &str,
-            _recipe: &Recipe,
-            _frame_timeout_ms: u64,
-            _tap: Option<gonio_plc::triggered::FrameTap>,
-        ) -> Result<NoCamera> {
+        pub fn open(id: &str, _recipe: &Recipe, _frame_timeout_ms: u64) -> Result<NoCamera> {
             bail!(
                 "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
             )

@@ -7,13 +7,13 @@
 
 use crate::formats::replay::{FORMAT, PartFile, TurnFiles, part_dir};
 use anyhow::{Context, Result, anyhow};
-use gonio_sim::station::SeenFrame;
 use gonio_station::fit::EccentricityFit;
 use gonio_station::hal::CameraFrame;
 use gonio_station::interval::AngleSample;
 use gonio_station::observe::{Observer, Phase};
 use gonio_station::record::TurnRecord;
 use gonio_station::replay::RecordedTurn;
+use gonio_station::tap::SeenFrame;
 use gonio_station::{PartRecord, Recipe, Strategy};
 use gonio_vision::Optics;
 use std::cell::RefCell;

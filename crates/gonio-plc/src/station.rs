@@ -18,6 +18,7 @@ use crate::pairing::{AnglePairing, Interpolated, LatchedRing};
 use crate::triggered::TriggeredCamera;
 use gonio_station::hal::{ApproachSpeed, CameraFrame, DeviceError, DeviceErrorKind};
 use gonio_station::interval::AngleSample;
+use gonio_station::tap::FrameTap;
 use serde::Serialize;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -54,6 +55,8 @@ pub(crate) struct Inner<C> {
     pub(crate) fresh_after_s: f64,
     pub(crate) opts: StationOptions,
     pub(crate) counts: PairingCounts,
+    /// Told every frame delivered to the controller.
+    pub(crate) tap: Option<FrameTap<'static>>,
 }
 
 /// The station behind the PLC; clone the device handles out with [`PlcStation::devices`].
@@ -113,7 +116,16 @@ impl<C: TriggeredCamera> PlcStation<C> {
             fresh_after_s: s.time_s,
             opts,
             counts: PairingCounts::default(),
+            tap: None,
         }))))
+    }
+
+    /// Shows every frame delivered to the controller from now on (paired with its angle, in
+    /// the order the controller gets them) to `tap`, with its pixels as the camera's detector
+    /// saw them: a recorder, the live thumbnail. A camera that keeps no pixels
+    /// ([`TriggeredCamera::seen`]) shows nothing.
+    pub fn set_tap(&self, tap: FrameTap<'static>) {
+        self.0.borrow_mut().tap = Some(tap);
     }
 
     /// The PLC's address.
@@ -304,13 +316,15 @@ impl<C: TriggeredCamera> Inner<C> {
             }
             let mid = f.timestamp_s.map(|t| t + half);
             let mut tries = 0;
-            let (t_mid, theta) = loop {
+            // The frame's mid-exposure time and angle; `None`: triggered before the last
+            // motion's end, found out by its latch being overwritten.
+            let paired = loop {
                 let r = match pairing {
                     Pairing::Latched => self.latched.lookup(f.frame_id, mid),
                     Pairing::Interpolated => self.samples.lookup(f.frame_id, mid),
                 };
                 match r {
-                    Ok(Some(v)) => break v,
+                    Ok(Some(v)) => break Some(v),
                     Ok(None) if tries < 50 => {
                         tries += 1;
                         if tries > 1 {
@@ -340,11 +354,11 @@ impl<C: TriggeredCamera> Inner<C> {
                         if !stale {
                             return Err(PlcError::Pairing { message });
                         }
-                        break (f64::NEG_INFINITY, f64::NAN);
+                        break None;
                     }
                 }
             };
-            if t_mid <= self.fresh_after_s {
+            let Some((t_mid, theta)) = paired.filter(|&(t, _)| t > self.fresh_after_s) else {
                 self.counts.stale += 1;
                 if t0.elapsed() > 4 * timeout {
                     return Err(PlcError::Camera {
@@ -357,7 +371,7 @@ impl<C: TriggeredCamera> Inner<C> {
                     });
                 }
                 continue;
-            }
+            };
             self.counts.paired += 1;
             if self.log.last().is_none_or(|l| t_mid > l.t_s) {
                 self.log.push(AngleSample {
@@ -368,10 +382,10 @@ impl<C: TriggeredCamera> Inner<C> {
                     self.log.drain(..100_000);
                 }
             }
-            let mut frame = f.frame;
-            frame.start_s = t_mid - half;
-            frame.exposure_s = self.opts.exposure_s;
-            return Ok(frame);
+            if let (Some(tap), Some(seen)) = (self.tap.as_mut(), self.camera.seen()) {
+                tap(&seen);
+            }
+            return Ok(f.reading.at(t_mid - half, self.opts.exposure_s));
         }
     }
 

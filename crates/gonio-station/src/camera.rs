@@ -43,24 +43,80 @@
 //! ```
 
 use crate::hal::{Camera, CameraFrame, DeviceError, DeviceErrorKind};
-use gonio_vision::{FrameResult, FrameSource, Optics, SourceDetector, SourceError, VisionError};
+use crate::tap::SeenFrame;
+use gonio_vision::{
+    FrameResult, FrameSource, FrameStamp, InvalidReason, Optics, SourceDetector, SourceError,
+    VisionError,
+};
 use thiserror::Error;
 
-/// An error of a [`DetectorCamera`]: the source's, or why a frame could not be used.
+/// What the detector found in one frame, as the station uses it: the ring's column (only when
+/// the frame is valid: the fit never sees an ambiguous or invalid frame's column), why the
+/// frame is invalid, and its focus measure. With the exposure's start and length it is a
+/// [`CameraFrame`] ([`RingReading::at`]); every camera of the station (the detector camera, the
+/// camera a PLC triggers, the twin's) reads a [`FrameResult`] through [`RingReading::of`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RingReading {
+    /// The ring's column, px (`None`: no valid ring).
+    pub c_px: Option<f64>,
+    /// Why the frame has no valid ring (`None` when valid).
+    pub invalid_reason: Option<InvalidReason>,
+    /// The frame's focus measure.
+    pub focus_measure: f64,
+}
+
+impl RingReading {
+    /// The reading of the detector's result `r`.
+    pub fn of(r: &FrameResult) -> Self {
+        RingReading {
+            c_px: r.c_px.filter(|_| r.valid),
+            invalid_reason: if r.valid { None } else { r.reason },
+            focus_measure: r.focus,
+        }
+    }
+
+    /// The reading of a frame whose exposure started at `start_s` (s, the station's clock) and
+    /// lasted `exposure_s` (s).
+    pub fn at(self, start_s: f64, exposure_s: f64) -> CameraFrame {
+        CameraFrame {
+            start_s,
+            exposure_s,
+            c_px: self.c_px,
+            invalid_reason: self.invalid_reason,
+            focus_measure: self.focus_measure,
+        }
+    }
+}
+
+impl From<&CameraFrame> for RingReading {
+    fn from(f: &CameraFrame) -> Self {
+        RingReading {
+            c_px: f.c_px,
+            invalid_reason: f.invalid_reason,
+            focus_measure: f.focus_measure,
+        }
+    }
+}
+
+/// The detector's path as a device: the source's own error keeps its kind; a frame the
+/// detector cannot take (wrong size) is a fault.
+impl<E: std::error::Error + DeviceError + 'static> DeviceError for SourceError<E> {
+    fn kind(&self) -> DeviceErrorKind {
+        match self {
+            SourceError::Source(e) => e.kind(),
+            SourceError::Frame { .. } => DeviceErrorKind::Fault,
+        }
+    }
+}
+
+/// An error of a [`DetectorCamera`]: the detector's path (the source's, or a frame it could not
+/// take), or why a frame could not be used.
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum DetectorCameraError<E: std::error::Error + 'static> {
-    /// The frame source failed.
+    /// The frame source failed, or a frame could not be run through the detector (wrong size).
     #[error(transparent)]
-    Source(E),
-    /// A frame could not be run through the detector (wrong size).
-    #[error("frame {index}: {error}")]
-    Frame {
-        /// 0-based index of the frame.
-        index: u64,
-        /// Why.
-        error: VisionError,
-    },
+    Detect(#[from] SourceError<E>),
     /// The source has no more frames.
     #[error("the frame source ended after {frames} frames")]
     Ended {
@@ -78,11 +134,9 @@ pub enum DetectorCameraError<E: std::error::Error + 'static> {
 impl<E: std::error::Error + DeviceError + 'static> DeviceError for DetectorCameraError<E> {
     fn kind(&self) -> DeviceErrorKind {
         match self {
-            DetectorCameraError::Source(e) => e.kind(),
+            DetectorCameraError::Detect(e) => e.kind(),
             DetectorCameraError::Ended { .. } => DeviceErrorKind::Timeout,
-            DetectorCameraError::Frame { .. } | DetectorCameraError::Unstamped { .. } => {
-                DeviceErrorKind::Fault
-            }
+            DetectorCameraError::Unstamped { .. } => DeviceErrorKind::Fault,
         }
     }
 }
@@ -95,7 +149,7 @@ impl<E: std::error::Error + DeviceError + 'static> DeviceError for DetectorCamer
 pub struct DetectorCamera<S> {
     det: SourceDetector<S>,
     frames: u64,
-    last: Option<FrameResult>,
+    last: Option<(FrameStamp, FrameResult)>,
 }
 
 impl<S: FrameSource> DetectorCamera<S> {
@@ -113,7 +167,22 @@ impl<S: FrameSource> DetectorCamera<S> {
 
     /// The detector's whole result for the last frame (edges, score, margin: the live view).
     pub fn last_result(&self) -> Option<&FrameResult> {
-        self.last.as_ref()
+        self.last.as_ref().map(|(_, r)| r)
+    }
+
+    /// The last frame captured as the detector saw it: its window's pixels (borrowed from the
+    /// detector's buffers, no copy), stamp and result (`None` before the first capture or after
+    /// a failed one).
+    pub fn seen(&self) -> Option<SeenFrame<'_>> {
+        let (stamp, result) = self.last.as_ref()?;
+        let o = self.det.optics();
+        Some(SeenFrame {
+            width: o.window_width_px as usize,
+            height: o.window_height_px as usize,
+            pixels: self.det.window()?,
+            stamp: *stamp,
+            result,
+        })
     }
 
     /// The frame source.
@@ -135,17 +204,11 @@ where
     type Error = DetectorCameraError<S::Error>;
 
     fn capture(&mut self) -> Result<CameraFrame, Self::Error> {
-        let d = match self.det.detect_next() {
-            Ok(Some(d)) => d,
-            Ok(None) => {
-                return Err(DetectorCameraError::Ended {
-                    frames: self.frames,
-                });
-            }
-            Err(SourceError::Source(e)) => return Err(DetectorCameraError::Source(e)),
-            Err(SourceError::Frame { index, error }) => {
-                return Err(DetectorCameraError::Frame { index, error });
-            }
+        self.last = None;
+        let Some(d) = self.det.detect_next()? else {
+            return Err(DetectorCameraError::Ended {
+                frames: self.frames,
+            });
         };
         self.frames += 1;
         let Some(start_s) = d.stamp.start_s else {
@@ -153,15 +216,8 @@ where
                 index: d.stamp.index,
             });
         };
-        let r = d.result;
-        let frame = CameraFrame {
-            start_s,
-            exposure_s: d.stamp.exposure_s.unwrap_or(0.0),
-            c_px: r.c_px.filter(|_| r.valid),
-            invalid_reason: if r.valid { None } else { r.reason },
-            focus_measure: r.focus,
-        };
-        self.last = Some(r);
+        let frame = RingReading::of(&d.result).at(start_s, d.stamp.exposure_s.unwrap_or(0.0));
+        self.last = Some((d.stamp, d.result));
         Ok(frame)
     }
 }

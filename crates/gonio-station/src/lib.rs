@@ -18,6 +18,8 @@
 //! - [`turn`]: one measuring turn from its frames and angle log (the controller's and the
 //!   replay's one code path).
 //! - [`observe`]: the station's events as they happen, for a live view (no-op by default).
+//! - [`tap`]: each frame as the station's camera saw it (pixels and the detector's result), for
+//!   a recorder and the live thumbnail.
 //!
 //! ```
 //! use gonio_station::interval::frame_interval_error_um;
@@ -40,9 +42,10 @@ pub mod replay;
 pub mod sample;
 pub mod spline;
 pub mod strategy;
+pub mod tap;
 pub mod turn;
 
-pub use camera::{DetectorCamera, DetectorCameraError};
+pub use camera::{DetectorCamera, DetectorCameraError, RingReading};
 pub use controller::{Controller, Devices, Trusted};
 pub use error::StationError;
 pub use fit::{EccentricityFit, FitMethod, FitOptions, Sample};

@@ -9,9 +9,10 @@ use gonio_io::formats::frames::load_scene;
 use gonio_io::formats::recipe;
 use gonio_io::recorder::{self, Recorder};
 use gonio_sim::frames::{GratingScene, ScenePreset};
-use gonio_sim::station::{BatchConfig, BatchReport, FrameTap, PartDone, SeenFrame};
+use gonio_sim::station::{BatchConfig, BatchReport, PartDone};
 use gonio_station::Recipe;
 use gonio_station::observe::NoObserver;
+use gonio_station::tap::{FrameTap, SeenFrame};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -219,12 +220,7 @@ pub fn run(a: Args) -> Result<()> {
         })?),
         None => None,
     };
-    let mut tap_to = recorder.clone();
-    let mut tap = |f: &SeenFrame<'_>| {
-        if let Some(r) = tap_to.as_mut() {
-            r.tap(f);
-        }
-    };
+    let tap_to = recorder.clone();
     let mut observer = recorder.clone();
     let mut none = NoObserver;
     // The table's rows are printed as the parts end, so a batch without --json keeps no part
@@ -244,7 +240,7 @@ pub fn run(a: Args) -> Result<()> {
                 None => &mut none,
             },
             pace: None,
-            frame_tap: recorder.is_some().then_some(&mut tap as FrameTap<'_>),
+            frame_tap: tap_to.map(|r| Box::new(move |f: &SeenFrame<'_>| r.tap(f)) as FrameTap<'_>),
             discard_parts: json.is_none(),
         },
         &mut |d: &PartDone, _| {

@@ -15,8 +15,8 @@ id), serial, station, simulated (true for a part of the digital twin), batch, ba
 recipe, recipe_hash, strategy, software_version, started_at and ended_at (UTC), initial_e_um,
 final_e_um, pushes, time_s, result, verdict (pass or reject), reject_reason, remeasured_turns,
 focus_um, phase_times, device_error, turns (each with its samples (θ, c), fit and quality
-verdict), push_log, learned, and for simulated parts true_initial_e_um and true_final_e_um. Numbers not determined are null. --csv writes one row per
-part (no turns or pushes).
+verdict), push_log, learned, and for simulated parts true_initial_e_um and true_final_e_um.
+Numbers not determined are null. --csv writes one row per part (no turns or pushes).
 
 Examples:
   gonio parts --db results.sqlite

@@ -5,9 +5,9 @@ use crate::db::NewStore;
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
 use gonio_plc::batch::LinkFigures;
-use gonio_plc::triggered::{FrameTap, TappedFrame};
-use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone, SeenFrame};
+use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone};
 use gonio_station::observe::{LiveFrame, Observer, Phase};
+use gonio_station::tap::{FrameTap, SeenFrame};
 use gonio_station::{PartRecord, Recipe};
 use gonio_web::live::{Hub, LiveObserver};
 use serde_json::Value;
@@ -383,7 +383,7 @@ fn spawn_station(
         let h = hub.clone();
         // The live thumbnail: a rendered frame (full fidelity only).
         let mut thumbnails = Thumbnails::new(hub.clone());
-        let mut tap = |f: &SeenFrame<'_>| thumbnails.show(f.width, f.height, f.pixels, f.result);
+        let tap = |f: &SeenFrame<'_>| thumbnails.show(f.width, f.height, f.pixels, f.result);
         let frames = cfg.fidelity == Fidelity::Frames;
         let report = station::run(
             *p,
@@ -392,7 +392,7 @@ fn spawn_station(
             station::Run {
                 observer: &mut live,
                 pace: Some(pace),
-                frame_tap: frames.then_some(&mut tap as gonio_sim::station::FrameTap<'_>),
+                frame_tap: frames.then(|| Box::new(tap) as FrameTap<'_>),
                 // Every part is in the store as it ends; the report keeps only the summary.
                 discard_parts: true,
             },
@@ -515,7 +515,7 @@ fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread:
     let address = request.url.clone();
     let thread = std::thread::spawn(move || {
         let mut thumbnails = Thumbnails::new(hub.clone());
-        let tap: FrameTap = Box::new(move |f: &TappedFrame<'_>| {
+        let tap: FrameTap = Box::new(move |f: &SeenFrame<'_>| {
             thumbnails.show(f.width, f.height, f.pixels, f.result)
         });
         let batch = match crate::plc::open(request, Some(tap)) {

@@ -18,7 +18,7 @@
 
 pub mod plc;
 
-pub use plc::{Plc, SimConfig, SimExposure, SimFaults, TruthPart};
+pub use plc::{Plc, SimConfig, SimFaults, TriggeredExposure, TruthPart};
 
 use crate::triggered::{TriggeredCamera, TriggeredFrame};
 use gonio_station::hal::{DeviceError, DeviceErrorKind};
@@ -124,7 +124,7 @@ pub struct SimServer {
     shared: Arc<Shared>,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
-    frames: Option<mpsc::Receiver<SimExposure>>,
+    frames: Option<mpsc::Receiver<TriggeredExposure>>,
 }
 
 impl std::fmt::Debug for SimServer {
@@ -157,7 +157,7 @@ impl SimServer {
             t0: Instant::now(),
         });
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-        let (frame_tx, frame_rx) = mpsc::sync_channel::<SimExposure>(256);
+        let (frame_tx, frame_rx) = mpsc::sync_channel::<TriggeredExposure>(256);
         let sh = shared.clone();
         let thread = std::thread::Builder::new()
             .name("gonio-plc-sim".into())
@@ -233,7 +233,7 @@ impl SimServer {
     }
 
     /// The exposures the PLC triggers (once: the camera takes them).
-    pub fn take_frames(&mut self) -> Option<mpsc::Receiver<SimExposure>> {
+    pub fn take_frames(&mut self) -> Option<mpsc::Receiver<TriggeredExposure>> {
         self.frames.take()
     }
 
@@ -278,12 +278,12 @@ fn stream_nodelay(s: &tokio::net::TcpStream) -> std::io::Result<()> {
 /// (the ring's column from the geometry plus the detector's noise), numbered by trigger.
 #[derive(Debug)]
 pub struct SimTriggered {
-    rx: mpsc::Receiver<SimExposure>,
+    rx: mpsc::Receiver<TriggeredExposure>,
 }
 
 impl SimTriggered {
     /// The camera over a server's exposures.
-    pub fn new(rx: mpsc::Receiver<SimExposure>) -> Self {
+    pub fn new(rx: mpsc::Receiver<TriggeredExposure>) -> Self {
         SimTriggered { rx }
     }
 }
@@ -305,8 +305,8 @@ impl TriggeredCamera for SimTriggered {
         match self.rx.recv_timeout(timeout) {
             Ok(e) => Ok(Some(TriggeredFrame {
                 frame_id: e.frame_id,
-                timestamp_s: Some(e.start_s),
-                frame: e.fast,
+                timestamp_s: Some(e.exposure.start_s),
+                reading: e.fast,
             })),
             Err(mpsc::RecvTimeoutError::Timeout) => Ok(None),
             Err(mpsc::RecvTimeoutError::Disconnected) => Err(SimCameraGone),
@@ -360,7 +360,7 @@ impl<S: FrameSource> FrameSource for StampedSource<S> {
 /// the twin has it at that exposure (angle at mid-exposure, offset, defocus), with the trigger
 /// count stamped into the first pixels. For a GigE Vision fake camera's per-frame callback.
 pub struct SimRenderer {
-    rx: mpsc::Receiver<SimExposure>,
+    rx: mpsc::Receiver<TriggeredExposure>,
     renderer: gonio_sim::frames::GratingRenderer,
     /// Frames rendered.
     pub rendered: u64,
@@ -382,7 +382,7 @@ impl SimRenderer {
     /// # Errors
     /// An invalid scene.
     pub fn new(
-        rx: mpsc::Receiver<SimExposure>,
+        rx: mpsc::Receiver<TriggeredExposure>,
         scene: gonio_sim::frames::GratingScene,
     ) -> Result<Self, gonio_sim::SimError> {
         let optics = gonio_vision::Optics::default();
@@ -423,13 +423,7 @@ impl SimRenderer {
         let px = &mut pixels[..n];
         match x {
             Some(x) if (w, h) == (width, height) => {
-                let e = x.offset_um[0].hypot(x.offset_um[1]);
-                let psi = -x.offset_um[1].atan2(x.offset_um[0]).to_degrees();
-                if self
-                    .renderer
-                    .render(x.theta_deg, e, psi, x.dz_um, x.seed, px)
-                    .is_err()
-                {
+                if x.exposure.render(&self.renderer, px).is_err() {
                     px.fill(128);
                 }
                 stamp_trigger(px, x.frame_id);

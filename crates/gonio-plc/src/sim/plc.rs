@@ -8,8 +8,8 @@ use crate::map::{
     LATCH_ENTRY_REGS, RegisterMap, SAMPLE_ENTRY_REGS, STATUS_BLOCK_REGS, i32_words, u32_words,
     u64_words, words_i32,
 };
-use gonio_sim::station::{PartTruth, PlantConfig, StationTruth};
-use gonio_station::hal::CameraFrame;
+use gonio_sim::station::{Exposure, PartTruth, PlantConfig, StationTruth};
+use gonio_station::RingReading;
 use gonio_vision::InvalidReason;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -83,26 +83,17 @@ impl SimConfig {
     }
 }
 
-/// One exposure the PLC triggered: what the camera sees, for a rendering camera or the
-/// column-only stand-in.
+/// One exposure the PLC triggered, for a rendering camera or the column-only stand-in: the
+/// twin's exposure (start on the PLC's clock, s) with its trigger count.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SimExposure {
+pub struct TriggeredExposure {
     /// The trigger count (the camera's frame id).
     pub frame_id: u64,
-    /// Start of the exposure, PLC time, s.
-    pub start_s: f64,
-    /// Exposure, s.
-    pub exposure_s: f64,
-    /// Servo angle at mid-exposure, degrees.
-    pub theta_deg: f64,
-    /// The grating centre's offset in servo-angle coordinates, µm.
-    pub offset_um: [f64; 2],
-    /// Focus relative to the part's best focus, µm.
-    pub dz_um: f64,
-    /// Seed of the frame's noise.
-    pub seed: u64,
-    /// The detector's result at the twin's fast fidelity (column from the geometry + noise).
-    pub fast: CameraFrame,
+    /// What the camera sees.
+    pub exposure: Exposure,
+    /// What the detector reads in it at the twin's fast fidelity (the column from the geometry
+    /// plus the detector's noise).
+    pub fast: RingReading,
 }
 
 /// One part's truth, as TRUTH.json lists it.
@@ -246,7 +237,7 @@ pub struct Plc {
     samples: Vec<u16>,
     sample_count: u64,
     sample_next: f64,
-    exposures: Vec<SimExposure>,
+    exposures: Vec<TriggeredExposure>,
 }
 
 impl std::fmt::Debug for Plc {
@@ -329,7 +320,7 @@ impl Plc {
     }
 
     /// Exposures triggered since the last call.
-    pub fn take_exposures(&mut self) -> Vec<SimExposure> {
+    pub fn take_exposures(&mut self) -> Vec<TriggeredExposure> {
         std::mem::take(&mut self.exposures)
     }
 
@@ -596,17 +587,18 @@ impl Plc {
             None
         };
         let seed = self.rng.random::<u64>();
-        self.exposures.push(SimExposure {
+        self.exposures.push(TriggeredExposure {
             frame_id: k,
-            start_s: start,
-            exposure_s: self.cfg.exposure_s,
-            theta_deg: th,
-            offset_um: self.part.offset_um,
-            dz_um: dz,
-            seed,
-            fast: CameraFrame {
+            exposure: Exposure {
                 start_s: start,
                 exposure_s: self.cfg.exposure_s,
+                theta_deg: th,
+                offset_um: self.part.offset_um,
+                dz_um: dz,
+                seed,
+                ring_lost: false,
+            },
+            fast: RingReading {
                 c_px: reason.is_none().then_some(c_true + noise),
                 invalid_reason: reason,
                 focus_measure,

@@ -3,12 +3,12 @@
 //! by the station's own camera (`gonio_station::DetectorCamera`): the same typed path as a real
 //! camera's.
 
-use super::twin::{DeviceId, Shared, SimDeviceError};
+use super::twin::{DeviceId, Exposure, Shared, SimDeviceError};
 use crate::SimError;
-use crate::frames::{GratingRenderer, GratingScene, ScenePreset};
+use crate::frames::{FrameTruth, GratingRenderer, GratingScene, ScenePreset};
 use gonio_station::hal::{Camera, CameraFrame, DeviceErrorKind};
 use gonio_station::{DetectorCamera, DetectorCameraError};
-use gonio_vision::{FrameHeader, FrameResult, FrameSource, FrameStamp, Optics};
+use gonio_vision::{FrameHeader, FrameSource, FrameStamp, Optics};
 
 /// The twin's camera sensor at full fidelity: renders the grating as the twin has it at each
 /// exposure (servo angle at mid-exposure, the part's offset, defocus), a ring-less grating once
@@ -56,17 +56,11 @@ impl FrameSource for TwinFrames {
         };
         let (w, h) = r.size();
         pixels.resize(w * h, 0);
-        // The renderer's grating centre at table angle θ is e·(cos(θ+ψ), sin(θ+ψ)) with X toward
-        // the camera (columns increase with X); the twin's camera sees offset·(cos θ, sin θ),
-        // i.e. e·cos(θ − θ_e): ψ = −θ_e.
-        let e = x.offset_um[0].hypot(x.offset_um[1]);
-        let psi = -x.offset_um[1].atan2(x.offset_um[0]).to_degrees();
-        r.render(x.theta_deg, e, psi, x.dz_um, x.seed, pixels)
-            .map_err(|err| SimDeviceError {
-                device: DeviceId::Camera,
-                kind: DeviceErrorKind::Fault,
-                message: format!("cannot render the frame: {err}"),
-            })?;
+        x.render(r, pixels).map_err(|err| SimDeviceError {
+            device: DeviceId::Camera,
+            kind: DeviceErrorKind::Fault,
+            message: format!("cannot render the frame: {err}"),
+        })?;
         let stamp = FrameStamp {
             index: self.index,
             start_s: Some(x.start_s),
@@ -98,48 +92,30 @@ pub fn frame_camera(twin: Shared, scene: Option<GratingScene>) -> Result<FrameCa
         .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))
 }
 
-/// A rendered frame as the station's camera saw it: the pixels its detector ran on, their size
-/// and stamp, and the detector's whole result (edges, score, reason).
-#[derive(Debug, Clone, Copy)]
-pub struct SeenFrame<'a> {
-    /// Width, px.
-    pub width: usize,
-    /// Height, px.
-    pub height: usize,
-    /// 8-bit grey pixels, row-major (the raw stream format of `gonio detect --raw`).
-    pub pixels: &'a [u8],
-    /// When it was taken.
-    pub stamp: FrameStamp,
-    /// What the detector found.
-    pub result: &'a FrameResult,
-}
-
 /// Told every frame the full-fidelity camera takes (a recorder, the live view's thumbnail).
-pub type FrameTap<'a> = &'a mut dyn FnMut(&SeenFrame<'_>);
+pub use gonio_station::tap::{FrameTap, SeenFrame};
 
-/// [`TwinFrames`] keeping a copy of its last frame for a tap.
-#[derive(Debug)]
-pub struct KeptFrames {
-    inner: TwinFrames,
-    pixels: Vec<u8>,
-    header: Option<FrameHeader>,
-}
-
-impl FrameSource for KeptFrames {
-    type Error = SimDeviceError;
-    fn next_frame(&mut self, pixels: &mut Vec<u8>) -> Result<Option<FrameHeader>, SimDeviceError> {
-        let h = self.inner.next_frame(pixels)?;
-        self.pixels.clear();
-        self.pixels.extend_from_slice(pixels);
-        self.header = h;
-        Ok(h)
+impl Exposure {
+    /// Renders the grating as this exposure shows it (the servo angle at mid-exposure, the
+    /// part's offset, defocus, the frame's noise seed) into `pixels`, `r`'s size.
+    ///
+    /// The renderer's grating centre at table angle θ is e·(cos(θ+ψ), sin(θ+ψ)) with X toward
+    /// the camera (columns increase with X); the twin's camera sees offset·(cos θ, sin θ), i.e.
+    /// e·cos(θ − θ_e): ψ = −θ_e.
+    ///
+    /// # Errors
+    /// As [`GratingRenderer::render`], whose ground truth of the frame this returns.
+    pub fn render(&self, r: &GratingRenderer, pixels: &mut [u8]) -> Result<FrameTruth, SimError> {
+        let e = self.offset_um[0].hypot(self.offset_um[1]);
+        let psi = -self.offset_um[1].atan2(self.offset_um[0]).to_degrees();
+        r.render(self.theta_deg, e, psi, self.dz_um, self.seed, pixels)
     }
 }
 
 /// The full-fidelity camera with a tap: every frame is handed to the tap with the detector's
 /// result after it is detected. What the station gets is exactly what [`FrameCamera`] gives.
 pub struct TappedCamera<'a> {
-    cam: DetectorCamera<KeptFrames>,
+    cam: FrameCamera,
     tap: FrameTap<'a>,
 }
 
@@ -161,16 +137,10 @@ impl<'a> TappedCamera<'a> {
         scene: Option<GratingScene>,
         tap: FrameTap<'a>,
     ) -> Result<Self, SimError> {
-        let optics = Optics::default();
-        let scene = scene.unwrap_or_else(|| GratingScene::preset(ScenePreset::Realistic));
-        let frames = KeptFrames {
-            inner: TwinFrames::new(twin, &optics, scene)?,
-            pixels: Vec::new(),
-            header: None,
-        };
-        let cam = DetectorCamera::new(frames, &optics)
-            .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))?;
-        Ok(TappedCamera { cam, tap })
+        Ok(TappedCamera {
+            cam: frame_camera(twin, scene)?,
+            tap,
+        })
     }
 }
 
@@ -178,15 +148,8 @@ impl Camera for TappedCamera<'_> {
     type Error = DetectorCameraError<SimDeviceError>;
     fn capture(&mut self) -> Result<CameraFrame, Self::Error> {
         let f = self.cam.capture()?;
-        let src = self.cam.source();
-        if let (Some(h), Some(r)) = (src.header, self.cam.last_result()) {
-            (self.tap)(&SeenFrame {
-                width: h.width,
-                height: h.height,
-                pixels: &src.pixels,
-                stamp: h.stamp,
-                result: r,
-            });
+        if let Some(seen) = self.cam.seen() {
+            (self.tap)(&seen);
         }
         Ok(f)
     }

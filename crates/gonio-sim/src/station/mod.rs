@@ -26,9 +26,7 @@ pub use batch::{
     BatchConfig, BatchReport, BatchSummary, Fidelity, PartDone, RunOptions, SimPartRecord,
     SummaryBuilder, run_batch, run_batch_from, run_batch_observed, run_batch_on, run_batch_with,
 };
-pub use frames::{
-    FrameCamera, FrameTap, KeptFrames, SeenFrame, TappedCamera, TwinFrames, frame_camera,
-};
+pub use frames::{FrameCamera, FrameTap, SeenFrame, TappedCamera, TwinFrames, frame_camera};
 pub use pace::{FrameTiming, Pace, TimingSummary};
 pub use plant::{PartTruth, PlantConfig, StationTruth, Timing};
 pub use twin::{

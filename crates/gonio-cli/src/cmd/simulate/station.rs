@@ -120,7 +120,7 @@ pub fn run(a: Args) -> Result<()> {
 mod camera {
     use super::SceneArg;
     use anyhow::Result;
-    use gonio_plc::sim::SimExposure;
+    use gonio_plc::sim::TriggeredExposure;
     use std::net::IpAddr;
     use std::sync::mpsc::Receiver;
 
@@ -128,7 +128,7 @@ mod camera {
     /// (kept alive by the caller).
     #[cfg(feature = "genicam")]
     pub fn serve(
-        frames: Receiver<SimExposure>,
+        frames: Receiver<TriggeredExposure>,
         addr: IpAddr,
         scene: SceneArg,
         _seed: u64,
@@ -171,7 +171,7 @@ mod camera {
     /// Without GenICam nothing takes the frames: the PLC drops them as a camera would.
     #[cfg(not(feature = "genicam"))]
     pub fn serve(
-        frames: Receiver<SimExposure>,
+        frames: Receiver<TriggeredExposure>,
         _addr: IpAddr,
         _scene: SceneArg,
         _seed: u64,
