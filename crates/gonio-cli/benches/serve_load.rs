@@ -114,12 +114,9 @@ fn serve(db: &str) -> (common::Guard, String) {
     )
 }
 
+/// The nearest-rank quantile (gonio_core::quantile); NaN for no samples.
 fn percentile(v: &mut [f64], p: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * p).round() as usize]
+    gonio_core::quantile::quantile(v, p).unwrap_or(f64::NAN)
 }
 
 fn show(label: &str, t: &Value) {

@@ -1,5 +1,6 @@
 //! Core types of gonio: angles and units as types, Fourier series and the general harmonic
-//! least-squares fit, circle-closure helpers, special functions, and the shared error kinds.
+//! least-squares fit, circle-closure helpers, special functions, the one quantile definition of
+//! gonio's reports, and the shared error kinds.
 //!
 //! Nothing here does I/O. Every angle that crosses a crate boundary carries its unit in its type
 //! ([`Arcsec`], [`Degrees`], [`Radians`]) or in its name (`_arcsec`, `_deg`, `_rad`, `_um`, `_px`).
@@ -16,6 +17,7 @@ pub mod closure;
 pub mod error;
 pub mod fourier;
 pub mod harmonic;
+pub mod quantile;
 pub mod special;
 pub mod text;
 

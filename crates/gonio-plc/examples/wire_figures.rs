@@ -153,8 +153,13 @@ fn main() {
         &g(&|r| Some(r.phase_times.push_s)),
     );
     let l = &report.link;
+    let ms = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.3}"));
     println!(
-        "link: {} requests, round trip p50 {:.3} ms, p99 {:.3} ms; frames paired {}, stale skipped {}",
-        l.requests, l.round_trip_p50_ms, l.round_trip_p99_ms, l.frames_paired, l.frames_stale
+        "link: {} requests, round trip p50 {} ms, p99 {} ms; frames paired {}, stale skipped {}",
+        l.requests,
+        ms(l.round_trip_p50_ms),
+        ms(l.round_trip_p99_ms),
+        l.frames_paired,
+        l.frames_stale
     );
 }

@@ -37,8 +37,8 @@ pub struct ContactDetector {
     min_px: f64,
     frames: usize,
     base: Vec<f64>,
-    mean: f64,
-    threshold: f64,
+    /// The baseline's mean and threshold, px, once learned.
+    learned: Option<(f64, f64)>,
     run: usize,
 }
 
@@ -52,20 +52,19 @@ impl ContactDetector {
             min_px,
             frames: frames.max(1),
             base: Vec::new(),
-            mean: f64::NAN,
-            threshold: f64::NAN,
+            learned: None,
             run: 0,
         }
     }
 
-    /// The baseline column, px (NaN while learning).
-    pub fn baseline_px(&self) -> f64 {
-        self.mean
+    /// The baseline column, px (`None` while learning).
+    pub fn baseline_px(&self) -> Option<f64> {
+        self.learned.map(|(mean, _)| mean)
     }
 
-    /// The threshold, px (NaN while learning).
-    pub fn threshold_px(&self) -> f64 {
-        self.threshold
+    /// The threshold, px (`None` while learning).
+    pub fn threshold_px(&self) -> Option<f64> {
+        self.learned.map(|(_, threshold)| threshold)
     }
 
     /// Takes the next frame's column (`None`: no ring in the frame).
@@ -77,22 +76,17 @@ impl ContactDetector {
                 Verdict::Free
             };
         };
-        if self.base.len() < self.baseline_frames {
+        let Some((mean, threshold)) = self.learned else {
             self.base.push(c);
             if self.base.len() == self.baseline_frames {
                 let n = self.base.len() as f64;
-                self.mean = self.base.iter().sum::<f64>() / n;
-                let var = self
-                    .base
-                    .iter()
-                    .map(|x| (x - self.mean).powi(2))
-                    .sum::<f64>()
-                    / (n - 1.0);
-                self.threshold = (self.sigmas * var.sqrt()).max(self.min_px);
+                let mean = self.base.iter().sum::<f64>() / n;
+                let var = self.base.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                self.learned = Some((mean, (self.sigmas * var.sqrt()).max(self.min_px)));
             }
             return Verdict::Learning;
-        }
-        if (c - self.mean).abs() > self.threshold {
+        };
+        if (c - mean).abs() > threshold {
             self.run += 1;
         } else {
             self.run = 0;
@@ -127,9 +121,9 @@ mod tests {
         for _ in 0..2000 {
             assert_ne!(d.update(Some(720.0 + noise())), Verdict::Contact);
         }
-        assert!(d.threshold_px() >= 0.6 && d.threshold_px() < 3.0);
+        let thr = d.threshold_px().expect("learned");
+        assert!((0.6..3.0).contains(&thr));
         // A ramp of 0.5 px a frame is found within a few frames of crossing the threshold.
-        let thr = d.threshold_px();
         let mut n = 0;
         loop {
             n += 1;

@@ -1,5 +1,5 @@
 //! [`RoundTrips`]: the round-trip times of a link's requests, every request counted in bounded
-//! memory, with their quantiles in ms.
+//! memory, with their quantiles in ms (nearest rank, [`gonio_core::quantile`]).
 
 /// Width of a round-trip histogram bin, ms.
 const RTT_BIN_MS: f64 = 0.01;
@@ -59,28 +59,30 @@ impl RoundTrips {
         self.count as usize
     }
 
-    /// The `q` quantile (0–1), ms (the sample of rank round((n − 1)·q)); NaN when nothing was
-    /// timed.
-    pub fn quantile_ms(&self, q: f64) -> f64 {
+    /// The `q` quantile (0–1), ms: the nearest-rank quantile ([`gonio_core::quantile`]) of
+    /// every request timed, within half a bin below 100 ms; `None` when nothing was timed.
+    pub fn quantile_ms(&self, q: f64) -> Option<f64> {
         if self.count == 0 {
-            return f64::NAN;
+            return None;
         }
-        let rank = ((self.count - 1) as f64 * q.clamp(0.0, 1.0)).round() as u64;
+        let rank = gonio_core::quantile::rank(self.count as usize, q) as u64;
         let mut seen = 0u64;
         for (i, &n) in self.bins.iter().enumerate() {
             seen += n;
             if rank < seen {
-                return (i as f64 + 0.5) * RTT_BIN_MS;
+                return Some((i as f64 + 0.5) * RTT_BIN_MS);
             }
         }
         // Among the slow ones: those dropped were the fastest of them.
         let mut slow = self.slow_ms.clone();
         slow.sort_by(f64::total_cmp);
         let k = (rank - seen).saturating_sub(self.slow_dropped) as usize;
-        slow.get(k)
-            .or(slow.first())
-            .copied()
-            .unwrap_or(RTT_BINS as f64 * RTT_BIN_MS)
+        Some(
+            slow.get(k)
+                .or(slow.first())
+                .copied()
+                .unwrap_or(RTT_BINS as f64 * RTT_BIN_MS),
+        )
     }
 }
 
@@ -89,11 +91,9 @@ mod tests {
     use super::RoundTrips;
     use rand::{RngExt, SeedableRng};
 
-    /// The sample of rank round((n − 1)·q) of a sorted copy.
+    /// The nearest-rank quantile of a sorted copy.
     fn exact(v: &[f64], q: f64) -> f64 {
-        let mut s = v.to_vec();
-        s.sort_by(f64::total_cmp);
-        s[((s.len() - 1) as f64 * q).round() as usize]
+        gonio_core::quantile::quantile(&mut v.to_vec(), q).unwrap()
     }
 
     #[test]
@@ -113,7 +113,7 @@ mod tests {
         }
         assert_eq!(r.count(), 20_000);
         for q in [0.0, 0.1, 0.5, 0.9, 0.99] {
-            let (got, want) = (r.quantile_ms(q), exact(&all, q));
+            let (got, want) = (r.quantile_ms(q).unwrap(), exact(&all, q));
             assert!(
                 (got - want).abs() <= 0.005 + 1e-12,
                 "q {q}: {got} vs {want}"
@@ -121,9 +121,9 @@ mod tests {
         }
         // In the slow tail every sample is kept: exact.
         for q in [0.996, 0.999, 1.0] {
-            assert_eq!(r.quantile_ms(q), exact(&all, q), "q {q}");
+            assert_eq!(r.quantile_ms(q), Some(exact(&all, q)), "q {q}");
         }
-        assert!(RoundTrips::default().quantile_ms(0.5).is_nan());
+        assert_eq!(RoundTrips::default().quantile_ms(0.5), None);
     }
 
     #[test]
@@ -133,7 +133,7 @@ mod tests {
             r.add(1.0 + (i % 7) as f64 * 0.1);
         }
         assert_eq!(r.count(), 1_500_000);
-        assert!((r.quantile_ms(0.5) - 1.305).abs() < 1e-9);
+        assert!((r.quantile_ms(0.5).unwrap() - 1.305).abs() < 1e-9);
         assert_eq!(r.bins.len(), super::RTT_BINS);
     }
 }

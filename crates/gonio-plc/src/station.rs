@@ -79,10 +79,10 @@ impl<C> std::fmt::Debug for PlcStation<C> {
 pub struct LinkFigures {
     /// Modbus requests timed.
     pub requests: usize,
-    /// Median round trip, ms.
-    pub round_trip_p50_ms: f64,
-    /// 99th percentile round trip, ms.
-    pub round_trip_p99_ms: f64,
+    /// Median round trip, ms (`null`: no request timed).
+    pub round_trip_p50_ms: Option<f64>,
+    /// 99th percentile round trip, ms (`null`: no request timed).
+    pub round_trip_p99_ms: Option<f64>,
     /// Frames paired with a latched angle.
     pub frames_paired: u64,
     /// Frames skipped (triggered before the last motion finished).
@@ -184,7 +184,7 @@ impl<C: TriggeredCamera> PlcStation<C> {
     }
 
     /// The link's round-trip times, p50 and p99, ms, and the requests timed.
-    pub fn round_trip_ms(&self) -> (f64, f64, usize) {
+    pub fn round_trip_ms(&self) -> (Option<f64>, Option<f64>, usize) {
         let i = self.0.borrow();
         let r = i.link.round_trips();
         (r.quantile_ms(0.5), r.quantile_ms(0.99), r.count())
@@ -399,7 +399,12 @@ impl<C: TriggeredCamera> Inner<C> {
         );
         // The baseline before the rod moves: where the edge is, and the column's noise.
         while det.update(self.capture()?.c_px) == Verdict::Learning {}
-        let edge_um = (det.baseline_px() - rod.centre_column_px) * self.opts.um_per_px;
+        let Some(baseline_px) = det.baseline_px() else {
+            return Err(PlcError::NoContact {
+                message: "no baseline of the ring's column before the approach".into(),
+            });
+        };
+        let edge_um = (baseline_px - rod.centre_column_px) * self.opts.um_per_px;
         let standoff = (rod.gap_centred_um - edge_um - rod.margin_um).max(0.0);
         let creep = match speed {
             ApproachSpeed::Fast => rod.creep_fast_um_per_s,

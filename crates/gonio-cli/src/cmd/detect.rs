@@ -3,6 +3,7 @@
 
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::output::{OutId, Outputs};
+use gonio_core::quantile::quantile_sorted;
 use gonio_io::formats::angles::{self, AngleLog};
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
@@ -432,13 +433,11 @@ fn report_timing(cpu_s: &mut [f64], wall_s: &mut [f64], split: bool) {
         gonio_cli::note!("detector timing: no frames");
         return;
     }
-    // Nearest-rank quantiles (the median of an even count is the mean of the middle two).
+    // Nearest-rank quantiles (gonio_core::quantile); `v` is not empty.
     let quantiles = |v: &mut [f64]| {
         v.sort_by(f64::total_cmp);
-        let n = v.len();
-        let median = (v[(n - 1) / 2] + v[n / 2]) / 2.0;
-        let p99 = v[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1];
-        (median * 1e3, p99 * 1e3, v[n - 1] * 1e3, n)
+        let q = |p: f64| quantile_sorted(v, p).unwrap_or(f64::NAN) * 1e3;
+        (q(0.5), q(0.99), q(1.0), v.len())
     };
     let (median, p99, max, n) = quantiles(cpu_s);
     gonio_cli::note!(
@@ -669,14 +668,7 @@ mod camera_run {
         let s = src.stats();
         drop(src);
         latency_s.sort_by(f64::total_cmp);
-        let q = |p: f64| {
-            if latency_s.is_empty() {
-                f64::NAN
-            } else {
-                let n = latency_s.len();
-                latency_s[((p * n as f64).ceil() as usize).clamp(1, n) - 1] * 1e3
-            }
-        };
+        let q = |p: f64| quantile_sorted(&latency_s, p).map_or(f64::NAN, |x| x * 1e3);
         gonio_cli::note!(
             "camera {id}: {} frames ({} complete, {} incomplete), {} missing, {} packets resent, \
              {} lost; latency buffer arrival → result p50 {:.2} ms, p99 {:.2} ms; CPU {:.3} ms \

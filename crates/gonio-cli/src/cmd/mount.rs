@@ -427,10 +427,10 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         )?;
         let l = &report.link;
         say!(
-            "link: {} requests, round trip p50 {:.2} ms, p99 {:.2} ms; {} frames paired with latched angles, {} skipped as stale",
+            "link: {} requests, round trip p50 {} ms, p99 {} ms; {} frames paired with latched angles, {} skipped as stale",
             l.requests,
-            l.round_trip_p50_ms,
-            l.round_trip_p99_ms,
+            fixed(l.round_trip_p50_ms, 2),
+            fixed(l.round_trip_p99_ms, 2),
             l.frames_paired,
             l.frames_stale
         )?;

@@ -40,18 +40,18 @@ pub struct FrameTiming {
 pub struct TimingSummary {
     /// Frames timed.
     pub frames: u64,
-    /// Mean lateness of a frame against its schedule, ms.
-    pub mean_late_ms: f64,
-    /// Median lateness over the recent frames, ms.
-    pub p50_late_ms: f64,
+    /// Mean lateness of a frame against its schedule, ms (`null`: no frame timed).
+    pub mean_late_ms: Option<f64>,
+    /// Median lateness over the recent frames, ms (nearest rank, `gonio_core::quantile`).
+    pub p50_late_ms: Option<f64>,
     /// 99th percentile of lateness over the recent frames, ms.
-    pub p99_late_ms: f64,
+    pub p99_late_ms: Option<f64>,
     /// Largest lateness, ms.
-    pub max_late_ms: f64,
+    pub max_late_ms: Option<f64>,
     /// Frames later than one frame period (a missed frame slot).
     pub late_frames: u64,
     /// The frame period on the wall clock, ms.
-    pub period_ms: f64,
+    pub period_ms: Option<f64>,
 }
 
 impl FrameTiming {
@@ -87,25 +87,16 @@ impl FrameTiming {
     pub fn summary(&self) -> TimingSummary {
         let mut v = self.recent.clone();
         v.sort_by(f64::total_cmp);
-        let q = |p: f64| {
-            if v.is_empty() {
-                0.0
-            } else {
-                v[((v.len() - 1) as f64 * p).round() as usize] * 1e3
-            }
-        };
+        let q = |p: f64| gonio_core::quantile::quantile_sorted(&v, p).map(|x| x * 1e3);
+        let timed = self.frames > 0;
         TimingSummary {
             frames: self.frames,
-            mean_late_ms: if self.frames > 0 {
-                self.late_sum_s / self.frames as f64 * 1e3
-            } else {
-                0.0
-            },
+            mean_late_ms: timed.then(|| self.late_sum_s / self.frames as f64 * 1e3),
             p50_late_ms: q(0.5),
             p99_late_ms: q(0.99),
-            max_late_ms: self.late_max_s * 1e3,
+            max_late_ms: timed.then_some(self.late_max_s * 1e3),
             late_frames: self.late_frames,
-            period_ms: self.period_s * 1e3,
+            period_ms: timed.then_some(self.period_s * 1e3),
         }
     }
 }

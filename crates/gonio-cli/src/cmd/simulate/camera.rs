@@ -226,13 +226,7 @@ fn serve(a: Args, per_turn: u64) -> Result<()> {
     drop(cam);
     let mut fills = fill_s.lock().map(|l| l.clone()).unwrap_or_default();
     fills.sort_by(f64::total_cmp);
-    let q = |p: f64| {
-        if fills.is_empty() {
-            0.0
-        } else {
-            fills[((p * fills.len() as f64).ceil() as usize).clamp(1, fills.len()) - 1] * 1e3
-        }
-    };
+    let q = |p: f64| gonio_core::quantile::quantile_sorted(&fills, p).map_or(0.0, |x| x * 1e3);
     // Frames per second from the first filled frame to the last (the frame rate a client sees).
     let acquiring = span
         .lock()
