@@ -17,7 +17,8 @@ use crate::station::PlcStation;
 use crate::triggered::TriggeredCamera;
 use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::strategy::Learned;
-use gonio_station::{Controller, PartRecord, PartResult, StationError};
+use gonio_station::summary::{BatchSummary, SummaryBuilder};
+use gonio_station::{Controller, PartRecord, StationError};
 use serde::Serialize;
 use std::time::Duration;
 
@@ -43,32 +44,6 @@ pub struct PlcPartDone<'a> {
     pub learned: &'a Learned,
 }
 
-/// The batch's summary.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PlcSummary {
-    /// Parts mounted.
-    pub parts: usize,
-    /// Mean time per part over the parts that have one, s (`null`: none has).
-    pub mean_time_s: Option<f64>,
-    /// Mean final eccentricity as measured over the parts where it is defined, µm (`null`:
-    /// none is).
-    pub mean_final_e_um: Option<f64>,
-    /// Mean pushes per part.
-    pub mean_pushes: f64,
-    /// Most pushes on one part.
-    pub max_pushes: u32,
-    /// Parts rejected.
-    pub rejected: usize,
-    /// Parts ended by a device error.
-    pub device_errors: usize,
-    /// Mean time per phase, s: focus, measure, push.
-    pub mean_focus_s: f64,
-    /// Mean measuring time per part, s.
-    pub mean_measure_s: f64,
-    /// Mean push time per part, s.
-    pub mean_push_s: f64,
-}
-
 /// The batch's result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PlcBatchReport {
@@ -85,7 +60,7 @@ pub struct PlcBatchReport {
     /// Why the batch stopped early.
     pub stopped: Option<String>,
     /// Summary.
-    pub summary: PlcSummary,
+    pub summary: BatchSummary,
     /// The link.
     pub link: LinkFigures,
 }
@@ -101,39 +76,12 @@ pub struct PlcPart {
 }
 
 /// Summarises records.
-pub fn summarise(parts: &[PlcPart]) -> PlcSummary {
-    let n = parts.len().max(1) as f64;
-    let mean = |f: &dyn Fn(&PartRecord) -> f64| {
-        parts
-            .iter()
-            .map(|p| f(&p.record))
-            .filter(|x| x.is_finite())
-            .sum::<f64>()
-            / n
-    };
-    // The mean of the values defined (`None`: none is).
-    let mean_of = |f: &dyn Fn(&PartRecord) -> Option<f64>| {
-        let v: Vec<f64> = parts.iter().filter_map(|p| f(&p.record)).collect();
-        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-    };
-    PlcSummary {
-        parts: parts.len(),
-        mean_time_s: mean_of(&|r| r.time_s),
-        mean_final_e_um: mean_of(&|r| r.final_e_um),
-        mean_pushes: mean(&|r| r.pushes as f64),
-        max_pushes: parts.iter().map(|p| p.record.pushes).max().unwrap_or(0),
-        rejected: parts
-            .iter()
-            .filter(|p| p.record.result != PartResult::Accepted)
-            .count(),
-        device_errors: parts
-            .iter()
-            .filter(|p| p.record.result == PartResult::RejectedDeviceError)
-            .count(),
-        mean_focus_s: mean(&|r| r.phase_times.focus_s),
-        mean_measure_s: mean(&|r| r.phase_times.measure_s),
-        mean_push_s: mean(&|r| r.phase_times.push_s),
+pub fn summarise(parts: &[PlcPart]) -> BatchSummary {
+    let mut s = SummaryBuilder::default();
+    for p in parts {
+        s.add(&p.record, None);
     }
+    s.finish()
 }
 
 /// Mounts `parts` parts through `station`, telling `on_part` each one as it ends.

@@ -11,6 +11,7 @@ use crate::font;
 use crate::plot::{self, Figure};
 use gonio_calib::certificate::{Certificate, CertificateMeta, Procedure};
 use gonio_calib::compare::Comparison;
+use gonio_station::published;
 use std::fmt::Write as _;
 
 /// The paper behind the shift-angle method and the self-calibration comparison.
@@ -252,18 +253,24 @@ impl Report {
         );
         let _ = write!(
             b,
-            "<table class=\"grid\"><thead><tr><th></th><th>this batch ({} parts)</th><th>Yu et al., 2024 (25 real parts)</th></tr></thead><tbody>\
-             <tr><th>mean time per part</th><td>{} s</td><td>25.1 s</td></tr>\
-             <tr><th>mean pushes per part</th><td>{}</td><td>2.1</td></tr>\
-             <tr><th>most pushes on one part</th><td>{}</td><td>5</td></tr>\
-             <tr><th>mean final eccentricity</th><td>{} µm</td><td>3.8 µm</td></tr>\
-             <tr><th>parts rejected</th><td>{}</td><td>0</td></tr></tbody></table>",
+            "<table class=\"grid\"><thead><tr><th></th><th>this batch ({} parts)</th><th>{}</th></tr></thead><tbody>\
+             <tr><th>mean time per part</th><td>{} s</td><td>{} s</td></tr>\
+             <tr><th>mean pushes per part</th><td>{}</td><td>{}</td></tr>\
+             <tr><th>most pushes on one part</th><td>{}</td><td>{}</td></tr>\
+             <tr><th>mean final eccentricity</th><td>{} µm</td><td>{} µm</td></tr>\
+             <tr><th>parts rejected</th><td>{}</td><td>{}</td></tr></tbody></table>",
             s.parts,
+            published::YU_2024.source,
             f(s.mean_time_s, 1),
+            published::YU_2024.mean_time_s,
             f(s.mean_pushes, 2),
+            published::YU_2024.mean_pushes,
             s.max_pushes,
+            published::YU_2024.max_pushes,
             f(s.mean_final_e_um, 2),
-            s.rejected
+            published::YU_2024.mean_final_e_um,
+            s.rejected,
+            published::YU_2024.rejected
         );
         for fig in [
             plot::batch_c_theta(batch)?,

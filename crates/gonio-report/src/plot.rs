@@ -9,6 +9,7 @@ use crate::batch::{BatchView, PartView, TurnView};
 use crate::font::{self, FAMILY};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::compare::Comparison;
+use gonio_station::published::YU_2024;
 use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
@@ -1381,7 +1382,11 @@ pub fn batch_parts(b: &BatchView) -> Result<Option<Figure>, ReportError> {
                 }))
                 .map_err(err("parts"))?;
             let mean = parts.iter().map(value).sum::<f64>() / n;
-            let paper = if is_time { 25.1 } else { 2.1 };
+            let paper = if is_time {
+                YU_2024.mean_time_s
+            } else {
+                YU_2024.mean_pushes
+            };
             chart
                 .draw_series(DashedLineSeries::new(
                     [(0.5, mean), (n + 0.5, mean)],
@@ -1400,7 +1405,10 @@ pub fn batch_parts(b: &BatchView) -> Result<Option<Figure>, ReportError> {
                     BLACK.stroke_width(2),
                 ))
                 .map_err(err("parts"))?
-                .label(format!("Yu et al., 2024 (25 parts): mean {paper}"))
+                .label(format!(
+                    "Yu et al., 2024 ({} parts): mean {paper}",
+                    YU_2024.parts
+                ))
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.stroke_width(2)));
             legend(&mut chart, "parts", 15)?;
         }
@@ -1409,7 +1417,10 @@ pub fn batch_parts(b: &BatchView) -> Result<Option<Figure>, ReportError> {
     Ok(Some(Figure {
         id: "parts".into(),
         title: "Pushes and time per part".into(),
-        caption: "Bars per part (red: rejected), the batch mean (green) and the mean of the 25 real parts of Yu et al., 2024 (black: 2.1 pushes, 25.1 s).".into(),
+        caption: format!(
+            "Bars per part (red: rejected), the batch mean (green) and the mean of the {} real parts of Yu et al., 2024 (black: {} pushes, {} s).",
+            YU_2024.parts, YU_2024.mean_pushes, YU_2024.mean_time_s
+        ),
         svg,
     }))
 }

@@ -14,10 +14,12 @@
 //! - [`strategy`]: the push strategies, the live-feedback loop, the push model's prediction
 //!   and what is learned from each push.
 //! - [`controller`]: the mounting sequence, one part at a time, pushing only on trusted turns.
-//! - [`record`]: what is recorded about every part (turns, pushes, verdicts, reasons, times).
+//! - [`record`]: what is recorded about every part (turns, pushes, verdicts, reasons, times);
+//!   [`summary`]: a batch's summary, the same sums for the twin's parts and the wire's.
 //! - [`turn`]: one measuring turn from its frames and angle log (the controller's and the
 //!   replay's one code path).
 //! - [`observe`]: the station's events as they happen, for a live view (no-op by default).
+//! - [`published`]: the figures of Yu et al., 2024 every batch is compared with.
 //! - [`tap`]: each frame as the station's camera saw it (pixels and the detector's result), for
 //!   a recorder and the live thumbnail.
 //!
@@ -35,6 +37,7 @@ pub mod fit;
 pub mod hal;
 pub mod interval;
 pub mod observe;
+pub mod published;
 pub mod quality;
 pub mod recipe;
 pub mod record;
@@ -42,6 +45,7 @@ pub mod replay;
 pub mod sample;
 pub mod spline;
 pub mod strategy;
+pub mod summary;
 pub mod tap;
 pub mod turn;
 

@@ -187,13 +187,14 @@ async fn api_part(State(st): State<AppState>, Path(id): Path<String>) -> Respons
 
 /// Yu et al., 2024: the station's 25 real parts.
 pub(crate) fn paper_figures() -> serde_json::Value {
+    let y = &gonio_station::published::YU_2024;
     json!({
-        "source": "Yu et al., 2024 (25 real parts)",
-        "parts": 25,
-        "mean_time_s": 25.1,
-        "mean_pushes": 2.1,
-        "max_pushes": 5,
-        "mean_final_e_um": 3.8,
+        "source": y.source,
+        "parts": y.parts,
+        "mean_time_s": y.mean_time_s,
+        "mean_pushes": y.mean_pushes,
+        "max_pushes": y.max_pushes,
+        "mean_final_e_um": y.mean_final_e_um,
     })
 }
 

@@ -14,6 +14,7 @@ use gonio_sim::shift_angle::{Rows, ShiftAngleConfig, ShiftAngleTruth, simulate};
 use gonio_sim::station::BatchReport;
 use gonio_sim::station::{BatchConfig, run_batch};
 use gonio_station::controller::Strategy;
+use gonio_station::published::YU_2024;
 use gonio_uncertainty::instrument::InstrumentFile;
 use std::path::PathBuf;
 
@@ -296,13 +297,14 @@ fn mounting(seed: u64) -> Result<BatchReport> {
         "mean final e",
         "mean time"
     )?;
+    let y = &YU_2024;
     say!(
         "  {:<28} {:>12} {:>12} {:>13}µm {:>9}s",
-        "Yu et al., 2024, 25 parts",
-        "2.1",
-        "5",
-        "3.8",
-        "25.1"
+        format!("Yu et al., 2024, {} parts", y.parts),
+        y.mean_pushes,
+        y.max_pushes,
+        y.mean_final_e_um,
+        y.mean_time_s
     )?;
     let mut default_batch = None;
     for strategy in [Strategy::Paper, Strategy::Learned, Strategy::Live] {

@@ -12,6 +12,7 @@ use gonio_sim::frames::{GratingScene, ScenePreset};
 use gonio_sim::station::{BatchConfig, BatchReport, PartDone};
 use gonio_station::Recipe;
 use gonio_station::observe::NoObserver;
+use gonio_station::published::YU_2024;
 use gonio_station::tap::{FrameTap, SeenFrame};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -318,7 +319,7 @@ fn print_and_write(
     if !to_stdout {
         let s = &report.summary;
         say!(
-            "\n{} parts, strategy {}, recipe {}: mean {} s, {:.2} pushes (max {}), final e {} µm (true {:.2} µm), {} rejected",
+            "\n{} parts, strategy {}, recipe {}: mean {} s, {:.2} pushes (max {}), final e {} µm (true {} µm), {} rejected",
             s.parts,
             report.strategy,
             report.recipe,
@@ -326,7 +327,7 @@ fn print_and_write(
             s.mean_pushes,
             s.max_pushes,
             fixed(s.mean_final_e_um, 2),
-            s.mean_true_final_e_um,
+            fixed(s.mean_true_final_e_um, 2),
             s.rejected
         )?;
         say!(
@@ -336,8 +337,19 @@ fn print_and_write(
             s.push_inconsistent,
             s.device_errors
         )?;
+        let y = &YU_2024;
         say!(
-            "Yu et al., 2024, 25 real parts: mean 25.1 s, 2.1 pushes (max 5), final e 3.8 µm; manual: 13.7 µm in 30–40 s; Wang et al.: 6.0 µm in 32.4 s"
+            "Yu et al., 2024, {} real parts: mean {} s, {} pushes (max {}), final e {} µm; manual: {} µm in {}–{} s; Wang et al.: {:.1} µm in {} s",
+            y.parts,
+            y.mean_time_s,
+            y.mean_pushes,
+            y.max_pushes,
+            y.mean_final_e_um,
+            y.manual_final_e_um,
+            y.manual_time_s.0,
+            y.manual_time_s.1,
+            y.wang_final_e_um,
+            y.wang_time_s
         )?;
         say!(
             "simulated station: push gain {:.3}, push-direction offset {:+.2}° (learned {:.3}, {:+.2}°)",
@@ -411,14 +423,14 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     if !to_stdout {
         let s = &report.summary;
         say!(
-            "\n{} parts through {}, strategy {}: mean {} s (focus {:.1}, measure {:.1}, push {:.1}), {:.2} pushes (max {}), final e {} µm, {} rejected, {} device errors",
+            "\n{} parts through {}, strategy {}: mean {} s (focus {}, measure {}, push {}), {:.2} pushes (max {}), final e {} µm, {} rejected, {} device errors",
             s.parts,
             report.plc,
             report.strategy,
             fixed(s.mean_time_s, 1),
-            s.mean_focus_s,
-            s.mean_measure_s,
-            s.mean_push_s,
+            fixed(s.mean_focus_s, 1),
+            fixed(s.mean_measure_s, 1),
+            fixed(s.mean_push_s, 1),
             s.mean_pushes,
             s.max_pushes,
             fixed(s.mean_final_e_um, 2),

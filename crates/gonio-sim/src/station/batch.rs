@@ -9,8 +9,9 @@ use crate::frames::GratingScene;
 use gonio_station::hal::{Camera, PushRod};
 use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::strategy::Learned;
+pub use gonio_station::summary::{BatchSummary, SummaryBuilder};
 use gonio_station::{
-    Controller, DeviceErrorPolicy, Devices, PartRecord, PartResult, Recipe, StationError, Strategy,
+    Controller, DeviceErrorPolicy, Devices, PartRecord, Recipe, StationError, Strategy,
 };
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
@@ -74,36 +75,6 @@ pub struct SimPartRecord {
     pub true_final_e_um: f64,
 }
 
-/// The batch's summary.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BatchSummary {
-    /// Parts mounted.
-    pub parts: usize,
-    /// Mean time per part, s, over the parts whose time is known (`null`: none).
-    pub mean_time_s: Option<f64>,
-    /// Mean final eccentricity as measured by the station, µm, over the parts a trusted turn
-    /// measured (`null`: none was).
-    pub mean_final_e_um: Option<f64>,
-    /// Mean true final eccentricity, µm.
-    pub mean_true_final_e_um: f64,
-    /// Mean pushes per part.
-    pub mean_pushes: f64,
-    /// Most pushes on one part.
-    pub max_pushes: u32,
-    /// Parts rejected.
-    pub rejected: usize,
-    /// Parts rejected because their turns failed the quality gate (`measurement_untrusted`).
-    pub untrusted: usize,
-    /// Parts rejected because a verify turn disagreed with the push model (`push_inconsistent`).
-    pub push_inconsistent: usize,
-    /// Parts ended by a device error.
-    pub device_errors: usize,
-    /// Turns measured again over the batch.
-    pub remeasured_turns: u32,
-    /// Total simulated station time, s.
-    pub total_time_s: f64,
-}
-
 /// The batch's result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BatchReport {
@@ -128,106 +99,13 @@ pub struct BatchReport {
     pub summary: BatchSummary,
 }
 
-/// Summarises part records.
+/// Summarises part records (their truth with them).
 pub fn summarise(parts: &[SimPartRecord]) -> BatchSummary {
     let mut s = SummaryBuilder::default();
     for p in parts {
-        s.add(p);
+        s.add(&p.record, Some(p.true_final_e_um));
     }
     s.finish()
-}
-
-/// A batch's summary built part by part, so a long batch need not keep its parts: the same
-/// sums in the same order as [`summarise`] over the same parts, so the same bits.
-#[derive(Debug, Clone)]
-pub struct SummaryBuilder {
-    parts: usize,
-    time_sum_s: f64,
-    timed: usize,
-    final_sum_um: f64,
-    measured: usize,
-    true_final_sum_um: f64,
-    pushes_sum: f64,
-    max_pushes: u32,
-    rejected: usize,
-    untrusted: usize,
-    push_inconsistent: usize,
-    device_errors: usize,
-    remeasured_turns: u32,
-}
-
-impl Default for SummaryBuilder {
-    fn default() -> Self {
-        // −0.0 is the neutral element of `Iterator::sum` for floats: an empty sum stays what
-        // the standard library's sum gives.
-        SummaryBuilder {
-            parts: 0,
-            time_sum_s: -0.0,
-            timed: 0,
-            final_sum_um: -0.0,
-            measured: 0,
-            true_final_sum_um: -0.0,
-            pushes_sum: -0.0,
-            max_pushes: 0,
-            rejected: 0,
-            untrusted: 0,
-            push_inconsistent: 0,
-            device_errors: 0,
-            remeasured_turns: 0,
-        }
-    }
-}
-
-impl SummaryBuilder {
-    /// Counts one more part.
-    pub fn add(&mut self, p: &SimPartRecord) {
-        let r = &p.record;
-        self.parts += 1;
-        if let Some(t) = r.time_s {
-            self.time_sum_s += t;
-            self.timed += 1;
-        }
-        if let Some(e) = r.final_e_um {
-            self.final_sum_um += e;
-            self.measured += 1;
-        }
-        self.true_final_sum_um += p.true_final_e_um;
-        self.pushes_sum += f64::from(r.pushes);
-        self.max_pushes = self.max_pushes.max(r.pushes);
-        match r.result {
-            PartResult::Accepted => {}
-            other => {
-                self.rejected += 1;
-                match other {
-                    PartResult::MeasurementUntrusted => self.untrusted += 1,
-                    PartResult::PushInconsistent => self.push_inconsistent += 1,
-                    PartResult::RejectedDeviceError => self.device_errors += 1,
-                    _ => {}
-                }
-            }
-        }
-        self.remeasured_turns += r.remeasured_turns;
-    }
-
-    /// The summary of the parts counted so far.
-    pub fn finish(&self) -> BatchSummary {
-        let n = self.parts.max(1) as f64;
-        let mean_of = |sum: f64, k: usize| (k > 0).then(|| sum / k as f64);
-        BatchSummary {
-            parts: self.parts,
-            mean_time_s: mean_of(self.time_sum_s, self.timed),
-            mean_final_e_um: mean_of(self.final_sum_um, self.measured),
-            mean_true_final_e_um: self.true_final_sum_um / n,
-            mean_pushes: self.pushes_sum / n,
-            max_pushes: self.max_pushes,
-            rejected: self.rejected,
-            untrusted: self.untrusted,
-            push_inconsistent: self.push_inconsistent,
-            device_errors: self.device_errors,
-            remeasured_turns: self.remeasured_turns,
-            total_time_s: self.time_sum_s,
-        }
-    }
 }
 
 /// Mounts `cfg.parts` simulated parts with one controller (learning carries across parts).
@@ -465,7 +343,7 @@ pub fn run_batch_from<C: Camera, P: PushRod>(
                 p.record.reject_reason.as_deref().unwrap_or("device error")
             ));
         }
-        summary.add(&p);
+        summary.add(&p.record, Some(p.true_final_e_um));
         if !opts.discard_parts {
             parts.push(p);
         }
