@@ -73,9 +73,11 @@ fn register_map(path: Option<&std::path::Path>) -> Result<gonio_plc::RegisterMap
     })
 }
 
-/// Opens the station: checks the PLC's address, reads the register map, opens the camera (with
-/// `tap`, if any, shown every frame it detects: the live view's thumbnail), connects to the PLC
-/// and, with a store, begins the batch in it.
+/// Opens the station: checks the PLC's address, reads the register map, connects to the PLC,
+/// opens the camera as the PLC says it is (a real camera on its trigger line, or the simulated
+/// station's free-running one: [`gonio_plc::link::bits::SIMULATED`]), opens the station (with
+/// `tap`, if any, shown every frame it delivers: a recorder, the live view's thumbnail) and,
+/// with a store, begins the batch in it.
 ///
 /// # Errors
 /// One-line errors naming the flag: a bad address or map, no camera, no PLC, no store.
@@ -85,8 +87,13 @@ pub fn open(r: Request, tap: Option<FrameTap<'static>>) -> Result<Batch> {
     }
     let addr = plc_address(&r.url)?;
     let map = register_map(r.plc_map.as_deref())?;
-    let camera = plc_camera::open(&r.camera, &r.recipe, map.timing.frame_timeout_ms)?;
-    let link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow!("--plc: {e}"))?;
+    let frame_timeout_ms = map.timing.frame_timeout_ms;
+    let mut link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow!("--plc: {e}"))?;
+    let simulated = link
+        .status()
+        .map_err(|e| anyhow!("--plc: {e}"))?
+        .has(gonio_plc::link::bits::SIMULATED);
+    let camera = plc_camera::open(&r.camera, &r.recipe, frame_timeout_ms, simulated)?;
     let opts = StationOptions {
         fps: r.recipe.measure.fps,
         exposure_s: r.recipe.measure.exposure_s,
@@ -111,7 +118,7 @@ pub fn open(r: Request, tap: Option<FrameTap<'static>>) -> Result<Batch> {
                 config_json: &config,
                 parts: r.parts,
                 recipe: &r.recipe,
-                simulated: false,
+                simulated,
             };
             let loc = gonio_store::display_location(db);
             let w = BatchWriter::begin(crate::db::open(db)?, &spec)
@@ -134,6 +141,22 @@ pub fn open(r: Request, tap: Option<FrameTap<'static>>) -> Result<Batch> {
 }
 
 impl Batch {
+    /// Whether the PLC said it is a simulation: the parts are the digital twin's.
+    pub fn simulated(&self) -> bool {
+        self.station.simulated()
+    }
+
+    /// The recipe the parts are mounted with.
+    pub fn recipe(&self) -> &Recipe {
+        &self.ctl.recipe
+    }
+
+    /// Shows every frame the station delivers to the controller to `tap` (replacing any tap
+    /// before): a recorder, the live view's thumbnail.
+    pub fn set_tap(&self, tap: FrameTap<'static>) {
+        self.station.set_tap(tap);
+    }
+
     /// The link's figures as they are when called (requests, round trips, frames paired and
     /// stale): call it on the batch's thread, between the controller's steps (its observer),
     /// and after the batch.
@@ -238,8 +261,8 @@ mod plc_camera {
             }
         }
 
-        /// The camera: the simulated station's (its frames carry the trigger count) or a real
-        /// one on the PLC's trigger line.
+        /// The camera: a real one on the PLC's trigger line, or the simulated station's (free
+        /// running, its frames carrying the trigger count), as the PLC says.
         pub enum Camera {
             /// `gonio simulate station`'s camera.
             Sim(DetectorTriggered<StampedSource<AravisSource>>),
@@ -272,10 +295,10 @@ mod plc_camera {
             }
         }
 
-        /// Opens camera `id` for the recipe's window and exposure.
-        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64) -> Result<Camera> {
+        /// Opens camera `id` for the recipe's window and exposure: the simulated station's
+        /// camera when its PLC says it is simulated (`sim`), else a real one.
+        pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64, sim: bool) -> Result<Camera> {
             let optics = Optics::default();
-            let sim = id == "Aravis-Fake-GONIOSTATION";
             let config = CameraConfig {
                 window_size: (optics.window_width_px, optics.window_height_px),
                 exposure_us: Some(recipe.measure.exposure_s * 1e6),
@@ -330,7 +353,12 @@ mod plc_camera {
         }
 
         /// Opens camera `id`: never, without GenICam.
-        pub fn open(id: &str, _recipe: &Recipe, _frame_timeout_ms: u64) -> Result<NoCamera> {
+        pub fn open(
+            id: &str,
+            _recipe: &Recipe,
+            _frame_timeout_ms: u64,
+            _sim: bool,
+        ) -> Result<NoCamera> {
             bail!(
                 "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
             )

@@ -11,6 +11,32 @@ use std::path::Path;
 /// Most parts in one batch: one limit for `gonio mount` and `gonio serve --station`.
 pub const MAX_PARTS: usize = 1_000_000;
 
+/// The station's name for its records when `--station-name` is not given: `sim` for the
+/// simulated station in this process, this machine's host name for a station through its PLC
+/// (`station` when the host has no name): never `sim` for a station on the wire.
+pub fn station_name(given: Option<&str>, in_process_twin: bool) -> String {
+    match given {
+        Some(name) => name.to_string(),
+        None if in_process_twin => "sim".into(),
+        None => host_name().unwrap_or_else(|| "station".into()),
+    }
+}
+
+/// This machine's host name.
+fn host_name() -> Option<String> {
+    #[cfg(target_os = "linux")]
+    let name = rustix::system::uname()
+        .nodename()
+        .to_string_lossy()
+        .into_owned();
+    #[cfg(not(target_os = "linux"))]
+    let name = std::env::var("HOSTNAME")
+        .or_else(|_| std::env::var("COMPUTERNAME"))
+        .unwrap_or_default();
+    let name = name.trim();
+    (!name.is_empty()).then(|| name.to_string())
+}
+
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StrategyArg {

@@ -122,6 +122,143 @@ fn three_parts_through_the_plc_and_the_camera() {
     }
 }
 
+/// A JSON file's value.
+#[cfg(feature = "genicam")]
+fn read_json(p: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (cargo test --features gonio/genicam) and unshare -n"
+)]
+fn real_parts_recorded_through_the_plc_replay_bit_for_bit_and_say_their_station() {
+    #[cfg(feature = "genicam")]
+    {
+        let name = "real_parts_recorded_through_the_plc_replay_bit_for_bit_and_say_their_station";
+        if !in_own_netns(name) {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let truth = d.path().join("T.json");
+        let m = d.path().join("M.json");
+        let rec = d.path().join("rec");
+        let db = d.path().join("r.sqlite");
+        let (_station, addr, cam) = station(&truth);
+        let out = Command::new(env!("CARGO_BIN_EXE_gonio"))
+            .args([
+                "mount",
+                "--plc",
+                &format!("modbus://{addr}"),
+                "--camera",
+                &cam,
+            ])
+            .args(["--parts", "2", "--station-name", "line-3", "--record"])
+            .arg(&rec)
+            .arg("--json")
+            .arg(&m)
+            .arg("--db")
+            .arg(&db)
+            .output()
+            .expect("gonio runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        println!("{}\n{err}", String::from_utf8_lossy(&out.stdout));
+        assert!(out.status.success(), "{err}");
+        assert!(err.contains("recorded 2 part(s)"), "{err}");
+        // The batch's record: the station's name, and the PLC said it is the twin.
+        let report = read_json(&m);
+        assert_eq!(report["station"], "line-3", "{report}");
+        assert_eq!(report["simulated"], true, "{report}");
+        let parts = report["parts"].as_array().unwrap();
+        assert_eq!(parts.len(), 2);
+        // Every recorded turn: the raw frames, the camera's ids (the PLC's trigger counts,
+        // increasing) and the latched angles.
+        let mut turns = 0;
+        for (i, p) in parts.iter().enumerate() {
+            let dir = rec.join(format!("part-{:04}", i + 1));
+            let part = read_json(&dir.join("part.json"));
+            assert_eq!(part["station"], "line-3");
+            assert_eq!(part["simulated"], true);
+            assert!(part["seed"].is_null(), "a station on the wire has no seed");
+            assert_eq!(part["record"]["serial"], p["serial"]);
+            let recorded = part["turns"].as_array().unwrap();
+            assert_eq!(recorded.len(), p["turns"].as_array().unwrap().len());
+            assert!(!recorded.is_empty());
+            for t in recorded {
+                let data = read_json(&dir.join(t["data"].as_str().unwrap()));
+                let frames = data["frames"].as_array().unwrap().len();
+                assert_eq!(frames as u64, t["frames"].as_u64().unwrap());
+                assert!(frames > 100, "{frames} frames in a turn");
+                let ids: Vec<u64> = data["camera"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|c| c["frame_id"].as_u64().unwrap())
+                    .collect();
+                assert_eq!(ids.len(), frames);
+                assert!(ids.windows(2).all(|w| w[0] < w[1]), "{ids:?}");
+                assert!(data["log"].as_array().unwrap().len() >= frames);
+                let raw = std::fs::metadata(dir.join(t["raw"].as_str().unwrap())).unwrap();
+                let (w, h) = (
+                    part["width"].as_u64().unwrap(),
+                    part["height"].as_u64().unwrap(),
+                );
+                assert_eq!(raw.len(), frames as u64 * w * h);
+                turns += 1;
+            }
+        }
+        // The replay: every frame's detection and every turn's fit again, bit for bit.
+        let r = d.path().join("R.json");
+        let out = Command::new(env!("CARGO_BIN_EXE_gonio"))
+            .arg("replay")
+            .arg(&rec)
+            .arg("--json")
+            .arg(&r)
+            .output()
+            .expect("gonio runs");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains("bit-identical to the record"), "{text}");
+        let replayed = read_json(&r);
+        let replayed = replayed.as_array().unwrap();
+        assert_eq!(replayed.len(), 2);
+        let mut n = 0;
+        for (p, rp) in parts.iter().zip(replayed) {
+            assert_eq!(rp["serial"], p["serial"]);
+            for (t, stored) in rp["turns"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .zip(p["turns"].as_array().unwrap())
+            {
+                assert_eq!(t["frames_differing"], 0, "{t}");
+                assert!(t["differences"].as_array().unwrap().is_empty(), "{t}");
+                // The replayed fit is the mounted one, to the bit.
+                assert_eq!(t["turn"]["e_um"], stored["e_um"]);
+                assert_eq!(t["turn"]["samples"], stored["samples"]);
+                n += 1;
+            }
+        }
+        assert_eq!(n, turns);
+        // The store says so too.
+        let db = db.display().to_string();
+        let stored: serde_json::Value =
+            serde_json::from_str(&common::ok(&["parts", "--db", &db, "--json"]).0).unwrap();
+        for p in stored.as_array().unwrap() {
+            assert_eq!(
+                (p["station"].as_str(), p["simulated"].as_bool()),
+                (Some("line-3"), Some(true))
+            );
+        }
+    }
+}
+
 #[test]
 fn killing_the_station_mid_part_ends_the_mount_as_a_device_error() {
     #[cfg(not(feature = "genicam"))]

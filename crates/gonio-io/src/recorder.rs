@@ -1,7 +1,8 @@
 //! `gonio mount --record DIR`: writes the chosen parts' measuring turns for a replay (the format
-//! in [`crate::formats::replay`]). It listens to the station as an observer (turn boundaries,
-//! each turn's frames as the camera reported them and the servo's angle log, the finished
-//! record) and to the camera's frames through the simulation's frame tap (the pixels). A part
+//! in [`crate::formats::replay`]), of the twin's parts and of a real station's alike. It listens
+//! to the station as an observer (turn boundaries, each turn's frames as the camera reported
+//! them and the servo's angle log, the finished record) and to the camera's frames through the
+//! station's frame tap (`gonio_station::tap`: the pixels, the camera's frame ids and times). A part
 //! is written into a temporary directory and renamed into place when it is finished, so a
 //! recorded part is whole or absent.
 
@@ -12,7 +13,7 @@ use gonio_station::hal::CameraFrame;
 use gonio_station::interval::AngleSample;
 use gonio_station::observe::{Observer, Phase};
 use gonio_station::record::TurnRecord;
-use gonio_station::replay::RecordedTurn;
+use gonio_station::replay::{CameraStamp, RecordedTurn};
 use gonio_station::tap::SeenFrame;
 use gonio_station::{PartRecord, Recipe, Strategy};
 use gonio_vision::Optics;
@@ -31,8 +32,12 @@ pub struct Recording {
     pub parts: Option<BTreeSet<usize>>,
     /// 0-based index of the first part the batch mounts (a resumed batch starts later).
     pub first_part: usize,
-    /// The batch's seed.
-    pub seed: u64,
+    /// The batch's seed (`None`: a station on the wire).
+    pub seed: Option<u64>,
+    /// The station's name.
+    pub station: String,
+    /// Whether the parts are the digital twin's.
+    pub simulated: bool,
     /// The recipe.
     pub recipe: Recipe,
     /// The strategy.
@@ -79,6 +84,8 @@ struct Part {
     turns: Vec<TurnFiles>,
     raw: Option<std::io::BufWriter<std::fs::File>>,
     raw_frames: usize,
+    /// The camera's frame ids and times of the turn's frames so far.
+    camera: Vec<CameraStamp>,
     size: Option<(usize, usize)>,
     /// The last ended turn, until its record gives its start, kind and focus.
     pending: Option<RecordedTurn>,
@@ -202,6 +209,10 @@ impl Part {
             w.write_all(f.pixels).context("writing frames")?;
         }
         self.raw_frames += 1;
+        self.camera.push(CameraStamp {
+            frame_id: f.stamp.index,
+            timestamp_s: f.stamp.start_s,
+        });
         Ok(())
     }
 
@@ -232,6 +243,7 @@ impl Part {
             focus_um: None,
             frames: frames.to_vec(),
             log: log.to_vec(),
+            camera: std::mem::take(&mut self.camera),
         };
         self.pending = Some(turn);
         self.turns.push(TurnFiles {
@@ -279,7 +291,9 @@ impl State {
             format: FORMAT.into(),
             serial: p.serial.clone(),
             batch_index: p.index,
-            seed: Some(self.plan.seed),
+            seed: self.plan.seed,
+            station: Some(self.plan.station.clone()),
+            simulated: Some(self.plan.simulated),
             software_version: self.plan.software_version.clone(),
             recipe: self.plan.recipe.clone(),
             strategy: self.plan.strategy,
@@ -343,6 +357,7 @@ impl Observer for Recorder {
                     turns: Vec::new(),
                     raw: None,
                     raw_frames: 0,
+                    camera: Vec::new(),
                     size: None,
                     pending: None,
                 })

@@ -49,6 +49,8 @@ pub struct PlcPartDone<'a> {
 pub struct PlcBatchReport {
     /// The PLC's address.
     pub plc: String,
+    /// Whether the PLC said it is a simulation: the parts are the digital twin's.
+    pub simulated: bool,
     /// Strategy name.
     pub strategy: String,
     /// Recipe name.
@@ -154,6 +156,7 @@ pub fn run_batch_observed<C: TriggeredCamera>(
     let summary = summarise(&out);
     Ok(PlcBatchReport {
         plc: station.addr(),
+        simulated: station.simulated(),
         strategy: ctl.strategy.name().to_string(),
         recipe: ctl.recipe.name.clone(),
         learned: ctl.learned,

@@ -24,6 +24,10 @@ pub mod bits {
     pub const PART_PRESENT: u16 = 1 << 5;
     /// The camera trigger is running.
     pub const TRIGGERING: u16 = 1 << 6;
+    /// The PLC says it is a simulation (`gonio simulate station`): its parts are the digital
+    /// twin's, and its camera runs free, paced by the PLC's exposures, with each frame's
+    /// trigger count in its first pixels. A real PLC leaves it 0.
+    pub const SIMULATED: u16 = 1 << 7;
 }
 
 /// The PLC's fault codes.

@@ -57,6 +57,8 @@ pub(crate) struct Inner<C> {
     pub(crate) counts: PairingCounts,
     /// Told every frame delivered to the controller.
     pub(crate) tap: Option<FrameTap<'static>>,
+    /// The PLC said it is a simulation ([`bits::SIMULATED`]).
+    pub(crate) simulated: bool,
 }
 
 /// The station behind the PLC; clone the device handles out with [`PlcStation::devices`].
@@ -117,6 +119,7 @@ impl<C: TriggeredCamera> PlcStation<C> {
             opts,
             counts: PairingCounts::default(),
             tap: None,
+            simulated: s.has(bits::SIMULATED),
         }))))
     }
 
@@ -126,6 +129,12 @@ impl<C: TriggeredCamera> PlcStation<C> {
     /// ([`TriggeredCamera::seen`]) shows nothing.
     pub fn set_tap(&self, tap: FrameTap<'static>) {
         self.0.borrow_mut().tap = Some(tap);
+    }
+
+    /// Whether the PLC said, when the station was opened, that it is a simulation (the status
+    /// word's [`bits::SIMULATED`]): its parts are then the digital twin's.
+    pub fn simulated(&self) -> bool {
+        self.0.borrow().simulated
     }
 
     /// The PLC's address.

@@ -41,7 +41,8 @@
 //!     (0..=2002).map(|k| AngleSample { t_s: k as f64 * 1e-3, theta_deg: 0.18 * k as f64 }).collect();
 //! let (stored, _) =
 //!     evaluate_turn(&r, Strategy::Learned, &frames, log.clone(), 0.0, TurnKind::Initial, Some(0.0));
-//! let rec = RecordedTurn { t_start_s: 0.0, kind: TurnKind::Initial, focus_um: Some(0.0), frames: frames.clone(), log };
+//! let rec = RecordedTurn { t_start_s: 0.0, kind: TurnKind::Initial, focus_um: Some(0.0),
+//!                          frames: frames.clone(), log, camera: Vec::new() };
 //! let out = replay_turn(&mut Again(frames.into_iter()), &r, Strategy::Learned, &rec, &stored).unwrap();
 //! assert!(out.differences.is_empty());
 //! assert_eq!(out.frames, 200);
@@ -70,6 +71,21 @@ pub struct RecordedTurn {
     pub frames: Vec<CameraFrame>,
     /// The servo's angle log of the turn.
     pub log: Vec<AngleSample>,
+    /// Each frame's number and time as its camera gave them, in the order of `frames` (empty
+    /// when the record holds none).
+    #[serde(default)]
+    pub camera: Vec<CameraStamp>,
+}
+
+/// A frame's number and time as its camera gave them: a triggered camera's frame id is the
+/// PLC's trigger count, its time the camera's own clock, s (the station stamps the frame with
+/// the PLC's time of its trigger instead).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraStamp {
+    /// The camera's frame number.
+    pub frame_id: u64,
+    /// The camera's time of the exposure's start, s (`None`, JSON `null`: unknown).
+    pub timestamp_s: Option<f64>,
 }
 
 /// One value that differs between the record and the replay.

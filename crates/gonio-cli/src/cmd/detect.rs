@@ -496,6 +496,7 @@ mod camera_run {
     use gonio_camera::{
         AravisSource, CameraConfig, CameraError, FrameMeta, StreamOptions, Trigger,
     };
+    use gonio_core::quantile::quantile_sorted;
     use gonio_vision::{
         DetectInOrderError, Detection, Optics, SourceDetector, SourceError, detect_in_order,
     };

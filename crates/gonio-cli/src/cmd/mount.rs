@@ -52,8 +52,12 @@ the batch is interrupted (the process killed, a device error under on_device_err
 the same command with --resume continues it after its last stored part: no part lost, none
 duplicated, the same records as an uninterrupted run.
 
-With --record DIR (and --fidelity frames), the chosen parts' measuring turns are kept for
-`gonio replay DIR`: raw frames, stamps, live detector results and angle logs, and the record.
+With --record DIR, the chosen parts' measuring turns are kept for `gonio replay DIR`: raw
+frames, stamps (the camera's frame ids and times too), live detector results and angle logs
+(through --plc: the angles the PLC latched), and the record; the simulated station needs
+--fidelity frames for it. Records carry --station-name (default: sim for --sim, this machine's
+host name for --plc) and say whether the parts are the digital twin's (with --plc: when the PLC
+says it is simulated, as `gonio simulate station` does).
 
 Examples:
   gonio mount --sim --seed 1
@@ -64,7 +68,8 @@ Examples:
   gonio mount --sim --recipe examples/recipes/r40-standard.toml --strategy live --seed 3
   gonio mount --sim --parts 5 --fidelity frames --scene dense --seed 4
   gonio mount --sim --parts 20 --fidelity frames --seed 4 --record rec --record-parts 3,17
-  gonio mount --plc modbus://127.0.0.1:1502 --camera gonio-sim --parts 3 --json mount.json
+  gonio mount --plc modbus://plc.line3:502 --camera Basler-acA1440-220um-40123456 --station-name line-3 --parts 50 --db results.sqlite
+  gonio mount --plc modbus://plc.line3:502 --camera Basler-acA1440-220um-40123456 --station-name line-3 --record rejects --record-parts 7,12
 
 Through --plc a device error (the PLC refused, reset or silent, its watchdog, a drive fault,
 the e-stop, the camera lost, a frame without a latched angle) ends the part
@@ -123,12 +128,13 @@ pub struct Args {
     /// stored part.
     #[arg(long, requires = "db")]
     pub resume: bool,
-    /// The station's name in the results store.
-    #[arg(long, default_value = "sim", value_name = "NAME")]
-    pub station_name: String,
+    /// The station's name in its records and the results store [default: sim for the
+    /// simulated station, this machine's host name for a station through its PLC].
+    #[arg(long, value_name = "NAME")]
+    pub station_name: Option<String>,
     /// Record the parts' measuring turns here for `gonio replay`: their raw frames (the raw
     /// stream format of `detect --raw`), stamps, live detector results and angle logs, and the
-    /// station's record (needs --fidelity frames).
+    /// station's record (with --sim: needs --fidelity frames).
     #[arg(long, value_name = "DIR")]
     pub record: Option<PathBuf>,
     /// Record only these parts (1-based, e.g. 3,17); default: every part.
@@ -182,10 +188,11 @@ pub fn run(a: Args) -> Result<()> {
         .map(|s| recorder::parse_parts(s, a.parts))
         .transpose()?;
     let to_stdout = outputs.to_stdout(json);
+    let station_name = station::station_name(a.station_name.as_deref(), true);
     let target = station::Target {
         db: a.db.as_deref(),
         resume: a.resume,
-        station: &a.station_name,
+        station: &station_name,
     };
     let prepared = match station::prepare(&cfg, seed, &target)? {
         station::Start::Run(p) => p,
@@ -203,24 +210,16 @@ pub fn run(a: Args) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.set_position(prepared.first_part as u64);
-    let recorder = match &a.record {
-        Some(dir) => Some(Recorder::new(recorder::Recording {
-            dir: dir.clone(),
-            parts: record_parts,
-            first_part: prepared.first_part,
-            seed,
-            recipe: cfg.recipe.clone(),
-            strategy: cfg.strategy,
-            software_version: crate::db::software_version(),
-            guard: recorder::DirGuard {
-                install: gonio_cli::output::install_signal_cleanup,
-                created_dir: gonio_cli::output::guard_created_dir,
-                temporary_dir: gonio_cli::output::guard_temporary_dir,
-                release: gonio_cli::output::release_dir,
-            },
-        })?),
-        None => None,
-    };
+    let recorder = start_recording(
+        &a,
+        record_parts,
+        prepared.first_part,
+        Some(seed),
+        &station_name,
+        true,
+        &cfg.recipe,
+        cfg.strategy,
+    )?;
     let tap_to = recorder.clone();
     let mut observer = recorder.clone();
     let mut none = NoObserver;
@@ -266,20 +265,60 @@ pub fn run(a: Args) -> Result<()> {
     bar.finish_and_clear();
     printed?;
     drop(observer);
-    if let Some(r) = recorder {
-        let (written, error) = r.finish();
-        if let Some(e) = error {
-            return Err(e);
-        }
-        if let Some(dir) = &a.record {
-            gonio_cli::note!(
-                "recorded {} part(s) in {dir} (gonio replay {dir} re-runs them)",
-                written.len(),
-                dir = dir.display()
-            );
-        }
-    }
+    finish_recording(recorder, a.record.as_deref())?;
     print_and_write(&report, to_stdout, outputs, json)
+}
+
+/// The recorder of `--record DIR` (`None` without it): the chosen parts (1-based) of a batch
+/// starting at 0-based part `first_part`.
+#[allow(clippy::too_many_arguments)]
+fn start_recording(
+    a: &Args,
+    parts: Option<std::collections::BTreeSet<usize>>,
+    first_part: usize,
+    seed: Option<u64>,
+    station: &str,
+    simulated: bool,
+    recipe: &Recipe,
+    strategy: gonio_station::Strategy,
+) -> Result<Option<Recorder>> {
+    let Some(dir) = &a.record else {
+        return Ok(None);
+    };
+    Ok(Some(Recorder::new(recorder::Recording {
+        dir: dir.clone(),
+        parts,
+        first_part,
+        seed,
+        station: station.to_string(),
+        simulated,
+        recipe: recipe.clone(),
+        strategy,
+        software_version: crate::db::software_version(),
+        guard: recorder::DirGuard {
+            install: gonio_cli::output::install_signal_cleanup,
+            created_dir: gonio_cli::output::guard_created_dir,
+            temporary_dir: gonio_cli::output::guard_temporary_dir,
+            release: gonio_cli::output::release_dir,
+        },
+    })?))
+}
+
+/// Ends the recording: its first error, or a line saying what was recorded in `dir`.
+fn finish_recording(recorder: Option<Recorder>, dir: Option<&std::path::Path>) -> Result<()> {
+    let (Some(r), Some(dir)) = (recorder, dir) else {
+        return Ok(());
+    };
+    let (written, error) = r.finish();
+    if let Some(e) = error {
+        return Err(e);
+    }
+    gonio_cli::note!(
+        "recorded {} part(s) in {dir} (gonio replay {dir} re-runs them)",
+        written.len(),
+        dir = dir.display()
+    );
+    Ok(())
 }
 
 /// The table's heading line.
@@ -371,16 +410,23 @@ fn print_and_write(
 
 /// `gonio mount --plc`: the controller through the PLC and its triggered camera.
 fn run_plc(a: Args, url: &str) -> Result<()> {
-    if a.record.is_some() || a.resume || a.fidelity != FidelityArg::Fast {
-        bail!("--record, --resume and --fidelity are for --sim; --plc mounts real parts");
+    if a.resume || a.fidelity != FidelityArg::Fast {
+        bail!("--resume and --fidelity are for --sim; --plc mounts real parts");
     }
     let recipe = match &a.recipe {
         Some(p) => recipe::load(p)?,
         None => Recipe::default(),
     };
+    let record_parts = a
+        .record_parts
+        .as_deref()
+        .map(|s| recorder::parse_parts(s, a.parts))
+        .transpose()?;
     let mut outputs = Outputs::new();
     let json = outputs.optional("--json", a.json.as_deref())?;
     let to_stdout = outputs.to_stdout(json);
+    let station_name = station::station_name(a.station_name.as_deref(), false);
+    let strategy = a.strategy.into();
     let batch = crate::plc::open(
         crate::plc::Request {
             url: url.to_string(),
@@ -390,10 +436,25 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             strategy: a.strategy,
             parts: a.parts,
             db: a.db.clone(),
-            station_name: a.station_name.clone(),
+            station_name: station_name.clone(),
         },
         None,
     )?;
+    let recorder = start_recording(
+        &a,
+        record_parts,
+        0,
+        None,
+        &station_name,
+        batch.simulated(),
+        batch.recipe(),
+        strategy,
+    )?;
+    if let Some(r) = recorder.clone() {
+        batch.set_tap(Box::new(move |f: &SeenFrame<'_>| r.tap(f)));
+    }
+    let mut observer = recorder.clone();
+    let mut none = NoObserver;
     let bar = ProgressBar::new(a.parts as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} parts {msg}")
@@ -404,7 +465,11 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         say!("{}", table_header())?;
     }
     let mut printed: Result<()> = Ok(());
-    let report = batch.run(&mut NoObserver, &mut |d, _| {
+    let observer: &mut dyn gonio_station::observe::Observer = match observer.as_mut() {
+        Some(r) => r,
+        None => &mut none,
+    };
+    let report = batch.run(observer, &mut |d, _| {
         if table && printed.is_ok() {
             printed = bar.suspend(|| print_row(d.record));
         }
@@ -447,8 +512,20 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             l.frames_stale
         )?;
     }
+    finish_recording(recorder, a.record.as_deref())?;
     if let Some(j) = json {
-        outputs.json_with_nulls(j, &report)?;
+        // The station's name first, as its records carry it.
+        #[derive(serde::Serialize)]
+        struct Named<'a> {
+            station: &'a str,
+            #[serde(flatten)]
+            report: &'a gonio_plc::batch::PlcBatchReport,
+        }
+        let named = Named {
+            station: &station_name,
+            report: &report,
+        };
+        outputs.json_with_nulls(j, &named)?;
     }
     outputs.commit()?;
     if let Some(why) = &report.stopped {

@@ -127,9 +127,10 @@ pub struct Args {
     /// [default: 1].
     #[arg(long, requires = "station")]
     pub speed: Option<f64>,
-    /// The station's name in the results store.
-    #[arg(long, default_value = "sim", value_name = "NAME", requires = "station")]
-    pub station_name: String,
+    /// The station's name in its records and the results store [default: sim for the
+    /// simulated station, this machine's host name for a station through its PLC].
+    #[arg(long, value_name = "NAME", requires = "station")]
+    pub station_name: Option<String>,
     /// Continue the station's interrupted batch with these settings (as `gonio mount --resume`).
     #[arg(long, requires = "station")]
     pub resume: bool,
@@ -300,7 +301,7 @@ pub fn run(a: Args) -> Result<()> {
                 &station::Target {
                     db: Some(&a.db),
                     resume: a.resume,
-                    station: &a.station_name,
+                    station: &station::station_name(a.station_name.as_deref(), true),
                 },
             )?;
             Some(spawn_station(prepared, cfg, &a, hub.clone()))
@@ -314,7 +315,7 @@ pub fn run(a: Args) -> Result<()> {
                 strategy: a.strategy,
                 parts: a.parts,
                 db: Some(a.db.clone()),
-                station_name: a.station_name.clone(),
+                station_name: station::station_name(a.station_name.as_deref(), false),
             },
             hub.clone(),
         )?),

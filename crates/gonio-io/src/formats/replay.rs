@@ -1,13 +1,15 @@
 //! The record of a mounted part for a replay (`gonio mount --record DIR`, `gonio replay DIR`):
 //! one directory per part, `DIR/part-0003/`, holding
 //!
-//! - `part.json` (`gonio.replay/1`): the part's serial and place in its batch, the recipe, the
-//!   strategy, the optics, the frames' size, and the station's record of the part (turns,
-//!   pushes, verdict);
+//! - `part.json` (`gonio.replay/1`): the part's serial and place in its batch, the station's
+//!   name and whether it is the digital twin, the recipe, the strategy, the optics, the frames'
+//!   size, and the station's record of the part (turns, pushes, verdict);
 //! - per measuring turn `turn-N.raw`: the turn's frames as the camera gave them, 8-bit grey,
 //!   width × height bytes each, back to back (the raw stream format of `gonio detect --raw`);
-//! - per turn `turn-N.json`: when each frame was taken and what the detector found live, the
-//!   servo's angle log of the turn, the turn's start, kind and focus.
+//! - per turn `turn-N.json`: when each frame was taken (on the station's clock) and what the
+//!   detector found live, each frame's id and time as the camera gave them, the servo's angle
+//!   log of the turn (a real station's: the angles its PLC latched), the turn's start, kind and
+//!   focus.
 //!
 //! Numbers are written so that they read back bit for bit (JSON with round-trip floats).
 
@@ -48,6 +50,12 @@ pub struct PartFile {
     pub batch_index: usize,
     /// The seed of a simulated station.
     pub seed: Option<u64>,
+    /// The station's name (`None`: the record does not say).
+    #[serde(default)]
+    pub station: Option<String>,
+    /// Whether the part is the digital twin's (`None`: the record does not say).
+    #[serde(default)]
+    pub simulated: Option<bool>,
     /// The software that recorded it.
     pub software_version: String,
     /// The recipe it was mounted with.

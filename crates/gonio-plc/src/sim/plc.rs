@@ -656,6 +656,8 @@ impl Plc {
         if self.fps > 0.0 {
             word |= bits::TRIGGERING;
         }
+        // This PLC is the twin: it says so, rather than leaving a client to guess from names.
+        word |= bits::SIMULATED;
         w[0] = word;
         w[1] = self.ack;
         w[2] = self.fault.to_u16();

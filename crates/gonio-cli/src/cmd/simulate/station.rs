@@ -34,7 +34,10 @@ Runs until interrupted (Ctrl-C, SIGTERM).
 
 Examples:
   gonio simulate station --plc 127.0.0.1:1502 --seed 7 --truth truth.json
-  gonio mount --plc modbus://127.0.0.1:1502 --camera gonio-sim --parts 3 --json mount.json")]
+  gonio mount --plc modbus://127.0.0.1:1502 --camera Aravis-Fake-GONIOSTATION --station-name line-3 --parts 3 --json mount.json
+
+The PLC says it is simulated (bit 7 of its status word), so `gonio mount --plc` opens its
+camera as the simulated one and records its parts as the digital twin's.")]
 pub struct Args {
     /// Listen for the Modbus TCP client here (HOST:PORT; port 0: any free port, printed).
     #[arg(long, value_name = "HOST:PORT")]
