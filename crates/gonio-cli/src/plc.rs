@@ -88,6 +88,8 @@ pub fn open(r: Request, tap: Option<FrameTap<'static>>) -> Result<Batch> {
     let addr = plc_address(&r.url)?;
     let map = register_map(r.plc_map.as_deref())?;
     let frame_timeout_ms = map.timing.frame_timeout_ms;
+    // The camera is looked for before the PLC is touched: no camera, no station.
+    plc_camera::check(&r.camera)?;
     let mut link = gonio_plc::Link::connect(&addr, map).map_err(|e| anyhow!("--plc: {e}"))?;
     let simulated = link
         .status()
@@ -229,9 +231,9 @@ mod plc_camera {
     use gonio_station::Recipe;
 
     #[cfg(feature = "genicam")]
-    pub use with::{Camera, open};
+    pub use with::{Camera, check, open};
     #[cfg(not(feature = "genicam"))]
-    pub use without::{NoCamera as Camera, open};
+    pub use without::{NoCamera as Camera, check, open};
 
     #[cfg(feature = "genicam")]
     mod with {
@@ -295,6 +297,17 @@ mod plc_camera {
             }
         }
 
+        /// Whether camera `id` is there (GigE Vision discovery: about a second).
+        pub fn check(id: &str) -> Result<()> {
+            if gonio_camera::list_cameras().iter().any(|c| c.id == id) {
+                Ok(())
+            } else {
+                Err(anyhow!(
+                    "--camera {id}: no camera with this id answers (gonio camera list shows those that do)"
+                ))
+            }
+        }
+
         /// Opens camera `id` for the recipe's window and exposure: the simulated station's
         /// camera when its PLC says it is simulated (`sim`), else a real one.
         pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64, sim: bool) -> Result<Camera> {
@@ -350,6 +363,13 @@ mod plc_camera {
             ) -> Result<Option<gonio_plc::triggered::TriggeredFrame>, NoCameraError> {
                 match *self {}
             }
+        }
+
+        /// Whether camera `id` is there: never, without GenICam.
+        pub fn check(id: &str) -> Result<()> {
+            bail!(
+                "--camera {id}: this gonio is built without GenICam cameras (cargo build --features genicam)"
+            )
         }
 
         /// Opens camera `id`: never, without GenICam.

@@ -113,6 +113,12 @@ fn the_api_serves_what_gonio_parts_prints() {
     assert_eq!(v["store"]["reject"], n_rej);
     assert_eq!(v["paper"]["mean_time_s"], 25.1);
 
+    // No station under this dashboard: the live view says so and shows no frame or turn panel.
+    let (s, page) = http_get(&addr, "/");
+    assert_eq!(s, 200);
+    assert!(page.contains("<body class=\"no-station\">"), "{page}");
+    assert!(page.contains("No station is attached"), "{page}");
+
     // Read-only: no method but GET changes anything or is even served.
     for (m, p) in [
         ("POST", "/api/parts"),

@@ -207,7 +207,7 @@ async function refreshTiming() {
     ? `frame loop: ${t.frames} frames, lateness p50 ${fmt(t.p50_late_ms, 2)} ms, p99 ${fmt(t.p99_late_ms, 2)} ms, max ${fmt(t.max_late_ms, 1)} ms; ${t.late_frames} frames later than one period (${fmt(t.period_ms, 1)} ms)`
     : (l && l.requests)
       ? `PLC link ${l.address}: ${l.requests} requests, round trip p50 ${fmt(l.round_trip_p50_ms, 2)} ms, p99 ${fmt(l.round_trip_p99_ms, 2)} ms; ${l.frames_paired} frames paired with a latched angle, ${l.frames_stale} stale`
-      : (s.station ? '' : 'no station attached: history only');
+      : (s.station ? '' : 'no station attached: history and counters only');
 }
 
 function loadState(st) {

@@ -235,6 +235,10 @@ async fn api_calibration(State(st): State<AppState>, Path(id): Path<String>) -> 
     }
 }
 
+async fn live_page(State(st): State<AppState>) -> Html<String> {
+    Html(assets::live_page(st.hub.state().station))
+}
+
 async fn api_live(State(st): State<AppState>) -> Response {
     json_response(&st.hub.state())
 }
@@ -294,7 +298,7 @@ pub fn router(store_location: &str, hub: Arc<Hub>) -> Result<Router, WebError> {
         streams: Arc::new(tokio::sync::Semaphore::new(MAX_STREAMS)),
     };
     Ok(Router::new()
-        .route("/", get(|| async { Html(assets::LIVE_HTML) }))
+        .route("/", get(live_page))
         .route("/history", get(|| async { Html(assets::HISTORY_HTML) }))
         .route("/parts/{id}", get(pages::part_page))
         .route("/calibrations", get(pages::calibrations_page))
