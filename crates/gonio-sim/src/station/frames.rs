@@ -92,7 +92,7 @@ pub fn frame_camera(twin: Shared, scene: Option<GratingScene>) -> Result<FrameCa
         .map_err(|e| SimError::parameter("optics", e, "valid optics for the detector"))
 }
 
-/// Told every frame the full-fidelity camera takes (a recorder, the live view's thumbnail).
+// The full-fidelity camera tells its frames through the station's one frame tap.
 pub use gonio_station::tap::{FrameTap, SeenFrame};
 
 impl Exposure {
