@@ -152,13 +152,16 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
     }
     let mut outputs = Outputs::new();
+    if let Some(db) = &a.db {
+        crate::db::reserve(outputs.inputs(), db);
+    }
     let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
-        Some(p) => recipe::load(p)?,
+        Some(p) => recipe::load(outputs.inputs(), p)?,
         None => Recipe::default(),
     };
     let scene = match (&a.scene_file, a.scene) {
-        (Some(p), _) => load_scene(p)?,
+        (Some(p), _) => load_scene(outputs.inputs(), p)?,
         (None, MountSceneArg::Clean) => GratingScene::preset(ScenePreset::Clean),
         (None, MountSceneArg::Realistic) => GratingScene::preset(ScenePreset::Realistic),
         (None, MountSceneArg::Dense) => GratingScene::preset(ScenePreset::Dense),
@@ -367,11 +370,17 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     if a.record.is_some() || a.resume || a.fidelity != FidelityArg::Fast {
         bail!("--record, --resume and --fidelity are for --sim; --plc mounts real parts");
     }
+    let mut outputs = Outputs::new();
+    if let Some(db) = &a.db {
+        crate::db::reserve(outputs.inputs(), db);
+    }
     let recipe = match &a.recipe {
-        Some(p) => recipe::load(p)?,
+        Some(p) => recipe::load(outputs.inputs(), p)?,
         None => Recipe::default(),
     };
-    let mut outputs = Outputs::new();
+    if let Some(p) = &a.plc_map {
+        outputs.inputs().record(p);
+    }
     let json = outputs.optional("--json", a.json.as_deref())?;
     let to_stdout = outputs.to_stdout(json);
     let batch = crate::plc::open(
