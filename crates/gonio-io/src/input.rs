@@ -12,8 +12,8 @@ use std::sync::Mutex;
 /// Largest text input, in bytes: 256 MiB. Every CSV (polygon readings; head readings, for
 /// `selfcal` and `joint` alike; samples; angle logs), TOML and JSON file has this limit, from
 /// the command line and from Python. The largest head readings gonio describes, 360 heads
-/// (`formats::heads::MAX_HEADS`) at 36,000 positions over two turns, are a file of ≈ 236 MiB;
-/// 10 turns of 12 heads ≈ 50 MB. Budget and instrument files have their own, smaller limit
+/// (`formats::heads::MAX_HEADS`) at 36,000 positions over two turns, are a file of ≈ 237 MiB
+/// (reading and solving it takes ≈ 2 GiB of memory); 10 turns of 12 heads ≈ 50 MB. Budget and instrument files have their own, smaller limit
 /// (`gonio_uncertainty::limits::MAX_FILE_BYTES`), images one from the sensor's size.
 pub const MAX_TEXT_BYTES: usize = 256 << 20;
 
