@@ -196,9 +196,8 @@ impl Angles {
 
 fn load_angles(inputs: &Inputs, a: &Args) -> Result<Angles> {
     if let Some(p) = &a.angles {
-        return Ok(Angles::Table(angles::from_table(&CsvTable::read(
-            inputs, p,
-        )?)?));
+        let table = CsvTable::read(inputs, p)?;
+        return Ok(Angles::Table(angles::from_table(&table)?));
     }
     if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
         if !speed.is_finite() || !fps.is_finite() || fps <= 0.0 {
