@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# CI for the GenICam camera (issue 27) and the station through its PLC with that camera (issue 28): installs Aravis when missing, then builds, lints and runs
-# the camera tests with `--features genicam`. Every test that starts a GigE Vision camera runs it
+# CI for the GenICam camera and the station through its PLC with that camera: installs Aravis when
+# missing, then builds, lints and runs the camera tests with `--features genicam` (the workspace
+# run ignores them without it, saying so). Every test that starts a GigE Vision camera runs it
 # in its own network namespace (`unshare -n`), so this needs root or CAP_SYS_ADMIN (as CI has).
 set -euo pipefail
 cd "$(dirname "$0")/.."

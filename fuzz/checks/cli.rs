@@ -71,7 +71,8 @@ pub fn heads(data: &[u8]) {
     };
     let Some(t) = text(rest) else { return };
     if sel >= 0x80 {
-        let (h, _) = formats::heads::load("eda:3").expect("preset");
+        let (h, _) =
+            formats::heads::load(&gonio_io::input::Inputs::new(), "eda:3").expect("preset");
         if let Some(table) = run(rest, formats::csv::CsvTable::parse(NAME, &t))
             && let Some(rt) = run(rest, formats::heads::read_turns(&table, &h, sel & 1 == 1))
             && rt

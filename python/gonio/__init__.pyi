@@ -24,7 +24,7 @@ def shift_angle(
     method: Literal["least-squares", "ls", "paper"] = "least-squares",
     sigma: float | None = None,
     instrument: PathOrText | None = None,
-    coverage: float | None = 0.95,
+    coverage: float | None = None,
     faces: int | None = None,
     check_order: int = 2,
     meta: PathOrText | None = None,
@@ -45,7 +45,7 @@ def selfcal(
     reference: str | Sequence[int] | None = None,
     max_order: int = 360,
     instrument: PathOrText | None = None,
-    coverage: float | None = 0.95,
+    coverage: float | None = None,
     meta: PathOrText | None = None,
 ) -> dict[str, Any]:
     """The self-calibration certificate (``gonio selfcal --json``) of read-head readings
@@ -68,7 +68,7 @@ def joint(
     max_order: int = 360,
     blind_max_order: int | None = None,
     instrument: PathOrText | None = None,
-    coverage: float | None = 0.95,
+    coverage: float | None = None,
     meta: PathOrText | None = None,
 ) -> dict[str, Any]:
     """The polygon and the heads in one least squares (``gonio joint --json``).

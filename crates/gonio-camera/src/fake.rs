@@ -125,10 +125,11 @@ const MONO8: u32 = 0x0108_0001;
 /// A GigE Vision camera serving caller-drawn frames (see the module docs). Stops serving when
 /// dropped.
 pub struct FakeGvCamera {
-    // Dropped in this order: the GigE Vision camera (its thread joined), then the closure.
+    // Dropped in this order: the GigE Vision camera (its thread joined), then the fill pattern
+    // (whose guard takes the pattern back from Aravis before it frees the closure).
     gv: Option<aravis::GvFakeCamera>,
     fake: Option<aravis::FakeCamera>,
-    _fill: Option<Box<Box<FillFn>>>,
+    _fill: Option<ffi::FillGuard>,
     served: Arc<AtomicU64>,
     last: Arc<Mutex<Option<ServedFrame>>>,
     config: FakeConfig,

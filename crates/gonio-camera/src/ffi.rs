@@ -167,8 +167,9 @@ unsafe extern "C" fn fill_trampoline(
     if buffer.is_null() || data.is_null() {
         return;
     }
-    // SAFETY: `data` is the `Box<Box<FillFn>>` registered by `set_fill`, kept alive until the
-    // fake camera's thread (the only caller, under Aravis's fill mutex) has been joined.
+    // SAFETY: `data` is the `Box<Box<FillFn>>` registered by `set_fill`, which its
+    // `FillGuard` frees only after taking the pattern back under Aravis's fill mutex, the
+    // mutex Aravis holds for this call.
     let f = unsafe { &mut *(data as *mut Box<FillFn>) };
     // SAFETY: `buffer` is the live buffer Aravis is filling; the getters only read it.
     let (frame_id, timestamp_ns, width, height, data) = unsafe {
@@ -216,15 +217,42 @@ unsafe extern "C" fn fill_trampoline(
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(&info, bytes)));
 }
 
-/// Installs `f` as the fake camera's fill pattern. The returned box must outlive the camera's
-/// streaming thread: drop the GigE Vision fake camera (which joins it) before the box.
-pub(crate) fn set_fill(camera: &aravis::FakeCamera, f: Box<FillFn>) -> Box<Box<FillFn>> {
+/// A fill pattern installed on a fake camera by [`set_fill`]: the closure, and a reference to
+/// the camera that calls it. Dropping the guard first puts Aravis's own pattern back, and only
+/// then frees the closure. Aravis calls the pattern and swaps it under one mutex (its
+/// `fill_pattern_mutex`), so once the swap returns no call of the closure is running and none
+/// can start: the closure lives as long as Aravis may call it, whatever the camera's streaming
+/// thread does and in whatever order the caller drops things.
+pub(crate) struct FillGuard {
+    camera: aravis::FakeCamera,
+    holder: Option<Box<Box<FillFn>>>,
+}
+
+impl Drop for FillGuard {
+    fn drop(&mut self) {
+        let cam: *mut aravis_sys::ArvFakeCamera = self.camera.to_glib_none().0;
+        // SAFETY: `cam` is a live fake camera (the guard holds a reference to it). A NULL
+        // callback restores Aravis's default pattern; Aravis makes the swap under the mutex it
+        // holds while it calls the pattern, so after this call the closure is never called
+        // again and may be freed.
+        unsafe {
+            aravis_sys::arv_fake_camera_set_fill_pattern(cam, None, std::ptr::null_mut());
+        }
+        self.holder.take();
+    }
+}
+
+/// Installs `f` as the fake camera's fill pattern, for as long as the returned guard lives.
+pub(crate) fn set_fill(camera: &aravis::FakeCamera, f: Box<FillFn>) -> FillGuard {
     let mut holder = Box::new(f);
     let data = &mut *holder as *mut Box<FillFn> as *mut c_void;
     let cam: *mut aravis_sys::ArvFakeCamera = camera.to_glib_none().0;
     // SAFETY: `cam` is a live fake camera (we hold a reference); `data` points into the heap
-    // allocation of `holder`, which does not move when the box is moved and which the caller
-    // keeps until the camera's thread is joined. Aravis swaps the callback under its fill mutex.
+    // allocation of `holder`, which does not move when the box is moved, and which the guard
+    // frees only after it has taken the pattern back (see `FillGuard`).
     unsafe { aravis_sys::arv_fake_camera_set_fill_pattern(cam, Some(fill_trampoline), data) };
-    holder
+    FillGuard {
+        camera: camera.clone(),
+        holder: Some(holder),
+    }
 }

@@ -66,11 +66,12 @@ impl Drop for NewStore {
     }
 }
 
-/// Reserves the results store of a command (`--db`, a SQLite path): none of the command's
-/// outputs may name it ([`gonio_io::input::reserve`]). A `postgres://` URL names no file.
-pub fn reserve(location: &str) {
+/// Reserves the results store of a command (`--db`, a SQLite path) in the command's inputs:
+/// none of its outputs may name it ([`gonio_io::input::Inputs::reserve`]). A `postgres://`
+/// URL names no file. Called before the outputs are named.
+pub fn reserve(inputs: &gonio_io::input::Inputs, location: &str) {
     if !gonio_store::is_postgres(location) {
-        gonio_io::input::reserve(
+        inputs.reserve(
             std::path::Path::new(location),
             &format!("results store (--db {location})"),
         );

@@ -69,27 +69,8 @@ enum Command {
     Replay(cmd::replay::Args),
 }
 
-impl Command {
-    /// The results store the command names (`--db`), if any.
-    fn store(&self) -> Option<&str> {
-        match self {
-            Command::ShiftAngle(a) => a.to.db.as_deref(),
-            Command::Selfcal(a) => a.to.db.as_deref(),
-            Command::Joint(a) => a.to.db.as_deref(),
-            Command::Mount(a) => a.db.as_deref(),
-            Command::Parts(a) => Some(&a.db),
-            Command::Serve(a) => Some(&a.db),
-            _ => None,
-        }
-    }
-}
-
 fn main() {
     let cli = Cli::parse();
-    // The store is the command's own before any output is named: `--db X --json X` is refused.
-    if let Some(db) = cli.command.store() {
-        db::reserve(db);
-    }
     let result = match cli.command {
         Command::Simulate(s) => cmd::simulate::run(s),
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),

@@ -57,9 +57,10 @@ pub fn plc_address(url: &str) -> Result<String> {
 }
 
 /// The register map of `--plc-map` (errors name the file, line and column), or the default.
+/// (`mount --plc` records the file among its inputs, so that no output overwrites it.)
 fn register_map(path: Option<&std::path::Path>) -> Result<gonio_plc::RegisterMap> {
     Ok(match path {
-        Some(p) => gonio_io::input::load(p, |name, text| {
+        Some(p) => gonio_io::input::Inputs::new().load(p, |name, text| {
             gonio_plc::RegisterMap::from_toml(text).map_err(|e| match e {
                 gonio_plc::map::MapError::Syntax {
                     line,

@@ -80,6 +80,6 @@ impl From<FidelityArg> for Fidelity {
 }
 
 /// Reads a recipe file; errors name the file, line and column.
-pub fn load_recipe(path: &Path) -> Result<Recipe> {
-    gonio_io::formats::recipe::load(path)
+pub fn load_recipe(inputs: &gonio_io::input::Inputs, path: &Path) -> Result<Recipe> {
+    gonio_io::formats::recipe::load(inputs, path)
 }

@@ -2,7 +2,8 @@
 //! independent Python script (tests/lab/elcomat_emulator.py), through the line protocol; and
 //! end to end with gonio's own simulator (`gonio simulate autocollimator --pty`).
 //!
-//! Needs python3 (the emulator); a test without it says so and passes.
+//! Needs python3 (the emulator) and tmux (the operator's full-screen view); a test without
+//! them fails naming the missing tool (`.ci/run` installs both).
 
 mod common;
 
@@ -30,15 +31,17 @@ fn positions() -> Vec<(u32, u32, u32, u32)> {
     v
 }
 
-fn python() -> bool {
+/// Fails the test, naming python3, when it is not installed (the emulated instrument is a
+/// Python script).
+fn need_python3() {
     let ok = Command::new("python3")
         .arg("--version")
         .output()
         .is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("skipped: python3 is not installed (the emulated instrument needs it)");
-    }
-    ok
+    assert!(
+        ok,
+        "python3 is not installed: the emulated instrument (tests/lab/elcomat_emulator.py) needs it (.ci/run installs it)"
+    );
 }
 
 /// A child process killed when dropped, its stdout lines on a channel.
@@ -239,9 +242,7 @@ fn read_positions(a: &mut Proc, from: usize, to: usize) {
 
 #[test]
 fn a_plan_is_acquired_with_what_the_instrument_said_and_its_log_imports_back() {
-    if !python() {
-        return;
-    }
+    need_python3();
     let d = tempfile::tempdir().unwrap();
     let (answers, _) = answers();
     let (_inst, port) = emulator(d.path(), &answers, 0);
@@ -276,9 +277,7 @@ fn a_plan_is_acquired_with_what_the_instrument_said_and_its_log_imports_back() {
 
 #[test]
 fn quit_half_way_then_resume_gives_the_csv_of_one_uninterrupted_run() {
-    if !python() {
-        return;
-    }
+    need_python3();
     let (answers, starts) = answers();
     // One uninterrupted run.
     let whole = tempfile::tempdir().unwrap();
@@ -320,9 +319,7 @@ fn quit_half_way_then_resume_gives_the_csv_of_one_uninterrupted_run() {
 
 #[test]
 fn a_silent_instrument_ends_with_exit_2_within_5_s_naming_the_port_and_nothing_is_lost() {
-    if !python() {
-        return;
-    }
+    need_python3();
     let (answers, starts) = answers();
     let d = tempfile::tempdir().unwrap();
     // Three positions answered, then silence.
@@ -352,9 +349,7 @@ fn a_silent_instrument_ends_with_exit_2_within_5_s_naming_the_port_and_nothing_i
 
 #[test]
 fn a_pulled_adapter_ends_with_exit_2_and_the_readings_are_kept() {
-    if !python() {
-        return;
-    }
+    need_python3();
     let (answers, starts) = answers();
     let d = tempfile::tempdir().unwrap();
     let mut cut: Vec<String> = answers[..starts[2] + 1].to_vec();
@@ -381,9 +376,7 @@ fn a_pulled_adapter_ends_with_exit_2_and_the_readings_are_kept() {
 
 #[test]
 fn flagged_readings_are_asked_about_and_a_skip_is_a_missing_reading() {
-    if !python() {
-        return;
-    }
+    need_python3();
     let d = tempfile::tempdir().unwrap();
     let mut answers: Vec<String> = samples(0);
     // Position 1: four flagged answers in a row (more than 3): the operator is asked.
@@ -431,9 +424,7 @@ fn a_missing_or_busy_port_is_one_line_and_exit_2() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("/dev/gonio-no-such-port"), "{err}");
     assert!(!d.path().join("readings.csv.journal").exists());
-    if !python() {
-        return;
-    }
+    need_python3();
     let (answers, _) = answers();
     let (_i, port) = emulator(d.path(), &answers, 0);
     let a = acquire(d.path(), &port, &[]);
@@ -543,10 +534,10 @@ fn tmux_socket(d: &Path) -> PathBuf {
 
 #[test]
 fn the_operator_view_under_tmux_reads_and_quits() {
-    if Command::new("tmux").arg("-V").output().is_err() {
-        eprintln!("skipped: tmux is not installed (.ci/lab.sh installs it)");
-        return;
-    }
+    assert!(
+        Command::new("tmux").arg("-V").output().is_ok(),
+        "tmux is not installed: the operator's full-screen view is tested under it (.ci/run installs it)"
+    );
     let d = tempfile::tempdir().unwrap();
     let plan = "faces = 6\nshifts_deg = [0]\nstart_faces = [1]\n";
     std::fs::write(d.path().join("plan.toml"), plan).unwrap();

@@ -320,15 +320,16 @@ fn limits_are_stated_and_enforced_before_work() {
     let o = gonio(&["detect", "--threads", "4096", "x.png"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
-    // A readings file above selfcal's stated 64 MiB: refused by its size, before reading.
+    // A readings file above the stated 256 MiB of every text input: refused by its size,
+    // before reading (a sparse file: nothing is written).
     let big = d.path().join("big.csv");
     std::fs::File::create(&big)
         .unwrap()
-        .set_len(65 << 20)
+        .set_len((256 << 20) + 1)
         .unwrap();
     refused(
         &gonio(&["selfcal", &s(&big), "--heads", "eda:4"]),
-        "more than the limit of 67108864 bytes",
+        "more than the limit of 268435456 bytes",
     );
     assert!(t.elapsed() < Duration::from_secs(20), "{:?}", t.elapsed());
     assert!(

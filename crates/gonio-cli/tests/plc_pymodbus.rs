@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-/// The test's virtualenv with pymodbus (made by .ci/plc.sh, or here when missing).
+/// The test's virtualenv with pymodbus (target/plc-venv, made here when missing).
 fn venv_python() -> PathBuf {
     let dir = PathBuf::from(repo("target/plc-venv"));
     let py = dir.join("bin/python");

@@ -1,8 +1,9 @@
-//! The station as two processes that share nothing but sockets (issue 28, done when):
+//! The station as two processes that share nothing but sockets:
 //! `gonio simulate station` (the Modbus TCP PLC and its GigE Vision camera) and
 //! `gonio mount --plc … --camera …`. Each test runs in its own network namespace
 //! (`unshare -n`, loopback up): a GigE camera listens on port 3956 and only one can per
-//! namespace. Needs the `genicam` feature.
+//! namespace. Needs the `genicam` feature: without it the tests are ignored, saying so
+//! (`.ci/cam.sh` runs them with it).
 #![cfg_attr(not(feature = "genicam"), allow(unused_imports, dead_code))]
 
 mod common;
@@ -64,10 +65,16 @@ fn station(truth: &std::path::Path) -> (common::Guard, String, String) {
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
 fn three_parts_through_the_plc_and_the_camera() {
     #[cfg(not(feature = "genicam"))]
     {
-        println!("skipped: built without the genicam feature");
+        panic!(
+            "built without the genicam feature: cargo test -p gonio --features genicam --test plc_station_cli (.ci/cam.sh)"
+        );
     }
     #[cfg(feature = "genicam")]
     {
@@ -260,10 +267,16 @@ fn real_parts_recorded_through_the_plc_replay_bit_for_bit_and_say_their_station(
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
 fn killing_the_station_mid_part_ends_the_mount_as_a_device_error() {
     #[cfg(not(feature = "genicam"))]
     {
-        println!("skipped: built without the genicam feature");
+        panic!(
+            "built without the genicam feature: cargo test -p gonio --features genicam --test plc_station_cli (.ci/cam.sh)"
+        );
     }
     #[cfg(feature = "genicam")]
     {
@@ -433,10 +446,16 @@ fn serve_plc(db: &str, addr: &str, cam: &str, parts: &str) -> (common::Guard, St
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
 fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
     #[cfg(not(feature = "genicam"))]
     {
-        println!("skipped: built without the genicam feature");
+        panic!(
+            "built without the genicam feature: cargo test -p gonio --features genicam --test plc_station_cli (.ci/cam.sh)"
+        );
     }
     #[cfg(feature = "genicam")]
     {
@@ -558,10 +577,16 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
 }
 
 #[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
 fn serve_shows_a_device_error_through_the_plc_and_stays_up() {
     #[cfg(not(feature = "genicam"))]
     {
-        println!("skipped: built without the genicam feature");
+        panic!(
+            "built without the genicam feature: cargo test -p gonio --features genicam --test plc_station_cli (.ci/cam.sh)"
+        );
     }
     #[cfg(feature = "genicam")]
     {

@@ -13,6 +13,7 @@
 #![deny(missing_docs)]
 
 pub mod angle;
+pub mod choice;
 pub mod closure;
 pub mod error;
 pub mod fourier;

@@ -131,15 +131,12 @@ pub enum Mode {
     Relative,
 }
 
-impl Mode {
-    /// `absolute` or `relative`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Absolute => "absolute",
-            Mode::Relative => "relative",
-        }
-    }
+gonio_core::choices!(Mode {
+    Absolute => "absolute",
+    Relative => "relative",
+});
 
+impl Mode {
     /// The request that asks the instrument for this kind of reading: `a` or `r`, then CR LF.
     pub fn request(self) -> &'static [u8] {
         match self {

@@ -55,7 +55,9 @@ pub fn budget<'py>(
     let src = convert::source(toml_text_or_path, "budget", false)?;
     let file = src.name();
     let bytes = match src {
-        Source::Path(p) => gonio_io::input::read_bytes(&p, MAX_FILE_BYTES).or_gonio()?,
+        Source::Path(p) => gonio_io::input::Inputs::new()
+            .read_bytes(&p, MAX_FILE_BYTES)
+            .or_gonio()?,
         Source::Text { text, .. } => text.into_bytes(),
     };
     let e = py

@@ -76,7 +76,7 @@ impl Source {
         parse: impl FnOnce(&str, &str) -> anyhow::Result<T>,
     ) -> anyhow::Result<T> {
         match self {
-            Source::Path(p) => gonio_io::input::load(p, parse),
+            Source::Path(p) => gonio_io::input::Inputs::new().load(p, parse),
             Source::Text { name, text } => parse(name, text),
         }
     }

@@ -45,7 +45,9 @@ fn give_back(optics: Optics, det: Detector) {
 fn optics(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Optics> {
     match convert::opt_source(obj, "optics", false)? {
         None => Ok(Optics::default()),
-        Some(Source::Path(p)) => frames::load_optics(Some(&p)).or_gonio(),
+        Some(Source::Path(p)) => {
+            frames::load_optics(&gonio_io::input::Inputs::new(), Some(&p)).or_gonio()
+        }
         Some(s) => s.parse(frames::parse_optics).or_gonio(),
     }
 }
@@ -251,7 +253,7 @@ pub fn eccentricity<'py>(
     let read = match c_px.filter(|c| !c.is_none()) {
         None if convert::is_path(theta_deg) => {
             let p: std::path::PathBuf = theta_deg.extract()?;
-            gonio_io::formats::csv::CsvTable::read(&p)
+            gonio_io::formats::csv::CsvTable::read(&gonio_io::input::Inputs::new(), &p)
                 .and_then(samples::from_table)
                 .or_gonio()?
         }

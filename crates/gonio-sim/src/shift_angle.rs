@@ -39,17 +39,11 @@ pub enum Rows {
     Seed,
 }
 
-impl Rows {
-    /// Parses `full`, `one` or `seed`.
-    pub fn parse(s: &str) -> Option<Rows> {
-        match s {
-            "full" => Some(Rows::Full),
-            "one" => Some(Rows::One),
-            "seed" => Some(Rows::Seed),
-            _ => None,
-        }
-    }
-}
+gonio_core::choices!(Rows {
+    Full => "full",
+    One => "one",
+    Seed => "seed",
+});
 
 /// Configuration of a simulated shift-angle measurement.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,5 +1,7 @@
-//! Every code path (scalar, AVX2, AVX-512, as far as the CPU has them) gives the same bits at
-//! every stage. One test in its own binary: the level is process-wide.
+//! Every code path (scalar, AVX2, AVX-512 and its VBMI and VNNI kernels, as far as the CPU has
+//! them) gives the same bits at every stage. One test in its own binary: the level is
+//! process-wide. It prints which paths each comparison really ran (a level the CPU lacks runs
+//! as the best one below it) and fails when the CPU offers a path it did not compare.
 
 use gonio_vision::blur_sobel::BlurSobel;
 use gonio_vision::fill::{EdgeFill, fill_pixel};
@@ -9,10 +11,34 @@ use gonio_vision::pipeline::StageImages;
 use gonio_vision::reference::{self, Image};
 use gonio_vision::rows::RowStage;
 use gonio_vision::segment::{FILLED, NONE, STRONG, SegmentParams, Segmenter, SparseEdgeRow, WEAK};
-use gonio_vision::simd::{Level, set_level, set_vbmi};
+use gonio_vision::simd::{self, Level, set_level, set_vbmi};
 use gonio_vision::{Detector, Optics};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeSet;
+
+/// The paths (names of `simd::offered`) one comparison really ran.
+type Ran = BTreeSet<&'static str>;
+
+/// Asks for `want`, notes in `ran` the level really in use (and the VBMI kernels when `vbmi`
+/// and they are on), and returns that level.
+fn at(ran: &mut Ran, want: Level, vbmi: bool) -> Level {
+    let got = set_level(want);
+    let now = simd::in_use();
+    ran.insert(now[0]);
+    if vbmi && now.contains(&"vbmi") {
+        ran.insert("vbmi");
+    }
+    got
+}
+
+/// The levels (`scalar`, `avx2`, `avx512`) the CPU offers that `ran` lacks.
+fn levels_missing(ran: &Ran) -> Vec<&'static str> {
+    simd::offered()
+        .into_iter()
+        .filter(|p| ["scalar", "avx2", "avx512"].contains(p) && !ran.contains(p))
+        .collect()
+}
 
 /// A frame with a slanted dark band, bars and noise, on an odd width (rows end mid-vector).
 fn frame(w: usize, h: usize, seed: u64) -> Vec<u8> {
@@ -52,7 +78,8 @@ fn gradient(rng: &mut ChaCha8Rng) -> i16 {
 /// and extreme gradients (i16::MIN, ±32767, magnitudes up to u16::MAX unrelated to the
 /// components), tolerances in the horizontal kernel's range (≤ 22.5°) and
 /// beyond (every sector); the rows out must be identical.
-fn segmentation_rows_at_every_level() {
+fn segmentation_rows_at_every_level() -> Ran {
+    let mut ran = Ran::new();
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let mut kept = 0;
     for width in (1..=70).chain([127, 128, 129, 191, 192, 193, 1440]) {
@@ -93,7 +120,7 @@ fn segmentation_rows_at_every_level() {
                 .collect();
             let mut outs = Vec::new();
             for want in [Level::Scalar, Level::Avx2, Level::Avx512] {
-                let got = set_level(want);
+                let got = at(&mut ran, want, true);
                 let mut se = Segmenter::new(width, params);
                 let mut er = SparseEdgeRow::new(width);
                 let mut out = Vec::new();
@@ -117,6 +144,7 @@ fn segmentation_rows_at_every_level() {
         }
     }
     assert!(kept > 10_000, "only {kept} edge pixels compared");
+    ran
 }
 
 /// The edge filling with and without its AVX-512 row scan (eight words of edge bits at once)
@@ -124,7 +152,8 @@ fn segmentation_rows_at_every_level() {
 /// (every tail of the 8-word steps, pairs across word boundaries, the border columns), edge
 /// densities from sparse to nearly full, random directions (so some pairs are 45° or more
 /// apart and the next pair decides).
-fn filling_rows_with_and_without_avx512() {
+fn filling_rows_with_and_without_avx512() -> Ran {
+    let mut ran = Ran::new();
     let mut rng = ChaCha8Rng::seed_from_u64(12);
     let mut filled = 0;
     for width in (1..=70).chain([127, 128, 129, 511, 512, 513, 1440]) {
@@ -193,6 +222,7 @@ fn filling_rows_with_and_without_avx512() {
                 .collect();
             for vbmi in [false, true] {
                 set_vbmi(vbmi);
+                ran.insert(if simd::vbmi() { "vbmi" } else { "without vbmi" });
                 let mut fi = EdgeFill::new(width);
                 let mut out = SparseEdgeRow::new(width);
                 let mut got = Vec::new();
@@ -218,6 +248,7 @@ fn filling_rows_with_and_without_avx512() {
         }
     }
     assert!(filled > 5_000, "only {filled} filled pixels compared");
+    ran
 }
 
 /// The blur and the Sobel as one stage (the AVX-512 kernel: vertical sums, lane shifts for the
@@ -227,7 +258,8 @@ fn filling_rows_with_and_without_avx512() {
 /// (the flush with fewer rows than the lags) and taller, random bytes and the extremes (0 and
 /// 255 alternating, all 255: the largest sums, ±1020 gradients). Each stage object is reused
 /// for a second frame (the reset).
-fn blur_sobel_at_every_level() {
+fn blur_sobel_at_every_level() -> Ran {
+    let mut ran = Ran::new();
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for width in (2..=70).chain([95, 96, 97, 127, 128, 129, 1440]) {
         for height in [1, 2, 3, 4, 5, 6, 11] {
@@ -244,7 +276,7 @@ fn blur_sobel_at_every_level() {
                 })
                 .collect();
             for level in [Level::Scalar, Level::Avx2, Level::Avx512] {
-                set_level(level);
+                let level = at(&mut ran, level, false);
                 let mut stage = BlurSobel::new(width);
                 let mut g = GradRow::new(width);
                 for f in &frames {
@@ -267,6 +299,7 @@ fn blur_sobel_at_every_level() {
         }
     }
     set_level(Level::Avx512);
+    ran
 }
 
 /// The labeller at every level (AVX-512: its kept edge pixels written four at a time by
@@ -274,7 +307,8 @@ fn blur_sobel_at_every_level() {
 /// of every width 1 … 70 and a few wide ones (every tail of the four-pixel steps), sparse to
 /// nearly full rows (runs of every length, merges), with filled pixels (not kept) among them.
 /// One labeller per level is reused for every frame of a width (the reset).
-fn labelling_at_every_level() {
+fn labelling_at_every_level() -> Ran {
+    let mut ran = Ran::new();
     let mut rng = ChaCha8Rng::seed_from_u64(21);
     let mut kept = 0;
     for width in (1..=70).chain([127, 128, 129, 1440]) {
@@ -309,7 +343,7 @@ fn labelling_at_every_level() {
                 .collect();
             let mut got = Vec::new();
             for (l, level) in labellers.iter_mut().zip([Level::Scalar, Level::Avx512]) {
-                set_level(level);
+                at(&mut ran, level, false);
                 l.reset();
                 for r in &rows {
                     l.push_sparse(r);
@@ -332,15 +366,19 @@ fn labelling_at_every_level() {
         }
     }
     assert!(kept > 10_000, "only {kept} kept pixels compared");
+    ran
 }
 
 #[test]
 fn every_level_gives_the_same_bits() {
     // One test function: the level is process-wide, tests run in parallel threads.
-    segmentation_rows_at_every_level();
-    filling_rows_with_and_without_avx512();
-    blur_sobel_at_every_level();
-    labelling_at_every_level();
+    let offered = simd::offered();
+    println!("this CPU offers the paths {offered:?}");
+    let segmentation = segmentation_rows_at_every_level();
+    let filling = filling_rows_with_and_without_avx512();
+    let blur_sobel = blur_sobel_at_every_level();
+    let labelling = labelling_at_every_level();
+    let mut detector = Ran::new();
     for (w, h, tol) in [(203usize, 101usize, None), (331, 77, Some(40.0))] {
         let o = Optics {
             window_width_px: w as u32,
@@ -359,6 +397,7 @@ fn every_level_gives_the_same_bits() {
         ] {
             let got = set_level(want);
             set_vbmi(vbmi);
+            detector.extend(simd::in_use());
             let mut det = Detector::new(&o).unwrap();
             det.set_dump(true);
             let r = det.detect(&f).unwrap();
@@ -375,5 +414,48 @@ fn every_level_gives_the_same_bits() {
             assert_eq!(r, r0, "{l:?} result");
             assert_eq!(d, d0, "{l:?} stage images");
         }
+    }
+    for (what, ran) in [
+        ("segmentation", &segmentation),
+        ("edge filling", &filling),
+        ("blur and Sobel", &blur_sobel),
+        ("labelling", &labelling),
+        ("the whole detector", &detector),
+    ] {
+        println!("{what}: compared {ran:?}");
+    }
+    // Every level at every stage that has one, and every path the CPU offers in the whole
+    // detector (whose focus sums take the VNNI kernel at the AVX-512 level).
+    for (what, ran) in [
+        ("segmentation", &segmentation),
+        ("blur and Sobel", &blur_sobel),
+        ("the whole detector", &detector),
+    ] {
+        let missing = levels_missing(ran);
+        assert!(
+            missing.is_empty(),
+            "{what}: the CPU offers {missing:?}, not compared"
+        );
+    }
+    let missing: Vec<&str> = offered
+        .iter()
+        .filter(|p| !detector.contains(*p))
+        .copied()
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "the CPU offers {missing:?}, which the detector comparison did not run"
+    );
+    if offered.contains(&"avx512") {
+        assert!(
+            labelling.contains("avx512"),
+            "labelling: AVX-512 offered, not compared"
+        );
+    }
+    if offered.contains(&"vbmi") {
+        assert!(
+            filling.contains("vbmi"),
+            "filling: VBMI offered, not compared"
+        );
     }
 }

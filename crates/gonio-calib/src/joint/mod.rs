@@ -116,6 +116,11 @@ pub enum HeadAngles {
     Measured,
 }
 
+gonio_core::choices!(HeadAngles {
+    Measured => "measured",
+    Nominal => "nominal",
+});
+
 /// How the heads' model places the scale error between the sampled rotation positions (for
 /// heads that do not sit on them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -128,6 +133,11 @@ pub enum Interpolation {
     /// A band-limited (trigonometric) series, the self-calibration's model.
     Trigonometric,
 }
+
+gonio_core::choices!(Interpolation {
+    Linear => "linear",
+    Trigonometric => "trigonometric",
+});
 
 /// Options of [`calibrate`].
 #[derive(Debug, Clone, PartialEq)]

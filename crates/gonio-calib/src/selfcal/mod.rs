@@ -69,6 +69,11 @@ pub enum Method {
     Eda,
 }
 
+gonio_core::choices!(Method {
+    Fourier => "fourier",
+    Eda => "eda" | "selfa",
+});
+
 /// How the reading noise is modelled when propagating it to a(θ).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -80,6 +85,15 @@ pub enum NoiseModel {
     /// Each difference D_h has independent noise σ (the textbook noise gain 1/Σ|w|²).
     Differences,
 }
+
+gonio_core::choices!(NoiseModel {
+    Readings => "readings",
+    Differences => "differences",
+});
+
+/// Largest harmonic order a harmonic table and the lists of undetectable orders may ask for
+/// (`max_order`, `--max-order`; the joint calibration's `blind_max_order` too): 100,000.
+pub const MAX_ORDER: u32 = 100_000;
 
 /// Options of [`calibrate`].
 #[derive(Debug, Clone, PartialEq)]

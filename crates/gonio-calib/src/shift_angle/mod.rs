@@ -59,15 +59,10 @@ pub enum Method {
     Paper,
 }
 
-impl Method {
-    /// The name used in files and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::LeastSquares => "least-squares",
-            Method::Paper => "paper",
-        }
-    }
-}
+gonio_core::choices!(Method {
+    LeastSquares => "least-squares" | "ls",
+    Paper => "paper",
+});
 
 /// How much of the covariance to compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -68,8 +68,8 @@ pub struct Args {
     pub baud: u32,
     /// Readings to ask for: `absolute` (`a`, answered `4 003 …`) or `relative` (`r`, `2 103
     /// …`). Default: the plan's mode, absolute when it allows either.
-    #[arg(long)]
-    pub mode: Option<String>,
+    #[arg(long, value_enum, hide_possible_values = true)]
+    pub mode: Option<Mode>,
     /// Answers averaged per position.
     #[arg(long, default_value_t = 3)]
     pub samples: usize,
@@ -111,12 +111,12 @@ pub(crate) enum End {
 }
 
 fn settings(args: &Args, plan: &Plan) -> Result<Settings> {
-    let mode = match (args.mode.as_deref(), plan.mode) {
+    let mode = match (args.mode, plan.mode) {
         (None, ModeRule::Relative) => Mode::Relative,
         (None, _) => Mode::Absolute,
-        (Some("absolute"), ModeRule::Relative) | (Some("relative"), ModeRule::Absolute) => bail!(
-            "--mode {}: the plan {} says mode = \"{}\"",
-            args.mode.as_deref().unwrap_or_default(),
+        (Some(m @ Mode::Absolute), ModeRule::Relative)
+        | (Some(m @ Mode::Relative), ModeRule::Absolute) => bail!(
+            "--mode {m}: the plan {} says mode = \"{}\"",
             args.plan.display(),
             if plan.mode == ModeRule::Relative {
                 "relative"
@@ -124,9 +124,7 @@ fn settings(args: &Args, plan: &Plan) -> Result<Settings> {
                 "absolute"
             }
         ),
-        (Some("absolute"), _) => Mode::Absolute,
-        (Some("relative"), _) => Mode::Relative,
-        (Some(m), _) => bail!("--mode {m:?}: expected absolute or relative"),
+        (Some(m), _) => m,
     };
     if !(1..=1000).contains(&args.samples) {
         bail!("--samples {}: expected 1 to 1000", args.samples);
@@ -161,11 +159,12 @@ fn shift_angle(args: Args) -> Result<()> {
     if args.out.as_os_str() == "-" {
         bail!("--out -: the readings need a file (the journal is kept beside it)");
     }
-    let plan_text = input::read_text(&args.plan)?;
+    let inputs = input::Inputs::new();
+    let plan_text = inputs.read_text(&args.plan)?;
     let plan = Plan::parse(&args.plan, &plan_text)?;
     let settings = settings(&args, &plan)?;
     // Claim the outputs first: a CSV that cannot be written is refused before the bench starts.
-    let mut out = Outputs::new();
+    let mut out = Outputs::with_inputs(inputs);
     let csv_out = out.file("--out", &args.out)?;
     let log_out = out.optional("--log", args.log.as_deref())?;
     let journal_path = journal::path_for(&args.out);

@@ -3,7 +3,6 @@
 use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::output::Outputs;
-use gonio_io::input;
 use gonio_io::results::budget::{self, McJson, Progress};
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use gonio_uncertainty::{BudgetResult, short};
@@ -64,7 +63,7 @@ pub fn run(args: Args) -> Result<()> {
     budget::check_coverage(args.coverage)?;
     let mut outputs = Outputs::new();
     let json = outputs.optional("--json", args.json.as_deref())?;
-    let bytes = input::read_bytes(&args.budget, MAX_FILE_BYTES)?;
+    let bytes = outputs.inputs().read_bytes(&args.budget, MAX_FILE_BYTES)?;
     let req = budget::Request {
         coverage: args.coverage,
         name: args.name.clone(),

@@ -42,9 +42,9 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
     let json = out.optional("--json", args.json.as_deref())?;
     let dcc = out.optional("--dcc", args.dcc.as_deref())?;
-    let mut cert = formats::certificate::load(&args.certificate)?;
+    let mut cert = formats::certificate::load(out.inputs(), &args.certificate)?;
     if let Some(p) = &args.meta {
-        cert = cert.with_meta(formats::meta::load(p)?);
+        cert = cert.with_meta(formats::meta::load(out.inputs(), p)?);
     }
     let missing = cert.missing_meta();
     say!(

@@ -1,10 +1,10 @@
 //! `gonio compare`: two calibration certificates of one encoder compared at their common angles
 //! (differences and En).
 
-use anyhow::{Result, anyhow};
-use gonio_calib::compare::{Comparison, compare};
+use anyhow::Result;
+use gonio_calib::compare::Comparison;
 use gonio_cli::output::Outputs;
-use gonio_io::formats::curve;
+use gonio_io::formats::source::Document;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -40,9 +40,11 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
     let json = out.optional("--json", args.json.as_deref())?;
-    let a = curve::load(&args.a)?;
-    let b = curve::load(&args.b)?;
-    let c = compare(&a, &b).map_err(|e| anyhow!("{e}"))?;
+    let (a, b) = (
+        Document::File(args.a.clone()),
+        Document::File(args.b.clone()),
+    );
+    let c = gonio_io::results::compare::evaluate(out.inputs(), &a, &b)?;
     let to_stdout = out.to_stdout(json);
     if let Some(j) = json {
         out.json(j, &c)?;

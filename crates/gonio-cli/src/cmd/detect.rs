@@ -7,6 +7,7 @@ use gonio_core::quantile::quantile_sorted;
 use gonio_io::formats::angles::{self, AngleLog};
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
+use gonio_io::input::Inputs;
 use gonio_io::results::detect::Line;
 use gonio_vision::{
     DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
@@ -194,9 +195,10 @@ impl Angles {
     }
 }
 
-fn load_angles(a: &Args) -> Result<Angles> {
+fn load_angles(inputs: &Inputs, a: &Args) -> Result<Angles> {
     if let Some(p) = &a.angles {
-        return Ok(Angles::Table(angles::from_table(&CsvTable::read(p)?)?));
+        let table = CsvTable::read(inputs, p)?;
+        return Ok(Angles::Table(angles::from_table(&table)?));
     }
     if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
         if !speed.is_finite() || !fps.is_finite() || fps <= 0.0 {
@@ -247,8 +249,8 @@ pub fn run(a: Args) -> Result<()> {
         out.dir("--dump-stages", dir, true)?;
     }
     let mut sink = Sink { out, id };
-    let optics = load_optics(a.optics.as_deref())?;
-    let angles = load_angles(&a)?;
+    let optics = load_optics(sink.out.inputs(), a.optics.as_deref())?;
+    let angles = load_angles(sink.out.inputs(), &a)?;
     let started = std::time::Instant::now();
     let done = if let Some(id) = &a.camera {
         camera_run::detect_camera(&a, id, &angles, &optics, &mut sink)?
@@ -281,7 +283,7 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
         for f in &files {
-            gonio_io::input::record(f);
+            sink.out.inputs().record(f);
         }
         detect_all(
             &a,

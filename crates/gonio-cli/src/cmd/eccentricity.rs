@@ -64,11 +64,11 @@ pub fn run(a: Args) -> Result<()> {
     let mut outputs = Outputs::new();
     let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
-        Some(p) => recipe::load(p)?,
+        Some(p) => recipe::load(outputs.inputs(), p)?,
         None => Recipe::default(),
     };
     let settings = Settings::new(recipe, a.um_per_px, a.threshold_um)?;
-    let read = samples::from_table(CsvTable::read(&a.samples)?)?;
+    let read = samples::from_table(CsvTable::read(outputs.inputs(), &a.samples)?)?;
     let method = match a.method {
         Method::LeastSquares => FitMethod::LeastSquares,
         Method::Paper => FitMethod::Paper,

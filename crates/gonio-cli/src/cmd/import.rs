@@ -5,7 +5,6 @@
 
 use anyhow::Result;
 use gonio_cli::output::Outputs;
-use gonio_io::input;
 use gonio_lab::plan::Plan;
 use gonio_lab::{import, log, readings};
 use std::path::PathBuf;
@@ -57,12 +56,12 @@ pub fn run(i: Import) -> Result<()> {
 fn elcomat(args: ElcomatArgs) -> Result<()> {
     let mut out = Outputs::new();
     let csv_out = out.file("--out", &args.out)?;
-    let plan_text = input::read_text(&args.plan)?;
+    let plan_text = out.inputs().read_text(&args.plan)?;
     let plan = Plan::parse(&args.plan, &plan_text)?;
     let name = args.log.display().to_string();
     // Bytes that are not UTF-8 (line noise on a serial link) become U+FFFD, so that the
     // parser names the line they are on.
-    let bytes = input::read_bytes(&args.log, LOG_LIMIT_BYTES)?;
+    let bytes = out.inputs().read_bytes(&args.log, LOG_LIMIT_BYTES)?;
     let log = log::parse(&name, &String::from_utf8_lossy(&bytes))?;
     let plan_name = args.plan.display().to_string();
     let rows = import::assign(&plan, &plan_name, &name, &log)?;

@@ -1,16 +1,14 @@
 //! `gonio joint`: calibrate an encoder from polygon readings and read-head readings together.
 
 use crate::db;
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use gonio_calib::certificate::{Certificate, JointSection};
-use gonio_calib::joint::{
-    HeadAngles, Interpolation, JointError, JointHarmonic, JointOptions, SigmaUsed, calibrate,
-};
+use gonio_calib::joint::{HeadAngles, Interpolation, JointHarmonic, SigmaUsed};
 use gonio_calib::selfcal::NoiseModel;
 use gonio_cli::output::Outputs;
-use gonio_io::formats::csv::CsvTable;
-use gonio_io::formats::heads::{self, locate, read_turns};
-use gonio_io::formats::{self, readings};
+use gonio_io::formats::heads;
+use gonio_io::formats::source::{Document, Table};
+use gonio_io::results::joint::{Request, check, evaluate};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -58,16 +56,16 @@ pub struct Args {
     #[arg(long)]
     pub sigma_heads: Option<f64>,
     /// Heads' noise: `readings` (each head reading has its own noise) or `differences`.
-    #[arg(long, default_value = "readings")]
-    pub noise_model: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub noise_model: NoiseModel,
     /// Head angles in the heads' model: `measured` (nominal + each head's mean difference) or
     /// `nominal`.
-    #[arg(long, default_value = "measured")]
-    pub head_angles: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub head_angles: HeadAngles,
     /// The scale error between rotation positions: `linear` (as between graduation lines) or
     /// `trigonometric` (band-limited).
-    #[arg(long, default_value = "linear")]
-    pub interpolation: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub interpolation: Interpolation,
     /// Largest order of the harmonic table and the blind lists.
     #[arg(long, default_value_t = 360)]
     pub max_order: u32,
@@ -94,83 +92,34 @@ pub struct Args {
     pub compensation: Option<PathBuf>,
 }
 
-fn parse_choice<T: Copy>(flag: &str, value: &str, choices: &[(&str, T)]) -> Result<T> {
-    choices
-        .iter()
-        .find(|(name, _)| *name == value)
-        .map(|(_, v)| *v)
-        .ok_or_else(|| {
-            let names: Vec<&str> = choices.iter().map(|(n, _)| *n).collect();
-            anyhow!("--{flag} {value:?}: expected {}", names.join(" or "))
-        })
-}
-
 /// Runs `gonio joint`.
 pub fn run(args: Args) -> Result<()> {
-    let opts = JointOptions {
-        sigma_polygon_arcsec: args.sigma_polygon,
-        sigma_heads_arcsec: args.sigma_heads,
-        noise_model: parse_choice(
-            "noise-model",
-            &args.noise_model,
-            &[
-                ("readings", NoiseModel::Readings),
-                ("differences", NoiseModel::Differences),
-            ],
-        )?,
-        head_angles: parse_choice(
-            "head-angles",
-            &args.head_angles,
-            &[
-                ("measured", HeadAngles::Measured),
-                ("nominal", HeadAngles::Nominal),
-            ],
-        )?,
-        interpolation: parse_choice(
-            "interpolation",
-            &args.interpolation,
-            &[
-                ("linear", Interpolation::Linear),
-                ("trigonometric", Interpolation::Trigonometric),
-            ],
-        )?,
-        max_order: args.max_order,
-        blind_max_order: args.blind_max_order,
-        coverage: 0.95,
-    };
-    readings::check_faces(args.faces)?;
-    if args.max_order > 100_000 || args.blind_max_order.is_some_and(|k| k > 100_000) {
-        anyhow::bail!("--max-order and --blind-max-order: expected at most 100000");
-    }
+    check(args.faces, args.max_order, args.blind_max_order)?;
     let mut out = Outputs::new();
+    if let Some(loc) = &args.to.db {
+        db::reserve(out.inputs(), loc);
+    }
     let json = out.optional("--json", args.to.json.as_deref())?;
     let comp = out.optional("--compensation", args.compensation.as_deref())?;
-    let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
-    let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
-    let opts = JointOptions {
-        coverage: instrument.terms.coverage,
-        ..opts
+    let (heads, _) = heads::load(out.inputs(), &args.heads)?;
+    let request = Request {
+        readings: Table::File(args.readings.clone()),
+        heads_readings: Table::File(args.heads_readings.clone()),
+        faces: args.faces,
+        heads,
+        raw: args.raw,
+        sigma_polygon_arcsec: args.sigma_polygon,
+        sigma_heads_arcsec: args.sigma_heads,
+        noise_model: args.noise_model,
+        head_angles: args.head_angles,
+        interpolation: args.interpolation,
+        max_order: args.max_order,
+        blind_max_order: args.blind_max_order,
+        instrument: args.instrument.clone().map(Document::File),
+        coverage: args.coverage,
+        meta: args.meta.clone().map(Document::File),
     };
-    let set = readings::read(&args.readings, Some(args.faces))?;
-    let (heads, _) = heads::load(&args.heads)?;
-    let table = CsvTable::read(&args.heads_readings)?;
-    let rt = read_turns(&table, &heads, args.raw)?;
-    let cal = calibrate(&set, &heads, &rt.turns, &opts).map_err(|e| match e {
-        JointError::Heads(h) => locate(h, &table, &rt.lines),
-        JointError::Polygon(p) => anyhow!("{}: {p}", args.readings.display()),
-        e @ JointError::OffGrid { .. } => anyhow!(
-            "{} and {}: {e}",
-            args.readings.display(),
-            args.heads_readings.display()
-        ),
-        e => anyhow!("{e}"),
-    })?;
-    let mut cert = Certificate::from_joint(&cal, &instrument)?;
-    if let Some(m) = meta {
-        cert = cert.with_meta(m);
-    }
-    // Overflow (a reading of 1e308) is an error naming the input, before any output.
-    gonio_io::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let cert = evaluate(out.inputs(), request)?;
     let to_stdout = out.to_stdout(json);
     out.certificate(json, comp, &cert)?;
     if !to_stdout {

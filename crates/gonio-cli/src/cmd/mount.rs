@@ -160,13 +160,16 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
     }
     let mut outputs = Outputs::new();
+    if let Some(db) = &a.db {
+        crate::db::reserve(outputs.inputs(), db);
+    }
     let json = outputs.optional("--json", a.json.as_deref())?;
     let recipe = match &a.recipe {
-        Some(p) => recipe::load(p)?,
+        Some(p) => recipe::load(outputs.inputs(), p)?,
         None => Recipe::default(),
     };
     let scene = match (&a.scene_file, a.scene) {
-        (Some(p), _) => load_scene(p)?,
+        (Some(p), _) => load_scene(outputs.inputs(), p)?,
         (None, MountSceneArg::Clean) => GratingScene::preset(ScenePreset::Clean),
         (None, MountSceneArg::Realistic) => GratingScene::preset(ScenePreset::Realistic),
         (None, MountSceneArg::Dense) => GratingScene::preset(ScenePreset::Dense),
@@ -413,8 +416,12 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     if a.resume || a.fidelity != FidelityArg::Fast {
         bail!("--resume and --fidelity are for --sim; --plc mounts real parts");
     }
+    let mut outputs = Outputs::new();
+    if let Some(db) = &a.db {
+        crate::db::reserve(outputs.inputs(), db);
+    }
     let recipe = match &a.recipe {
-        Some(p) => recipe::load(p)?,
+        Some(p) => recipe::load(outputs.inputs(), p)?,
         None => Recipe::default(),
     };
     let record_parts = a
@@ -422,7 +429,9 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         .as_deref()
         .map(|s| recorder::parse_parts(s, a.parts))
         .transpose()?;
-    let mut outputs = Outputs::new();
+    if let Some(p) = &a.plc_map {
+        outputs.inputs().record(p);
+    }
     let json = outputs.optional("--json", a.json.as_deref())?;
     let to_stdout = outputs.to_stdout(json);
     let station_name = station::station_name(a.station_name.as_deref(), false);

@@ -156,6 +156,7 @@ pub fn run(a: Args) -> Result<()> {
     let err = |e: gonio_store::StoreError| anyhow!("{location}: {e}");
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("-"));
     let mut outs = Outputs::new();
+    crate::db::reserve(outs.inputs(), &a.db);
     let id = outs.file("--out", &out)?;
     if a.json {
         // Streamed a page of parts at a time: memory holds a page, never the whole store. The

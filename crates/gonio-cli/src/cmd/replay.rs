@@ -3,6 +3,7 @@
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::say;
 use gonio_io::formats::replay::{self, PartFile};
+use gonio_io::input::Inputs;
 use gonio_station::DetectorCamera;
 use gonio_station::replay::{TurnReplay, replay_turn};
 use serde::Serialize;
@@ -39,7 +40,7 @@ struct PartReplay {
     turns: Vec<TurnReplay>,
 }
 
-fn replay_part(dir: &Path, part: &PartFile) -> Result<Vec<TurnReplay>> {
+fn replay_part(inputs: &Inputs, dir: &Path, part: &PartFile) -> Result<Vec<TurnReplay>> {
     if part.turns.len() != part.record.turns.len() {
         bail!(
             "{}: {} recorded turns, the part's record has {}",
@@ -50,7 +51,7 @@ fn replay_part(dir: &Path, part: &PartFile) -> Result<Vec<TurnReplay>> {
     }
     let mut out = Vec::with_capacity(part.turns.len());
     for (files, stored) in part.turns.iter().zip(&part.record.turns) {
-        let rec = replay::read_turn(dir, files)?;
+        let rec = replay::read_turn(inputs, dir, files)?;
         let frames = replay::open_raw(dir, part, files, &rec)?;
         let mut cam = DetectorCamera::new(frames, &part.optics)
             .map_err(|e| anyhow!("{}: optics: {e}", dir.join("part.json").display()))?;
@@ -64,12 +65,13 @@ fn replay_part(dir: &Path, part: &PartFile) -> Result<Vec<TurnReplay>> {
 /// Runs `gonio replay`.
 pub fn run(a: Args) -> Result<()> {
     let dirs = replay::part_dirs(&a.dir)?;
+    let inputs = Inputs::new();
     let to_stdout = a.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
     let mut parts = Vec::with_capacity(dirs.len());
     let (mut differing, mut turns, mut frames) = (0usize, 0usize, 0usize);
     for dir in &dirs {
-        let part = replay::read_part(dir)?;
-        let replayed = replay_part(dir, &part)?;
+        let part = replay::read_part(&inputs, dir)?;
+        let replayed = replay_part(&inputs, dir, &part)?;
         let n_frames: usize = replayed.iter().map(|t| t.frames).sum();
         let diffs: usize = replayed.iter().map(|t| t.differences.len()).sum();
         turns += replayed.len();
@@ -120,7 +122,7 @@ pub fn run(a: Args) -> Result<()> {
         });
     }
     if let Some(p) = &a.json {
-        let mut out = gonio_cli::output::Outputs::new();
+        let mut out = gonio_cli::output::Outputs::with_inputs(inputs);
         let id = out.file("--json", p)?;
         out.json(id, &parts)?;
         out.commit()?;

@@ -42,11 +42,15 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
     let html = out.file("--out", &args.out)?;
-    let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
+    let meta = args
+        .meta
+        .as_deref()
+        .map(|p| formats::meta::load(out.inputs(), p))
+        .transpose()?;
     let inputs = args
         .files
         .iter()
-        .map(|f| Ok((f.display().to_string(), report::load(f)?)))
+        .map(|f| Ok((f.display().to_string(), report::load(out.inputs(), f)?)))
         .collect::<Result<Vec<_>>>()?;
     let report = report::build(inputs, meta.as_ref(), args.title.as_deref())?;
     out.write(html, report.render().as_bytes())?;

@@ -1,13 +1,13 @@
 //! `gonio selfcal`: self-calibration of an encoder from several read heads (EDA, SelfA, Fourier).
 
 use crate::db;
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use gonio_calib::certificate::Certificate;
-use gonio_calib::selfcal::{Method, NoiseModel, SelfcalOptions, calibrate};
+use gonio_calib::selfcal::{Method, NoiseModel};
 use gonio_cli::output::Outputs;
-use gonio_io::formats::csv::CsvTable;
-use gonio_io::formats::heads::{self, locate, read_turns};
-use gonio_io::formats::{self};
+use gonio_io::formats::heads;
+use gonio_io::formats::source::{Document, Table};
+use gonio_io::results::selfcal::{Request, evaluate};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -15,7 +15,7 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Input (one rotation position a row, NS rows equally spaced over one turn, header required; at
-most 64 MiB):
+most 256 MiB):
   position_deg,head_2,…,head_M      head h minus head 1, arcsec (default)
   position_deg,head_1,…,head_M      raw head readings, degrees (--raw)
   an optional `turn` column (1, 2, …) holds repeated turns; u then comes from their spread.
@@ -39,15 +39,15 @@ pub struct Args {
     pub heads: String,
     /// Estimator: `fourier` (least squares, any heads) or `eda` (equal-division averaging;
     /// the SelfA combination when the heads have several sets).
-    #[arg(long, default_value = "fourier")]
-    pub method: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub method: Method,
     /// The CSV holds raw head readings in degrees (`head_1..head_M`).
     #[arg(long)]
     pub raw: bool,
     /// Noise model for the uncertainty: `readings` (independent noise per head reading, so
     /// head 1's noise is common to every difference) or `differences`.
-    #[arg(long, default_value = "readings")]
-    pub noise_model: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub noise_model: NoiseModel,
     /// Heads (1-based) whose averaged reading is calibrated, e.g. `1,7` as in SelfA.
     #[arg(long, default_value = "1")]
     pub reference: String,
@@ -70,66 +70,27 @@ pub struct Args {
     pub meta: Option<PathBuf>,
 }
 
-/// Parses a list of 1-based head numbers (`1,7`) into 0-based indices.
-fn parse_reference(s: &str, m: usize) -> Result<Vec<usize>> {
-    s.split(',')
-        .map(|p| {
-            let h: usize = p
-                .trim()
-                .parse()
-                .ok()
-                .filter(|h| (1..=m).contains(h))
-                .with_context(|| {
-                    format!("--reference {s:?}: {p:?} is not a head number in 1..={m}")
-                })?;
-            Ok(h - 1)
-        })
-        .collect()
-}
-
-/// Largest readings file: 64 MiB (10 turns of 36,000 positions with 12 heads are ≈ 50 MB).
-/// Reading, parsing and solving keep about 8 bytes of memory per byte of it (≈ 0.5 GB at the
-/// limit); checked before anything is read.
-const MAX_READINGS_BYTES: usize = 64 << 20;
-
 /// Runs `gonio selfcal`.
 pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
-    let json = out.optional("--json", args.to.json.as_deref())?;
-    let (heads, _) = heads::load(&args.heads)?;
-    check_max_order(args.max_order)?;
-    let method = match args.method.as_str() {
-        "fourier" => Method::Fourier,
-        "eda" | "selfa" => Method::Eda,
-        s => bail!("--method {s:?}: expected fourier or eda"),
-    };
-    let noise_model = match args.noise_model.as_str() {
-        "readings" => NoiseModel::Readings,
-        "differences" => NoiseModel::Differences,
-        s => bail!("--noise-model {s:?}: expected readings or differences"),
-    };
-    let reference_heads = parse_reference(&args.reference, heads.len())?;
-    let table = {
-        let bytes = gonio_io::input::read_bytes(&args.readings, MAX_READINGS_BYTES)?;
-        let name = args.readings.display().to_string();
-        CsvTable::parse(&name, &gonio_io::input::decode(&name, &bytes)?)?
-    };
-    let rt = read_turns(&table, &heads, args.raw)?;
-    let opts = SelfcalOptions {
-        method,
-        noise_model,
-        reference_heads,
-        max_order: args.max_order,
-    };
-    let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
-    let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
-    let r = calibrate(&heads, &rt.turns, &opts).map_err(|e| locate(e, &table, &rt.lines))?;
-    let mut cert = Certificate::from_selfcal(&r, &instrument)?;
-    if let Some(m) = meta {
-        cert = cert.with_meta(m);
+    if let Some(loc) = &args.to.db {
+        db::reserve(out.inputs(), loc);
     }
-    // Overflow (a reading of 1e308) is an error naming the input, before any output.
-    gonio_io::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let json = out.optional("--json", args.to.json.as_deref())?;
+    let (heads, _) = heads::load(out.inputs(), &args.heads)?;
+    let request = Request {
+        readings: Table::File(args.readings.clone()),
+        heads,
+        method: args.method,
+        raw: args.raw,
+        noise_model: args.noise_model,
+        reference: args.reference.clone(),
+        max_order: args.max_order,
+        instrument: args.instrument.clone().map(Document::File),
+        coverage: args.coverage,
+        meta: args.meta.clone().map(Document::File),
+    };
+    let cert = evaluate(out.inputs(), request)?;
     let to_stdout = out.to_stdout(json);
     if let Some(j) = json {
         out.json(j, &cert)?;
@@ -141,16 +102,6 @@ pub fn run(args: Args) -> Result<()> {
         print_summary(&cert)?;
     }
     out.commit()
-}
-
-/// Most harmonic orders in the table (`--max-order`).
-const MAX_ORDER: u32 = 100_000;
-
-fn check_max_order(k: u32) -> Result<()> {
-    if k > MAX_ORDER {
-        bail!("--max-order {k}: expected at most {MAX_ORDER}");
-    }
-    Ok(())
 }
 
 fn print_summary(c: &Certificate) -> Result<()> {
@@ -219,93 +170,4 @@ fn print_summary(c: &Certificate) -> Result<()> {
         );
     }
     gonio_cli::term::out(&out)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn run_csv(text: &str, heads: &str, raw: bool) -> Result<gonio_calib::selfcal::SelfcalResult> {
-        let (heads, _) = heads::load(heads)?;
-        let table = CsvTable::parse("r.csv", text)?;
-        let rt = read_turns(&table, &heads, raw)?;
-        calibrate(&heads, &rt.turns, &SelfcalOptions::default())
-            .map_err(|e| locate(e, &table, &rt.lines))
-    }
-
-    fn csv(rows: usize, step: f64, f: impl Fn(usize) -> String) -> String {
-        let mut s = String::from("position_deg,head_2,head_3\n");
-        for i in 0..rows {
-            s.push_str(&format!("{},{}\n", i as f64 * step, f(i)));
-        }
-        s
-    }
-
-    #[test]
-    fn good_file_and_one_line_errors_with_file_and_line() {
-        let ok = csv(36, 10.0, |i| format!("{},0.2", (i as f64).sin()));
-        let r = run_csv(&ok, "eda:3", false).unwrap();
-        assert_eq!(r.errors.len(), 36);
-        // Position 7 (file line 9) off the 10° grid.
-        let bad = csv(36, 10.0, |_| "0.1,0.2".into()).replace("\n70,", "\n71,");
-        let e = gonio_io::input::one_line(&run_csv(&bad, "eda:3", false).unwrap_err());
-        assert!(
-            e.starts_with("r.csv:9: column 'position_deg': found 71°"),
-            "{e}"
-        );
-        // Half a turn.
-        let e = gonio_io::input::one_line(
-            &run_csv(&csv(36, 5.0, |_| "0,0".into()), "eda:3", false).unwrap_err(),
-        );
-        assert!(e.starts_with("r.csv:3: column 'position_deg'"), "{e}");
-        // NaN and ragged rows.
-        let e = gonio_io::input::one_line(
-            &run_csv(
-                &csv(
-                    36,
-                    10.0,
-                    |i| if i == 3 { "NaN,0".into() } else { "0,0".into() },
-                ),
-                "eda:3",
-                false,
-            )
-            .unwrap_err(),
-        );
-        assert!(e.starts_with("r.csv:5:2: column 'head_2'"), "{e}");
-        let e = gonio_io::input::one_line(
-            &run_csv(
-                &csv(36, 10.0, |i| if i == 2 { "0".into() } else { "0,0".into() }),
-                "eda:3",
-                false,
-            )
-            .unwrap_err(),
-        );
-        assert!(e.starts_with("r.csv:4: expected 3 fields"), "{e}");
-        // Head count not matching the heads.
-        let e = gonio_io::input::one_line(&run_csv(&ok, "eda:4", false).unwrap_err());
-        assert!(e.starts_with("r.csv:1: 2 head columns for 4 heads"), "{e}");
-        let e = gonio_io::input::one_line(&run_csv(&ok, "eda:3", true).unwrap_err());
-        assert!(e.contains("expected head_1,head_2,head_3"), "{e}");
-        // Too few rows.
-        let e = gonio_io::input::one_line(
-            &run_csv(&csv(4, 90.0, |_| "0,0".into()), "eda:3", false).unwrap_err(),
-        );
-        assert!(e.starts_with("r.csv:5: turn 1: expected at least 8"), "{e}");
-    }
-
-    #[test]
-    fn turns_column_groups_rows() {
-        let mut s = String::from("position_deg,head_2,turn\n");
-        for t in [2, 1] {
-            for i in 0..12 {
-                s.push_str(&format!("{},{},{t}\n", i * 30, 0.01 * t as f64));
-            }
-        }
-        let r = run_csv(&s, "eda:2", false).unwrap();
-        assert_eq!(r.turns, 2);
-        assert_eq!(r.uncertainty.source, "repeated turns");
-        let s = s.replace(",1\n", ",0\n");
-        let e = gonio_io::input::one_line(&run_csv(&s, "eda:2", false).unwrap_err());
-        assert!(e.contains("turn number ≥ 1"), "{e}");
-    }
 }

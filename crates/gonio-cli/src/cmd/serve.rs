@@ -260,7 +260,7 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--parts {}: expected 1 to {}", a.parts, station::MAX_PARTS);
     }
     let recipe = match &a.recipe {
-        Some(p) => load_recipe(p)?,
+        Some(p) => load_recipe(&gonio_io::input::Inputs::new(), p)?,
         None => Recipe::default(),
     };
     let mut missing = Vec::new();

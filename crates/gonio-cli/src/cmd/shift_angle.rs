@@ -1,11 +1,12 @@
 //! `gonio shift-angle`: calibrate an encoder from polygon + autocollimator readings.
 
 use crate::db;
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use gonio_calib::certificate::Certificate;
-use gonio_calib::shift_angle::{Method, Options, calibrate};
+use gonio_calib::shift_angle::Method;
 use gonio_cli::output::Outputs;
-use gonio_io::formats::{self, readings};
+use gonio_io::formats::source::{Document, Table};
+use gonio_io::results::shift_angle::{Request, evaluate};
 use std::path::PathBuf;
 
 /// Arguments of `gonio shift-angle`.
@@ -27,8 +28,8 @@ pub struct Args {
     pub readings: PathBuf,
     /// Estimator: `least-squares` (all readings jointly; default) or `paper` (the algorithm of
     /// Hsieh et al., 2022).
-    #[arg(long, default_value = "least-squares")]
-    pub method: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub method: Method,
     /// Standard deviation of one reading, arcsec, if known: scales the uncertainties and is
     /// checked against the residuals (χ²). Default: estimated from the residuals.
     #[arg(long)]
@@ -60,42 +61,25 @@ pub struct Args {
     pub compensation: Option<PathBuf>,
 }
 
-/// Parses `least-squares` or `paper`.
-pub fn parse_method(s: &str) -> Result<Method> {
-    match s {
-        "least-squares" | "ls" => Ok(Method::LeastSquares),
-        "paper" => Ok(Method::Paper),
-        _ => Err(anyhow!("--method {s:?}: expected least-squares or paper")),
-    }
-}
-
 /// Runs `gonio shift-angle`.
 pub fn run(args: Args) -> Result<()> {
-    let method = parse_method(&args.method)?;
     let mut out = Outputs::new();
+    if let Some(loc) = &args.to.db {
+        db::reserve(out.inputs(), loc);
+    }
     let json = out.optional("--json", args.to.json.as_deref())?;
     let comp = out.optional("--compensation", args.compensation.as_deref())?;
-    let instrument = formats::instrument::load(args.instrument.as_deref(), args.coverage)?;
-    let meta = args.meta.as_deref().map(formats::meta::load).transpose()?;
-    let set = readings::read(&args.readings, args.faces)?;
-    let opts = Options {
-        method,
+    let request = Request {
+        readings: Table::File(args.readings.clone()),
+        faces: args.faces,
+        method: args.method,
         sigma_arcsec: args.sigma,
-        ..Options::default()
+        check_order: args.check_order,
+        instrument: args.instrument.clone().map(Document::File),
+        coverage: args.coverage,
+        meta: args.meta.clone().map(Document::File),
     };
-    let cal = calibrate(&set, &opts).map_err(|e| anyhow!("{}: {e}", args.readings.display()))?;
-    let mut cert = Certificate::from_shift_angle(
-        &cal,
-        &set,
-        args.sigma.is_some(),
-        args.check_order,
-        &instrument,
-    )?;
-    if let Some(m) = meta {
-        cert = cert.with_meta(m);
-    }
-    // Overflow (a reading of 1e308) is an error naming the input, before any output.
-    gonio_io::json::finite_result(&cert, &args.readings, "the calibration")?;
+    let cert = evaluate(out.inputs(), request)?;
     let to_stdout = out.to_stdout(json);
     out.certificate(json, comp, &cert)?;
     if !to_stdout {

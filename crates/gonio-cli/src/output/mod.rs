@@ -8,7 +8,7 @@
 //!   in.csv --json in.csv`, a hard link, `./in.csv`); checked again when the set is committed, for
 //!   inputs read later;
 //! - it is the command's results store (`--db X --json X`) or one of its SQLite companions,
-//!   whether the store exists yet or not ([`gonio_io::input::reserve`]);
+//!   whether the store exists yet or not ([`Inputs::reserve`]);
 //! - it is not a regular file: a directory, a device (`/dev/null`), a FIFO or a socket — writing
 //!   one whole by rename would replace the node itself. Write to standard output with `-` and
 //!   redirect it instead;
@@ -24,7 +24,7 @@
 use crate::term;
 pub use crate::term::os_message;
 use anyhow::{Result, anyhow, bail};
-use gonio_io::input::{FileId, recorded};
+use gonio_io::input::{FileId, Inputs};
 use gonio_io::json;
 use serde::Serialize;
 use std::fs::File;
@@ -176,9 +176,12 @@ struct Stale {
     suffix: String,
 }
 
-/// The outputs of one command, written as a set (see the module documentation).
+/// The outputs of one command, written as a set (see the module documentation), and its
+/// inputs: what the command read through [`Outputs::inputs`] no output may overwrite.
 #[derive(Debug, Default)]
 pub struct Outputs {
+    /// The command's inputs (files read, the results store reserved, standard input).
+    inputs: Inputs,
     items: Vec<Item>,
     stale: Vec<Stale>,
     /// Directories this set created (removed again if it is not committed and they are empty).
@@ -250,9 +253,9 @@ fn parent_of(path: &Path) -> PathBuf {
 
 /// Refuses a destination that exists and is not a regular file, is a symbolic link, or is an
 /// input of the command.
-fn check_destination(flag: &str, path: &Path) -> Result<Option<FileId>> {
+fn check_destination(inputs: &Inputs, flag: &str, path: &Path) -> Result<Option<FileId>> {
     let shown = path.display();
-    if let Some(what) = gonio_io::input::reserved(path) {
+    if let Some(what) = inputs.reserved(path) {
         bail!(
             "{flag} {shown}: is the command's {what}: writing it would destroy the store; choose another output file"
         );
@@ -273,7 +276,7 @@ fn check_destination(flag: &str, path: &Path) -> Result<Option<FileId>> {
     }
     let id = FileId::of(path);
     if let Some(id) = id
-        && let Some(input) = recorded(id)
+        && let Some(input) = inputs.recorded(id)
     {
         bail!(
             "{flag} {shown}: is also an input of this command ({input}): writing it would destroy the input; choose another output file"
@@ -285,8 +288,25 @@ fn check_destination(flag: &str, path: &Path) -> Result<Option<FileId>> {
 impl Outputs {
     /// An empty set (and the signal handler that removes temporary files, installed once).
     pub fn new() -> Outputs {
+        Outputs::with_inputs(Inputs::new())
+    }
+
+    /// An empty set whose command has read `inputs` already (the signal handler installed
+    /// once).
+    pub fn with_inputs(inputs: Inputs) -> Outputs {
         install_signal_cleanup();
-        Outputs::default()
+        Outputs {
+            inputs,
+            items: Vec::new(),
+            stale: Vec::new(),
+            created: Vec::new(),
+        }
+    }
+
+    /// The command's inputs: read every input through them (the formats' `load` and `read`
+    /// take them), so that no output of the set overwrites one.
+    pub fn inputs(&self) -> &Inputs {
+        &self.inputs
     }
 
     /// Adds the output `path` named by `flag` (`--json`), `-` for standard output. The file is
@@ -301,7 +321,7 @@ impl Outputs {
         let key = if path.as_os_str() == "-" {
             Key::Stdout
         } else {
-            match check_destination(flag, path)? {
+            match check_destination(&self.inputs, flag, path)? {
                 Some(id) => Key::Id(id),
                 None => {
                     let dir = parent_of(path);
@@ -594,7 +614,7 @@ impl Outputs {
         }
         for item in &self.items {
             if matches!(item.target, Target::File { .. }) {
-                check_destination(&item.flag, &item.path)?;
+                check_destination(&self.inputs, &item.flag, &item.path)?;
             }
         }
         for item in &mut self.items {

@@ -10,8 +10,8 @@ use std::path::Path;
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn load(path: &Path) -> Result<Certificate> {
-    crate::input::load(path, parse)
+pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<Certificate> {
+    inputs.load(path, parse)
 }
 
 /// Parses certificate JSON; `name` names it in errors.

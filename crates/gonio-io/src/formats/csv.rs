@@ -40,8 +40,8 @@ impl CsvTable {
     /// # Errors
     /// The file cannot be read, is not UTF-8, or a row has another number of fields than the
     /// header (naming the line).
-    pub fn read(path: &Path) -> Result<CsvTable> {
-        let text = input::read_text(path)?;
+    pub fn read(inputs: &input::Inputs, path: &Path) -> Result<CsvTable> {
+        let text = inputs.read_text(path)?;
         Self::parse(&path.display().to_string(), &text)
     }
 

@@ -29,8 +29,8 @@ struct Tagged {
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn load(path: &Path) -> Result<Curve> {
-    crate::input::load(path, parse)
+pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<Curve> {
+    inputs.load(path, parse)
 }
 
 /// Parses a certificate or a truth file; `name` names it in errors and in the curve's label.

@@ -8,8 +8,8 @@ use std::path::Path;
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn load(path: &Path) -> Result<EncoderModel> {
-    crate::input::load(path, parse)
+pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<EncoderModel> {
+    inputs.load(path, parse)
 }
 
 /// Parses an encoder model; `name` names it in errors.

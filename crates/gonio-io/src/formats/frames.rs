@@ -3,7 +3,7 @@
 //! as a [`FrameSource`]), raw frame sizes, and the processing window cut out of a sensor-sized
 //! frame.
 
-use crate::input;
+use crate::input::{self, Inputs};
 use anyhow::{Context, Result, anyhow, bail};
 use gonio_sim::frames::GratingScene;
 use gonio_vision::{FrameHeader, FrameSource, FrameStamp, Optics, VisionError};
@@ -14,11 +14,11 @@ use std::path::{Path, PathBuf};
 ///
 /// # Errors
 /// As [`parse_optics`], and the file cannot be read.
-pub fn load_optics(path: Option<&Path>) -> Result<Optics> {
+pub fn load_optics(inputs: &Inputs, path: Option<&Path>) -> Result<Optics> {
     let Some(p) = path else {
         return Ok(Optics::default());
     };
-    input::load(p, parse_optics)
+    inputs.load(p, parse_optics)
 }
 
 /// Parses optics text; `name` names it in errors.
@@ -49,8 +49,8 @@ pub fn parse_optics(name: &str, text: &str) -> Result<Optics> {
 ///
 /// # Errors
 /// As [`parse_scene`], and the file cannot be read.
-pub fn load_scene(path: &Path) -> Result<GratingScene> {
-    input::load(path, parse_scene)
+pub fn load_scene(inputs: &Inputs, path: &Path) -> Result<GratingScene> {
+    inputs.load(path, parse_scene)
 }
 
 /// Parses scene text; `name` names it in errors. The values are checked as the renderer checks
@@ -190,7 +190,8 @@ pub fn tiff_has_pages_after_the_first(bytes: &[u8]) -> bool {
     next.is_some_and(|o| o != 0)
 }
 
-/// Reads one frame file (at most the optics' sensor size) and records it as an input.
+/// Reads one frame file (at most the optics' sensor size). It records nothing: the command that
+/// lists the frames records them ([`input::Inputs::record`]).
 ///
 /// # Errors
 /// As [`decode_grey8`], and the file cannot be read.
@@ -200,7 +201,7 @@ pub fn read_grey8(path: &Path, optics: &Optics) -> Result<(usize, usize, Vec<u8>
         optics.sensor_height_px as usize,
     );
     // A compressed frame is smaller than its pixels, plus headers.
-    let bytes = input::read_bytes(path, 2 * sw * sh + (16 << 20))?;
+    let bytes = input::read_file(path, 2 * sw * sh + (16 << 20))?;
     decode_grey8(&path.display().to_string(), &bytes, sw, sh)
 }
 

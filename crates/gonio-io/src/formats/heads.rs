@@ -29,7 +29,7 @@ pub struct HeadsFile {
 
 /// Loads a head arrangement (`selfa12`, `eda:N` or a TOML/JSON file) and the file's optional
 /// mounting offsets (arcsec, one per head; used by the simulator).
-pub fn load(spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
+pub fn load(inputs: &crate::input::Inputs, spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
     if let Some(n) = spec.strip_prefix("eda:") {
         match n.trim().parse::<usize>() {
             Ok(n) if (2..=MAX_HEADS).contains(&n) => {}
@@ -52,7 +52,7 @@ pub fn load(spec: &str) -> Result<(Heads, Option<Vec<f64>>)> {
             gonio_core::text::short(spec)
         );
     }
-    let text = crate::input::read_text(path)?;
+    let text = inputs.read_text(path)?;
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));

@@ -10,8 +10,8 @@ use std::path::Path;
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn load(path: &Path) -> Result<CertificateMeta> {
-    crate::input::load(path, parse)
+pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<CertificateMeta> {
+    inputs.load(path, parse)
 }
 
 /// Parses metadata text; `name` names it in errors.

@@ -17,6 +17,7 @@ pub mod recipe;
 pub mod replay;
 pub mod report;
 pub mod samples;
+pub mod source;
 
 use anyhow::{Result, anyhow};
 use std::path::Path;
@@ -43,9 +44,12 @@ pub fn parse_toml<T: serde::de::DeserializeOwned>(name: &str, text: &str) -> Res
 /// Reads a TOML file (or `-`) into `T`; errors name the file, line and column.
 ///
 /// # Errors
-/// As [`crate::input::read_text`] and [`parse_toml`].
-pub fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    let text = crate::input::read_text(path)?;
+/// As [`crate::input::Inputs::read_text`] and [`parse_toml`].
+pub fn read_toml<T: serde::de::DeserializeOwned>(
+    inputs: &crate::input::Inputs,
+    path: &Path,
+) -> Result<T> {
+    let text = inputs.read_text(path)?;
     parse_toml(&path.display().to_string(), &text)
 }
 

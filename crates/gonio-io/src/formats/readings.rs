@@ -2,6 +2,7 @@
 //! input of `gonio shift-angle` and `gonio joint`.
 
 use super::csv::CsvTable;
+use crate::input::Inputs;
 use anyhow::{Result, anyhow};
 use gonio_calib::shift_angle::{MAX_FACES, Reading, ReadingSet, ShiftAngleError};
 use std::path::Path;
@@ -16,8 +17,8 @@ pub const MAX_REPEAT: i64 = 1_000_000;
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn read(path: &Path, faces: Option<usize>) -> Result<ReadingSet> {
-    let table = CsvTable::read(path)?;
+pub fn read(inputs: &Inputs, path: &Path, faces: Option<usize>) -> Result<ReadingSet> {
+    let table = CsvTable::read(inputs, path)?;
     let rows = rows_of(&table, faces)?;
     // The table (a String per field) is dropped before the set is indexed: with a million
     // readings the two at once were the peak of the whole calibration.

@@ -9,8 +9,8 @@ use std::path::Path;
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn load(path: &Path) -> Result<Recipe> {
-    crate::input::load(path, parse)
+pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<Recipe> {
+    inputs.load(path, parse)
 }
 
 /// Parses recipe text; `name` names it in errors. A value out of range that the file does not

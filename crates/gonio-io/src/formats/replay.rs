@@ -14,7 +14,7 @@
 //! Numbers are written so that they read back bit for bit (JSON with round-trip floats).
 
 use crate::formats::json_error;
-use crate::input::read_text;
+use crate::input::Inputs;
 use anyhow::{Context, Result, anyhow, bail};
 use gonio_station::hal::{CameraFrame, DeviceError, DeviceErrorKind};
 use gonio_station::replay::RecordedTurn;
@@ -106,9 +106,9 @@ pub fn part_dirs(dir: &Path) -> Result<Vec<PathBuf>> {
 ///
 /// # Errors
 /// A one-line error naming the file, line and column.
-pub fn read_part(dir: &Path) -> Result<PartFile> {
+pub fn read_part(inputs: &Inputs, dir: &Path) -> Result<PartFile> {
     let p = dir.join("part.json");
-    let text = read_text(&p)?;
+    let text = inputs.read_text(&p)?;
     let f: PartFile = serde_json::from_str(&text)
         .map_err(|e| json_error(&p.display().to_string(), &e, "a gonio.replay/1 part record"))?;
     if f.format != FORMAT {
@@ -157,9 +157,9 @@ pub fn inside(dir: &Path, name: &str) -> Result<PathBuf> {
 ///
 /// # Errors
 /// A one-line error naming the file, line and column.
-pub fn read_turn(dir: &Path, t: &TurnFiles) -> Result<RecordedTurn> {
+pub fn read_turn(inputs: &Inputs, dir: &Path, t: &TurnFiles) -> Result<RecordedTurn> {
     let p = inside(dir, &t.data)?;
-    let text = read_text(&p)?;
+    let text = inputs.read_text(&p)?;
     let r: RecordedTurn = serde_json::from_str(&text).map_err(|e| {
         json_error(
             &p.display().to_string(),

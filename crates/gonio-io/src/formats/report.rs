@@ -35,8 +35,8 @@ struct Shape {
 ///
 /// # Errors
 /// As [`parse`], and the file cannot be read.
-pub fn load(path: &Path) -> Result<ReportInput> {
-    crate::input::load(path, parse)
+pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<ReportInput> {
+    inputs.load(path, parse)
 }
 
 /// Parses one input; `name` names it in errors.

@@ -17,8 +17,10 @@
 //! Each kernel is an `unsafe fn` with `#[target_feature]` and a `# Safety` section, every
 //! unsafe block in it has a `// SAFETY:` comment, and the stages call it through a safe
 //! wrapper that takes a proof of the CPU's features (`Avx2`, `Avx512`, `Vbmi`, `Vnni`):
-//! zero-sized values only this module makes, after `is_x86_feature_detected!`. A stage thus
-//! holds no unsafe code.
+//! zero-sized values only this module makes, after `is_x86_feature_detected!` found every
+//! feature the path's functions enable ([`AVX2_FEATURES`], [`AVX512_FEATURES`],
+//! [`VBMI_FEATURES`], [`VNNI_FEATURES`]; a test reads every `#[target_feature]` of the crate and
+//! holds it to these lists). A stage thus holds no unsafe code.
 
 #![allow(unsafe_code)]
 
@@ -38,22 +40,72 @@ pub enum Level {
 /// 0 = not yet chosen, else a [`Level`].
 static MODE: AtomicU8 = AtomicU8::new(0);
 
-/// The best level this CPU supports.
-pub fn detected() -> Level {
+/// Every target feature the AVX2 level's code is compiled with (the `#[target_feature]` of
+/// every function it runs, kernels included): the level is used only on a CPU with all of them.
+pub const AVX2_FEATURES: &[&str] = &["avx2", "bmi1", "bmi2", "lzcnt", "popcnt"];
+
+/// Every target feature the AVX-512 level's code is compiled with (F/BW/VL/DQ, and the AVX2
+/// level's).
+pub const AVX512_FEATURES: &[&str] = &[
+    "avx512f", "avx512bw", "avx512vl", "avx512dq", "avx2", "bmi1", "bmi2", "lzcnt", "popcnt",
+];
+
+/// The features the VBMI kernels enable beyond the AVX-512 level's.
+pub const VBMI_FEATURES: &[&str] = &["avx512vbmi", "avx512vbmi2"];
+
+/// The features the VNNI kernels enable beyond the AVX-512 level's.
+pub const VNNI_FEATURES: &[&str] = &["avx512vnni"];
+
+/// Whether the CPU has the target feature `name` (checked with `is_x86_feature_detected!`);
+/// `None` for a name this function does not know (every name in the lists above is known).
+pub fn cpu_has(name: &str) -> Option<bool> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::is_x86_feature_detected!("avx512f")
-            && std::is_x86_feature_detected!("avx512bw")
-            && std::is_x86_feature_detected!("avx512vl")
-            && std::is_x86_feature_detected!("avx512dq")
-        {
-            return Level::Avx512;
+        macro_rules! known {
+            ($($f:tt),*) => {
+                match name {
+                    $($f => Some(std::is_x86_feature_detected!($f)),)*
+                    _ => None,
+                }
+            };
         }
-        if std::is_x86_feature_detected!("avx2") {
-            return Level::Avx2;
-        }
+        known!(
+            "avx2",
+            "bmi1",
+            "bmi2",
+            "lzcnt",
+            "popcnt",
+            "avx512f",
+            "avx512bw",
+            "avx512vl",
+            "avx512dq",
+            "avx512vbmi",
+            "avx512vbmi2",
+            "avx512vnni"
+        )
     }
-    Level::Scalar
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = name;
+        None
+    }
+}
+
+/// Whether the CPU has every feature of `features`.
+fn has_all(features: &[&str]) -> bool {
+    features.iter().all(|f| cpu_has(f) == Some(true))
+}
+
+/// The best level this CPU supports: the highest whose every feature
+/// ([`AVX512_FEATURES`], [`AVX2_FEATURES`]) it has.
+pub fn detected() -> Level {
+    if has_all(AVX512_FEATURES) {
+        Level::Avx512
+    } else if has_all(AVX2_FEATURES) {
+        Level::Avx2
+    } else {
+        Level::Scalar
+    }
 }
 
 /// The level in use: the best the CPU has unless [`set_level`] chose another.
@@ -120,8 +172,9 @@ pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     {
         match level() {
-            // SAFETY: the CPU supports the features (checked by `is_x86_feature_detected!` in
-            // `detected`, which bounds every level `level` returns).
+            // SAFETY: the CPU has every feature each function enables ([`AVX512_FEATURES`],
+            // [`AVX2_FEATURES`]: all checked in `detected`, which bounds every level `level`
+            // returns).
             Level::Avx512 => return unsafe { with_avx512(f) },
             Level::Avx2 => return unsafe { with_avx2(f) },
             Level::Scalar => {}
@@ -133,17 +186,10 @@ pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
 /// 0 = not yet checked, 1 = VBMI kernels off, 2 = on.
 static VBMI: AtomicU8 = AtomicU8::new(0);
 
-/// True when the CPU has AVX-512 VBMI (`vpermb`, `vpermt2b`) and VBMI2 (`vpcompressw`) besides
-/// the AVX-512 level (checked once with `is_x86_feature_detected!`).
+/// True when the CPU has AVX-512 VBMI (`vpermb`, `vpermt2b`) and VBMI2 (`vpcompressw`)
+/// ([`VBMI_FEATURES`]) besides the AVX-512 level.
 pub fn vbmi_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if detected() == Level::Avx512 {
-            return std::is_x86_feature_detected!("avx512vbmi")
-                && std::is_x86_feature_detected!("avx512vbmi2");
-        }
-    }
-    false
+    detected() == Level::Avx512 && has_all(VBMI_FEATURES)
 }
 
 /// True when the kernels written with AVX-512 VBMI/VBMI2 intrinsics (the morphology's register
@@ -179,16 +225,47 @@ pub fn set_vbmi(enabled: bool) {
 /// 0 = not yet checked, 1 = no AVX-512 VNNI, 2 = the CPU has it.
 static VNNI: AtomicU8 = AtomicU8::new(0);
 
-/// True when the CPU has AVX-512 VNNI (`vpdpbusd`) besides the AVX-512 level (checked with
-/// `is_x86_feature_detected!`).
+/// True when the CPU has AVX-512 VNNI (`vpdpbusd`, [`VNNI_FEATURES`]) besides the AVX-512
+/// level.
 pub fn vnni_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if detected() == Level::Avx512 {
-            return std::is_x86_feature_detected!("avx512vnni");
-        }
+    detected() == Level::Avx512 && has_all(VNNI_FEATURES)
+}
+
+/// Every code path this CPU offers, by name: `scalar`, `avx2`, `avx512`, and the AVX-512
+/// kernels beyond the level, `vbmi` and `vnni`, as far as the CPU has their features. A test
+/// that compares the paths checks that it ran every one of these.
+pub fn offered() -> Vec<&'static str> {
+    let mut v = vec!["scalar"];
+    if detected() >= Level::Avx2 {
+        v.push("avx2");
     }
-    false
+    if detected() >= Level::Avx512 {
+        v.push("avx512");
+    }
+    if vbmi_detected() {
+        v.push("vbmi");
+    }
+    if vnni_detected() {
+        v.push("vnni");
+    }
+    v
+}
+
+/// The code paths in use now, by the names of [`offered`]: the level and, at the AVX-512
+/// level, the `vbmi` and `vnni` kernels when they are on.
+pub fn in_use() -> Vec<&'static str> {
+    let mut v = vec![match level() {
+        Level::Scalar => "scalar",
+        Level::Avx2 => "avx2",
+        Level::Avx512 => "avx512",
+    }];
+    if vbmi() {
+        v.push("vbmi");
+    }
+    if vnni() {
+        v.push("vnni");
+    }
+    v
 }
 
 /// True when the level in use is AVX-512 and the CPU has AVX-512 VNNI (checked once): the focus
@@ -293,3 +370,104 @@ pub(crate) mod avx512;
 pub(crate) mod vbmi;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod vnni;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::{Path, PathBuf};
+
+    /// Every `#[target_feature]` attribute of a source text: the function it is on and the
+    /// features it enables.
+    fn enabled(text: &str) -> Vec<(String, Vec<String>)> {
+        // Written in two pieces, so that this function's own text is not one of them.
+        let key = concat!("target_feature", "(enable = \"");
+        let mut out = Vec::new();
+        let mut rest = text;
+        while let Some(i) = rest.find(key) {
+            rest = &rest[i + key.len()..];
+            let end = rest.find('"').expect("the attribute's closing quote");
+            let features = rest[..end].split(',').map(|f| f.trim().to_string());
+            let after = &rest[end..];
+            let name = after.find("fn ").map_or("", |j| {
+                after[j + 3..]
+                    .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+                    .next()
+                    .unwrap_or("")
+            });
+            out.push((name.to_string(), features.collect()));
+        }
+        out
+    }
+
+    fn rs_files(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).expect("the crate's sources") {
+            let p = e.expect("a directory entry").path();
+            if p.is_dir() {
+                rs_files(&p, out);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p);
+            }
+        }
+    }
+
+    /// Every feature a function of the crate enables is one its path checks before it runs: the
+    /// AVX2 kernels and `with_avx2` [`AVX2_FEATURES`], the rest of the AVX-512 level
+    /// [`AVX512_FEATURES`], the VBMI and VNNI kernels those and their own. A feature enabled
+    /// anywhere else, or not in its list, fails with the function's name.
+    #[test]
+    fn every_enabled_feature_is_checked_before_its_path_runs() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut files = Vec::new();
+        rs_files(&src, &mut files);
+        let mut seen = 0;
+        for f in files {
+            let text = std::fs::read_to_string(&f).expect("a source file");
+            let rel = f
+                .strip_prefix(&src)
+                .expect("under src")
+                .to_string_lossy()
+                .replace('\\', "/");
+            for (func, features) in enabled(&text) {
+                let allowed: Vec<&str> = match rel.as_str() {
+                    "simd/mod.rs" if func == "with_avx2" => AVX2_FEATURES.to_vec(),
+                    "simd/mod.rs" => AVX512_FEATURES.to_vec(),
+                    "simd/avx2.rs" => AVX2_FEATURES.to_vec(),
+                    r if r.starts_with("simd/avx512/") => AVX512_FEATURES.to_vec(),
+                    r if r.starts_with("simd/vbmi/") => [AVX512_FEATURES, VBMI_FEATURES].concat(),
+                    "simd/vnni.rs" => [AVX512_FEATURES, VNNI_FEATURES].concat(),
+                    r => panic!(
+                        "{r}: fn {func} enables {features:?}: target features belong in simd/, in the module of the path that checks them"
+                    ),
+                };
+                for feature in &features {
+                    assert!(
+                        allowed.contains(&feature.as_str()),
+                        "{rel}: fn {func} enables {feature}, which its path does not check (allowed: {allowed:?})"
+                    );
+                }
+                seen += 1;
+            }
+        }
+        assert!(seen >= 20, "only {seen} #[target_feature] attributes found");
+        #[cfg(target_arch = "x86_64")]
+        for f in [AVX512_FEATURES, VBMI_FEATURES, VNNI_FEATURES].concat() {
+            assert!(
+                cpu_has(f).is_some(),
+                "{f}: a feature cpu_has does not check"
+            );
+        }
+        assert_eq!(cpu_has("sse9"), None);
+    }
+
+    #[test]
+    fn a_level_is_offered_only_with_all_its_features() {
+        let offered = offered();
+        assert_eq!(
+            offered.contains(&"avx2"),
+            has_all(AVX2_FEATURES) || has_all(AVX512_FEATURES)
+        );
+        assert_eq!(offered.contains(&"avx512"), has_all(AVX512_FEATURES));
+        assert!(!offered.contains(&"vbmi") || has_all(VBMI_FEATURES));
+        assert!(!offered.contains(&"vnni") || has_all(VNNI_FEATURES));
+    }
+}

@@ -7,7 +7,7 @@ use anyhow::{Result, anyhow, bail};
 use gonio_cli::output::Outputs;
 use gonio_cli::{note, say};
 use gonio_io::formats::encoder as encoder_file;
-use gonio_io::input;
+use gonio_io::input::Inputs;
 use gonio_lab::plan::Plan;
 use gonio_lab::simulator::{Position, Pty, SimConfig, SimulatedAutocollimator};
 use gonio_sim::EncoderModel;
@@ -98,8 +98,9 @@ fn parse_position(line: &str) -> Option<Position> {
 
 /// Runs `gonio simulate autocollimator`.
 pub fn run(args: Args) -> Result<()> {
+    let inputs = Inputs::new();
     let model = match &args.encoder {
-        Some(p) => encoder_file::load(p)?,
+        Some(p) => encoder_file::load(&inputs, p)?,
         None => EncoderModel::default_with_seed(args.seed),
     };
     let cfg = SimConfig {
@@ -119,7 +120,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--duration-s {d}: expected a positive number of seconds");
     }
     if let (Some(truth), Some(plan_path)) = (&args.truth, &args.plan) {
-        let plan = Plan::parse(plan_path, &input::read_text(plan_path)?)?;
+        let plan = Plan::parse(plan_path, &inputs.read_text(plan_path)?)?;
         if plan.faces != args.faces {
             bail!(
                 "--plan {}: faces = {}, the simulated polygon has --faces {}",
@@ -129,7 +130,7 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
         let shifts: Vec<f64> = plan.shifts.iter().map(|s| s.shift_deg).collect();
-        let mut out = Outputs::new();
+        let mut out = Outputs::with_inputs(inputs);
         let id = out.file("--truth", truth)?;
         out.json(
             id,

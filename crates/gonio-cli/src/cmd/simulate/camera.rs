@@ -120,7 +120,7 @@ fn serve(a: Args, per_turn: u64) -> Result<()> {
     use std::sync::{Arc, Mutex};
     use std::time::{Duration, Instant};
 
-    let optics = load_optics(a.optics.as_deref())?;
+    let optics = load_optics(&gonio_io::input::Inputs::new(), a.optics.as_deref())?;
     let (w, h) = (
         optics.window_width_px as usize,
         optics.window_height_px as usize,

@@ -3,6 +3,7 @@
 use anyhow::{Result, bail};
 use gonio_cli::output::Outputs;
 use gonio_io::formats::frames::{load_optics, load_scene};
+use gonio_io::input::Inputs;
 use gonio_sim::frames::{
     FrameTruth, GratingScene, RenderedFrames, SceneChoice, SceneDraw, SceneFamily, ScenePreset,
     Turn,
@@ -131,7 +132,7 @@ struct TruthFrame {
 
 impl Args {
     /// The scene with the command line's overrides applied.
-    fn scene(&self) -> Result<SceneChoice> {
+    fn scene(&self, inputs: &Inputs) -> Result<SceneChoice> {
         let overrides = self.noise.is_some()
             || self.no_shot_noise
             || self.dust.is_some()
@@ -139,7 +140,7 @@ impl Args {
             || self.no_ring
             || self.no_tracks;
         let mut s = match (&self.scene_file, self.scene) {
-            (Some(p), _) => load_scene(p)?,
+            (Some(p), _) => load_scene(inputs, p)?,
             (None, SceneArg::Random) => {
                 if overrides {
                     bail!(
@@ -201,8 +202,9 @@ pub fn run(a: Args) -> Result<()> {
             a.fps
         );
     }
-    let optics = load_optics(a.optics.as_deref())?;
-    let choice = a.scene()?;
+    let inputs = Inputs::new();
+    let optics = load_optics(&inputs, a.optics.as_deref())?;
+    let choice = a.scene(&inputs)?;
     let random = matches!(choice, SceneChoice::Random(_));
     let turn = Turn {
         start_deg: a.start_deg,
@@ -214,7 +216,7 @@ pub fn run(a: Args) -> Result<()> {
         ..Turn::default()
     };
     let mut src = RenderedFrames::new(&optics, choice, turn, a.count as u64, a.seed)?;
-    let mut out = Outputs::new();
+    let mut out = Outputs::with_inputs(inputs);
     out.dir("--out", &a.out, a.force)?;
     out.remove_stale(&a.out, "frame_", ".png");
     let mut buf = Vec::new();

@@ -73,7 +73,7 @@ fn lab(
         encoder: out.file("--out", &dir.join("encoder.json"))?,
     };
     let model = match encoder_file {
-        Some(p) => encoder_file::load(p)?,
+        Some(p) => encoder_file::load(out.inputs(), p)?,
         None => EncoderModel::default_with_seed(seed),
     };
     Ok((files, model))

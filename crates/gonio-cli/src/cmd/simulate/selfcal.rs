@@ -65,7 +65,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
     let model = args.encoder.as_deref();
     let (files, encoder) = super::lab(&mut out, &args.out, args.force, model, args.seed)?;
-    let (heads, offsets) = heads::load(&args.heads)?;
+    let (heads, offsets) = heads::load(out.inputs(), &args.heads)?;
     if args.positions > 10_000_000 {
         bail!(
             "--positions {}: more than 10 000 000 per turn",

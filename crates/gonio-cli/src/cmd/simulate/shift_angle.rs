@@ -33,8 +33,8 @@ pub struct Args {
     pub shifts: String,
     /// Runs per shift: `full` (every start face), `one` (start face 1 only), `seed` (full matrix
     /// at the first shift, start face 1 at the others, as in Hsieh et al., 2022).
-    #[arg(long, default_value = "seed")]
-    pub rows: String,
+    #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
+    pub rows: Rows,
     /// Autocollimator noise per reading (standard deviation), arcsec.
     #[arg(long, default_value_t = 0.05)]
     pub sigma: f64,
@@ -68,8 +68,14 @@ pub struct Args {
     #[arg(long)]
     pub elcomat_log: Option<PathBuf>,
     /// Readings of the log: `absolute` (`4 003`) or `relative` (`2 103`).
-    #[arg(long, default_value = "absolute", requires = "elcomat_log")]
-    pub elcomat_mode: String,
+    #[arg(
+        long,
+        value_enum,
+        default_value_t = Mode::Absolute,
+        hide_possible_values = true,
+        requires = "elcomat_log"
+    )]
+    pub elcomat_mode: Mode,
 }
 
 /// Parses `0,5,10` or `0:1:14` (inclusive end); a shift given twice is refused (its readings
@@ -131,12 +137,10 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
     let model = args.encoder.as_deref();
     let (files, encoder) = super::lab(&mut out, &args.out, args.force, model, args.seed)?;
-    let rows = Rows::parse(&args.rows)
-        .with_context(|| format!("--rows {:?}: expected full, one or seed", args.rows))?;
     let cfg = ShiftAngleConfig {
         faces: args.faces,
         shifts_deg: parse_shifts(&args.shifts)?,
-        rows,
+        rows: args.rows,
         pitch_sigma_arcsec: args.pitch_sigma,
         setup_sigma_arcsec: args.setup_sigma,
         noise_sigma_arcsec: args.sigma,
@@ -203,11 +207,7 @@ fn write_elcomat(
     readings: &[gonio_calib::shift_angle::Reading],
     log: &std::path::Path,
 ) -> Result<()> {
-    let mode = match args.elcomat_mode.as_str() {
-        "absolute" => Mode::Absolute,
-        "relative" => Mode::Relative,
-        m => bail!("--elcomat-mode {m:?}: expected absolute or relative"),
-    };
+    let mode = args.elcomat_mode;
     if cfg.drop_fraction > 0.0 {
         bail!(
             "--elcomat-log: a measuring plan cannot say which readings --drop left out; use --drop 0"
