@@ -84,7 +84,21 @@ impl Command {
 }
 
 fn main() {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help and version as clap writes them (`gonio` alone: the help, on standard error).
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
+        // A refused flag: one line, as every other error.
+        Err(e) => {
+            gonio_cli::term::note(&format!("error: {}", gonio_cli::flag::one_line(&e)));
+            std::process::exit(2);
+        }
+    };
     // The store is the command's own before any output is named: `--db X --json X` is refused.
     if let Some(db) = cli.command.store() {
         db::reserve(db);

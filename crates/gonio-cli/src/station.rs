@@ -3,10 +3,14 @@
 //! [`gonio_sim::station::store`].
 
 use anyhow::Result;
+use gonio_core::bound::Bound;
 use gonio_sim::station::Fidelity;
 pub use gonio_sim::station::store::{MAX_PARTS, PlcStore, Run, Start, Target, prepare, run};
 use gonio_station::{Recipe, Strategy};
 use std::path::Path;
+
+/// `--parts`: parts in one batch.
+pub const PARTS: Bound = Bound::new(1.0, MAX_PARTS as f64, "parts");
 
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -79,16 +79,16 @@ fn sizes_from_the_input_have_stated_limits() {
     );
     refused(
         &gonio(&["shift-angle", s(&p), "--faces", "0"]),
-        "--faces 0: expected a polygon of 3 to 1000 faces",
+        "'0' for '--faces <FACES>': at least 3 faces",
     );
     refused(
         &gonio(&["shift-angle", s(&p), "--faces", "1000000000"]),
-        "--faces 1000000000",
+        "'1000000000' for '--faces <FACES>': at most 1000 faces",
     );
     for parts in ["1000000000", "18446744073709551615"] {
         refused(
             &gonio(&["mount", "--sim", "--seed", "1", "--parts", parts]),
-            "expected 1 to 1000000",
+            "at most 1000000 parts",
         );
     }
     let out = d.path().join("x");
@@ -118,7 +118,7 @@ fn sizes_from_the_input_have_stated_limits() {
             "--out",
             s(&out),
         ]),
-        "--count 100000000",
+        "'100000000' for '--count <COUNT>': at most 1000000 frames",
     );
     refused(
         &gonio(&[
@@ -262,7 +262,7 @@ fn dust_and_defocus_do_not_hang() {
             "--out",
             s(&d.path().join("g")),
         ]),
-        "--defocus 1000000000000",
+        "'1e12' for '--defocus <DEFOCUS>': at most 1000000 µm",
     );
 }
 

@@ -7,6 +7,7 @@ use gonio_calib::joint::{
     HeadAngles, Interpolation, JointError, JointHarmonic, JointOptions, SigmaUsed, calibrate,
 };
 use gonio_calib::selfcal::NoiseModel;
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::heads::{self, locate, read_turns};
@@ -42,7 +43,7 @@ pub struct Args {
     /// Head readings CSV.
     pub heads_readings: PathBuf,
     /// Polygon faces N.
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<usize>(flag::FACES))]
     pub faces: usize,
     /// Head arrangement: `selfa12`, `eda:N`, or a TOML/JSON heads file.
     #[arg(long)]
@@ -51,11 +52,11 @@ pub struct Args {
     #[arg(long)]
     pub raw: bool,
     /// σ of one polygon reading, arcsec (default: from the polygon's own residuals).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::SIGMA_ARCSEC))]
     pub sigma_polygon: Option<f64>,
     /// σ of one head reading (or difference, per --noise-model), arcsec (default: from the
     /// heads' own residuals).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::SIGMA_ARCSEC))]
     pub sigma_heads: Option<f64>,
     /// Heads' noise: `readings` (each head reading has its own noise) or `differences`.
     #[arg(long, default_value = "readings")]
@@ -69,18 +70,18 @@ pub struct Args {
     #[arg(long, default_value = "linear")]
     pub interpolation: String,
     /// Largest order of the harmonic table and the blind lists.
-    #[arg(long, default_value_t = 360)]
+    #[arg(long, default_value_t = 360, value_parser = flag::whole::<u32>(flag::MAX_ORDER))]
     pub max_order: u32,
     /// Highest heads-blind order the polygon is asked to resolve (default: half the number of
     /// distinct polygon angles).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<u32>(flag::MAX_ORDER))]
     pub blind_max_order: Option<u32>,
     /// Instrument terms (TOML, see examples/instrument-shift-angle.toml) combined with the
     /// random part into u, ν_eff, k and U of every angle.
     #[arg(long)]
     pub instrument: Option<PathBuf>,
     /// Coverage probability of U (default: the instrument file's, else 0.95).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_uncertainty::COVERAGE))]
     pub coverage: Option<f64>,
     // `--json` and `--db`, shared with the other calibration commands.
     #[command(flatten)]
@@ -139,9 +140,6 @@ pub fn run(args: Args) -> Result<()> {
         coverage: 0.95,
     };
     readings::check_faces(args.faces)?;
-    if args.max_order > 100_000 || args.blind_max_order.is_some_and(|k| k > 100_000) {
-        anyhow::bail!("--max-order and --blind-max-order: expected at most 100000");
-    }
     let mut out = Outputs::new();
     let json = out.optional("--json", args.to.json.as_deref())?;
     let comp = out.optional("--compensation", args.compensation.as_deref())?;

@@ -4,6 +4,7 @@ use crate::db;
 use anyhow::{Context, Result, bail};
 use gonio_calib::certificate::Certificate;
 use gonio_calib::selfcal::{Method, NoiseModel, SelfcalOptions, calibrate};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::heads::{self, locate, read_turns};
@@ -52,14 +53,14 @@ pub struct Args {
     #[arg(long, default_value = "1")]
     pub reference: String,
     /// Largest harmonic order in the harmonic table and the undetectable list.
-    #[arg(long, default_value_t = 360)]
+    #[arg(long, default_value_t = 360, value_parser = flag::whole::<u32>(flag::MAX_ORDER))]
     pub max_order: u32,
     /// Instrument terms (TOML, e.g. examples/instrument-selfcal.toml: encoder resolution …)
     /// combined with the estimator's random part into u, ν_eff, k and U of every position.
     #[arg(long)]
     pub instrument: Option<PathBuf>,
     /// Coverage probability of U (default: the instrument file's, else 0.95).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_uncertainty::COVERAGE))]
     pub coverage: Option<f64>,
     // `--json` and `--db`, shared with the other calibration commands.
     #[command(flatten)]
@@ -97,7 +98,6 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = Outputs::new();
     let json = out.optional("--json", args.to.json.as_deref())?;
     let (heads, _) = heads::load(&args.heads)?;
-    check_max_order(args.max_order)?;
     let method = match args.method.as_str() {
         "fourier" => Method::Fourier,
         "eda" | "selfa" => Method::Eda,
@@ -141,16 +141,6 @@ pub fn run(args: Args) -> Result<()> {
         print_summary(&cert)?;
     }
     out.commit()
-}
-
-/// Most harmonic orders in the table (`--max-order`).
-const MAX_ORDER: u32 = 100_000;
-
-fn check_max_order(k: u32) -> Result<()> {
-    if k > MAX_ORDER {
-        bail!("--max-order {k}: expected at most {MAX_ORDER}");
-    }
-    Ok(())
 }
 
 fn print_summary(c: &Certificate) -> Result<()> {
