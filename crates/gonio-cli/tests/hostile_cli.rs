@@ -229,7 +229,7 @@ fn dust_and_defocus_do_not_hang() {
             "--out",
             s(&out),
         ]),
-        "dust_per_frame",
+        "'1000000000' for '--dust <DUST>': at most 10000",
     );
     // A defocus whose blur is far wider than the frame costs one frame, not the blur's extent.
     let t = Instant::now();
@@ -577,7 +577,8 @@ fn overflowing_results_are_errors_naming_what_overflowed() {
             "--json",
             s(&json),
         ]),
-        "e_um is inf",
+        // The scale that made e_um overflow is refused by its bound before the fit.
+        "'1e308' for '--um-per-px <UM_PER_PX>': at most 1000 µm/px",
     );
     assert!(!json.exists());
     // A reading of 1e308: the least squares overflow is an error, not U = inf with exit code 0.
