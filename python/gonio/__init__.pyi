@@ -105,7 +105,8 @@ def budget(
 def detect(
     frame: npt.NDArray[np.uint8], optics: PathOrText | None = None
 ) -> dict[str, Any]:
-    """One frame's ring detection (a ``gonio detect`` line); ``frame`` 2-D uint8, C-contiguous.
+    """One frame's ring detection (a ``gonio detect`` line); ``frame`` 2-D uint8 (a C-contiguous
+    array is read in place, any other copied once into C order).
 
     >>> gonio.detect(frame)["c_px"]
     """
@@ -115,7 +116,7 @@ def detect_many(
     threads: int | None = None,
     optics: PathOrText | None = None,
 ) -> list[dict[str, Any]]:
-    """Every frame of an N×H×W uint8 array, on worker threads without the GIL, in order.
+    """Every frame of an N×H×W uint8 array, on 1 to 256 worker threads without the GIL, in order.
 
     >>> [r["c_px"] for r in gonio.detect_many(stack)]
     """

@@ -252,17 +252,70 @@ def test_detect_equals_the_cli_and_the_truth(data):
         assert r["valid"] and abs(r["c_px"] - c) < 0.1, (r["c_px"], c)
 
 
-def test_detect_refuses_what_it_cannot_read_without_a_copy(data):
+def test_detect_refuses_what_it_cannot_read(data):
     stack, _ = frames_of(data / "frames")
     with pytest.raises(gonio.GonioError, match="uint8"):
         gonio.detect(stack[0].astype(np.float32))
-    with pytest.raises(gonio.GonioError, match="C-contiguous"):
+    # A strided view is read in C order (then its 720 columns are neither window nor sensor).
+    with pytest.raises(gonio.GonioError, match="frame:"):
         gonio.detect(stack[0][:, ::2])
     with pytest.raises(gonio.GonioError, match="frame:"):
         gonio.detect(np.zeros((10, 10), np.uint8))
     # The sensor's full frame is cut to the window as `gonio detect` does.
     with pytest.raises(gonio.GonioError, match="uint8"):
         gonio.detect_many(stack[0])
+
+
+def test_frames_in_any_memory_order_give_the_same_result(data):
+    stack, truth = frames_of(data / "frames")
+    want = gonio.detect(stack[0])
+    assert want["valid"]
+    # The same pixels in Fortran order, and as a transposed view of a transposed copy: the
+    # same rows, whatever numpy's layout.
+    fortran = np.asfortranarray(stack[0])
+    assert not fortran.flags.c_contiguous
+    assert canon(gonio.detect(fortran)) == canon(want)
+    assert canon(gonio.detect(np.ascontiguousarray(stack[0].T).T)) == canon(want)
+    many = gonio.detect_many(stack, threads=2)
+    fortran_many = gonio.detect_many(np.asfortranarray(stack), threads=2)
+    assert [canon(r) for r in fortran_many] == [canon(r) for r in many]
+    # Every other frame: a strided view of the stack.
+    def without_frame(r):
+        return canon({k: v for k, v in r.items() if k != "frame"})
+    every_other = gonio.detect_many(stack[::2], threads=1)
+    assert [without_frame(r) for r in every_other] == [without_frame(r) for r in many[::2]]
+
+
+def test_argument_errors_are_gonio_errors_never_overflow_errors(data):
+    stack, _ = frames_of(data / "frames")
+    small = stack[:1]
+    for threads in (0, -1, 257, 2**70, -(2**70), 1_000_000):
+        with pytest.raises(gonio.GonioError, match=r"^threads="):
+            gonio.detect_many(small, threads=threads)
+    with pytest.raises(gonio.GonioError, match=r"at most 256"):
+        gonio.detect_many(small, threads=1_000_000)
+    with pytest.raises(gonio.GonioError, match=r"whole number"):
+        gonio.detect_many(small, threads=2.5)
+    theta = np.arange(200) * 1.8
+    c = 700 + 10 * np.cos(np.radians(theta - 40))
+    for frames_taken in (-1, 10**30, 10**6):
+        with pytest.raises(gonio.GonioError, match=r"^frames_taken="):
+            gonio.eccentricity(theta, c, frames_taken=frames_taken)
+    with pytest.raises(gonio.GonioError, match=r"^um_per_px="):
+        gonio.eccentricity(theta, c, um_per_px=10**400)
+    for kw in ({"seed": -1}, {"seed": 2**64}, {"ndig": -1}, {"ndig": 2**40},
+               {"coverage": 10**400}, {"coverage": 1.5}, {"monte_carlo": -5}):
+        with pytest.raises(gonio.GonioError):
+            gonio.budget(TABLE3_BUDGET, **kw)
+    # A huge thread count never reaches the interpreter's allocator (it aborted Python).
+    code = ("import gonio, numpy as np\n"
+            "try:\n"
+            "    gonio.detect_many(np.zeros((1, 540, 1440), np.uint8), threads=1_000_000)\n"
+            "except gonio.GonioError as e:\n"
+            "    print('refused:', e)\n")
+    import sys
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stdout.startswith("refused: threads=1000000"), p.stderr
 
 
 def test_eccentricity_equals_the_cli(data):

@@ -1,5 +1,5 @@
-//! The library half of the `gonio` binary: the output set and the terminal, shared by the
-//! commands and the tests. The file formats, input reading, the commands' result documents and
+//! The library half of the `gonio` binary: the output set, the terminal and the bounded numeric
+//! flags, shared by the commands and the tests. The file formats, input reading, the commands' result documents and
 //! the JSON emitter are `gonio_io`'s (`crates/gonio-io`), tested and fuzzed (`fuzz/`) on bytes
 //! without the binary.
 //!
@@ -8,5 +8,7 @@
 //! one-line text names the file, line and column (the binary prints them with exit code 2).
 #![deny(missing_docs)]
 
+pub mod flag;
+pub mod memory;
 pub mod output;
 pub mod term;

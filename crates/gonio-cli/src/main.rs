@@ -70,7 +70,21 @@ enum Command {
 }
 
 fn main() {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help and version as clap writes them (`gonio` alone: the help, on standard error).
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
+        // A refused flag: one line, as every other error.
+        Err(e) => {
+            gonio_cli::term::note(&format!("error: {}", gonio_cli::flag::one_line(&e)));
+            std::process::exit(2);
+        }
+    };
     let result = match cli.command {
         Command::Simulate(s) => cmd::simulate::run(s),
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),

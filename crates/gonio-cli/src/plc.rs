@@ -61,13 +61,12 @@ pub fn plc_address(url: &str) -> Result<String> {
 fn register_map(path: Option<&std::path::Path>) -> Result<gonio_plc::RegisterMap> {
     Ok(match path {
         Some(p) => gonio_io::input::Inputs::new().load(p, |name, text| {
-            gonio_plc::RegisterMap::from_toml(text).map_err(|e| match e {
-                gonio_plc::map::MapError::Syntax {
-                    line,
-                    column,
-                    message,
-                } => anyhow!("{name}:{line}:{column}: {message}"),
-                other => anyhow!("{name}: {other}"),
+            gonio_plc::RegisterMap::from_toml(text).map_err(|e| match (&e, e.position()) {
+                (gonio_plc::map::MapError::Syntax { message, .. }, Some((line, column))) => {
+                    anyhow!("{name}:{line}:{column}: {message}")
+                }
+                (_, Some((line, column))) => anyhow!("{name}:{line}:{column}: {e}"),
+                (_, None) => anyhow!("{name}: {e}"),
             })
         })?,
         None => gonio_plc::RegisterMap::default(),

@@ -4,6 +4,7 @@
 
 pub use crate::twin::{Run, Start, Target, prepare, run};
 use anyhow::Result;
+use gonio_core::bound::Bound;
 use gonio_sim::station::Fidelity;
 use gonio_station::{Recipe, Strategy};
 use std::path::Path;
@@ -36,6 +37,8 @@ fn host_name() -> Option<String> {
     let name = name.trim();
     (!name.is_empty()).then(|| name.to_string())
 }
+/// `--parts`: parts in one batch.
+pub const PARTS: Bound = Bound::new(1.0, MAX_PARTS as f64, "parts");
 
 /// Push strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

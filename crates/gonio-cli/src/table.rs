@@ -77,7 +77,7 @@ pub fn summary_line(r: &BudgetResult) -> String {
         r.nu_eff_raw,
         r.k,
         sig(r.expanded, 4),
-        r.coverage * 100.0,
+        gonio_core::bound::Num(r.coverage * 100.0),
         u = unit(r),
     )
 }

@@ -79,16 +79,16 @@ fn sizes_from_the_input_have_stated_limits() {
     );
     refused(
         &gonio(&["shift-angle", s(&p), "--faces", "0"]),
-        "--faces 0: expected a polygon of 3 to 1000 faces",
+        "'0' for '--faces <FACES>': at least 3 faces",
     );
     refused(
         &gonio(&["shift-angle", s(&p), "--faces", "1000000000"]),
-        "--faces 1000000000",
+        "'1000000000' for '--faces <FACES>': at most 1000 faces",
     );
     for parts in ["1000000000", "18446744073709551615"] {
         refused(
             &gonio(&["mount", "--sim", "--seed", "1", "--parts", parts]),
-            "expected 1 to 1000000",
+            "at most 1000000 parts",
         );
     }
     let out = d.path().join("x");
@@ -118,7 +118,7 @@ fn sizes_from_the_input_have_stated_limits() {
             "--out",
             s(&out),
         ]),
-        "--count 100000000",
+        "'100000000' for '--count <COUNT>': at most 1000000 frames",
     );
     refused(
         &gonio(&[
@@ -229,7 +229,7 @@ fn dust_and_defocus_do_not_hang() {
             "--out",
             s(&out),
         ]),
-        "dust_per_frame",
+        "'1000000000' for '--dust <DUST>': at most 10000",
     );
     // A defocus whose blur is far wider than the frame costs one frame, not the blur's extent.
     let t = Instant::now();
@@ -262,7 +262,7 @@ fn dust_and_defocus_do_not_hang() {
             "--out",
             s(&d.path().join("g")),
         ]),
-        "--defocus 1000000000000",
+        "'1e12' for '--defocus <DEFOCUS>': at most 1000000 µm",
     );
 }
 
@@ -577,7 +577,8 @@ fn overflowing_results_are_errors_naming_what_overflowed() {
             "--json",
             s(&json),
         ]),
-        "e_um is inf",
+        // The scale that made e_um overflow is refused by its bound before the fit.
+        "'1e308' for '--um-per-px <UM_PER_PX>': at most 1000 µm/px",
     );
     assert!(!json.exists());
     // A reading of 1e308: the least squares overflow is an error, not U = inf with exit code 0.

@@ -308,11 +308,11 @@ fn limits_are_stated_and_enforced_before_work() {
                 "--parts",
                 "1000001",
             ],
-            "--parts 1000001: expected 1 to 1000000",
+            "'1000001' for '--parts <PARTS>': at most 1000000 parts",
         ),
         (
             vec!["mount", "--sim", "--parts", "1000001", "--seed", "1"],
-            "--parts 1000001: expected 1 to 1000000",
+            "'1000001' for '--parts <PARTS>': at most 1000000 parts",
         ),
     ] {
         refused(&gonio(&args), says);

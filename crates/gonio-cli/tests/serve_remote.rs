@@ -2,7 +2,9 @@
 //! bearer token is refused (exit 2, naming what is missing); with them a request without the
 //! token gets 401, with it 200, and plain HTTP gets no answer on that port; the Host header is
 //! checked (DNS rebinding); bad query strings are JSON errors; clients that connect and send
-//! nothing do not lock the dashboard out.
+//! nothing do not lock the dashboard out, and a request head beyond its bound is answered 431;
+//! a token or key file its group or others may read is refused (a warning with
+//! --allow-insecure-permissions).
 //!
 //! The servers bound to 0.0.0.0 are reached through 127.0.0.1 only; the certificates are made
 //! by the test (rcgen), none is committed.
@@ -43,11 +45,24 @@ fn certificate(dir: &Path) -> (String, String, Vec<u8>) {
     let (cert, key) = (dir.join("station.crt"), dir.join("station.key"));
     std::fs::write(&cert, c.cert.pem()).unwrap();
     std::fs::write(&key, c.signing_key.serialize_pem()).unwrap();
+    private(&key);
     (
         cert.display().to_string(),
         key.display().to_string(),
         c.cert.der().to_vec(),
     )
+}
+
+/// Makes a file readable by its owner only (a key or a token, as ssh wants them).
+fn private(p: &Path) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o600)).unwrap();
+}
+
+/// Gives a file the mode `mode`.
+fn chmod(p: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).unwrap();
 }
 
 /// `GET path` over TLS on 127.0.0.1:`port`, trusting `ca`, with `headers`: the status and body
@@ -114,6 +129,7 @@ fn off_loopback_the_dashboard_needs_tls_and_a_token() {
     let token_file = d.path().join("token");
     let token = "s3cret-token-of-the-test-0123";
     std::fs::write(&token_file, format!("{token}\n")).unwrap();
+    private(&token_file);
     let tf = token_file.display().to_string();
 
     // Without TLS and a token it does not start, and says what is missing.
@@ -156,6 +172,7 @@ fn off_loopback_the_dashboard_needs_tls_and_a_token() {
     }
     // A token too short, a certificate without its key, a key that is not the certificate's.
     std::fs::write(d.path().join("short"), "abc\n").unwrap();
+    private(&d.path().join("short"));
     let short = d.path().join("short").display().to_string();
     let other = rcgen::generate_simple_self_signed(vec!["localhost".into()]).unwrap();
     std::fs::write(
@@ -163,6 +180,7 @@ fn off_loopback_the_dashboard_needs_tls_and_a_token() {
         other.signing_key.serialize_pem(),
     )
     .unwrap();
+    private(&d.path().join("other.key"));
     let other_key = d.path().join("other.key").display().to_string();
     for (a, says) in [
         (vec!["--token-file", short.as_str()], "at least 16"),
@@ -242,6 +260,127 @@ fn off_loopback_the_dashboard_needs_tls_and_a_token() {
     let plain =
         format!("GET /api/stats HTTP/1.1\r\nHost: {addr}\r\n{auth}Connection: close\r\n\r\n");
     assert_eq!(raw_status(&addr, &plain), 0);
+}
+
+#[test]
+fn a_token_or_key_open_to_group_or_others_is_refused_as_ssh_does() {
+    let d = tempfile::tempdir().unwrap();
+    let db = d.path().join("r.sqlite").display().to_string();
+    drop(gonio_store::open(&db).unwrap());
+    let (cert, key, ca) = certificate(d.path());
+    let token_file = d.path().join("token");
+    let token = "s3cret-token-of-the-test-0123";
+    std::fs::write(&token_file, format!("{token}\n")).unwrap();
+    let tf = token_file.display().to_string();
+    let remote = |extra: &[&str]| {
+        let mut a = vec![
+            "serve",
+            "--db",
+            &db,
+            "--addr",
+            "0.0.0.0:0",
+            "--allow-remote",
+            "--tls-cert",
+            &cert,
+            "--tls-key",
+            &key,
+            "--token-file",
+            &tf,
+        ];
+        a.extend_from_slice(extra);
+        a.into_iter().map(str::to_string).collect::<Vec<_>>()
+    };
+    for (file, mode, flag) in [
+        (token_file.as_path(), 0o644, "--token-file"),
+        (token_file.as_path(), 0o640, "--token-file"),
+        (Path::new(&key), 0o604, "--tls-key"),
+    ] {
+        private(&token_file);
+        private(Path::new(&key));
+        chmod(file, mode);
+        let args = remote(&[]);
+        let o = gonio(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.starts_with(&format!("error: {flag}: ")), "{err}");
+        assert!(err.contains(&format!("mode 0{mode:o}")), "{err}");
+        assert!(err.contains("chmod 600") && err.contains("--allow-insecure-permissions"));
+    }
+    // With --allow-insecure-permissions it serves, and says why it should not.
+    private(Path::new(&key));
+    chmod(&token_file, 0o644);
+    let args = remote(&["--allow-insecure-permissions"]);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_gonio"))
+        .args(&args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = child.stderr.take().unwrap();
+    let _serve = Guard(child);
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut seen = Vec::new();
+    let line = loop {
+        let l = rx
+            .recv_timeout(Duration::from_secs(30))
+            .unwrap_or_else(|_| panic!("no dashboard line: {seen:?}"));
+        if l.contains("gonio dashboard on ") {
+            break l;
+        }
+        seen.push(l);
+    };
+    assert!(
+        seen.iter()
+            .any(|l| l.starts_with("warning: --token-file") && l.contains("mode 0644")),
+        "{seen:?}"
+    );
+    let port: u16 = line
+        .split("://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .and_then(|a| a.rsplit(':').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no port in {line:?}"));
+    let auth = format!("Authorization: Bearer {token}\r\n");
+    assert_eq!(https_get(port, &ca, "/api/stats", &auth).0, 200);
+}
+
+#[test]
+fn a_request_head_beyond_its_bound_is_answered_431() {
+    let d = tempfile::tempdir().unwrap();
+    let db = d.path().join("r.sqlite").display().to_string();
+    drop(gonio_store::open(&db).unwrap());
+    let (_serve, port) = start(&["serve", "--db", &db, "--addr", "127.0.0.1:0"]);
+    let addr = format!("127.0.0.1:{port}");
+    let with_header = |bytes: usize| {
+        format!(
+            "GET /api/stats HTTP/1.1\r\nHost: {addr}\r\nX-Pad: {}\r\nConnection: close\r\n\r\n",
+            "a".repeat(bytes)
+        )
+    };
+    assert_eq!(raw_status(&addr, &with_header(8 << 10)), 200);
+    assert_eq!(raw_status(&addr, &with_header(32 << 10)), 431);
+    // A header line that never ends: refused once the bound is passed, not collected.
+    let mut s = TcpStream::connect(&addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    s.write_all(format!("GET /api/stats HTTP/1.1\r\nHost: {addr}\r\nX-Pad: ").as_bytes())
+        .unwrap();
+    let chunk = vec![b'a'; 64 << 10];
+    for _ in 0..16 {
+        if s.write_all(&chunk).is_err() {
+            break;
+        }
+    }
+    let mut line = String::new();
+    let _ = BufReader::new(&s).read_line(&mut line);
+    assert!(line.is_empty() || line.contains(" 431 "), "{line:?}");
+    assert_eq!(http_get(&addr, "/api/stats").0, 200);
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! Core types of gonio: angles and units as types, Fourier series and the general harmonic
 //! least-squares fit, circle-closure helpers, special functions, the one quantile definition of
-//! gonio's reports, and the shared error kinds.
+//! gonio's reports, bounds of numeric settings with their units, and the shared error kinds.
 //!
 //! Nothing here does I/O. Every angle that crosses a crate boundary carries its unit in its type
 //! ([`Arcsec`], [`Degrees`], [`Radians`]) or in its name (`_arcsec`, `_deg`, `_rad`, `_um`, `_px`).
@@ -13,6 +13,7 @@
 #![deny(missing_docs)]
 
 pub mod angle;
+pub mod bound;
 pub mod choice;
 pub mod closure;
 pub mod error;

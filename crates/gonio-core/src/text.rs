@@ -1,5 +1,6 @@
 //! Functions for text that comes from files: UTF-8 decoding with the line and column of a bad
-//! byte, line and column of a byte offset, and input text quoted short in messages.
+//! byte, line and column of a byte offset, input text quoted short in messages, and one line of
+//! a stream read with a bound on its length ([`read_line_bounded`]).
 //!
 //! Every parser of gonio (budgets, instruments, recipes, optics, readings, logs) decodes its
 //! bytes here, so that every text input refuses UTF-16 and Latin-1 alike, with a located message,
@@ -109,6 +110,83 @@ pub fn short(text: &str) -> String {
         out.push_str(&format!("… ({n} characters)"));
     }
     out
+}
+
+/// A line of a stream that goes on beyond its bound, or a failed read.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum LineError {
+    /// The stream could not be read.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    /// More than `max_bytes` bytes came without a line end.
+    #[error("a line longer than {max_bytes} bytes")]
+    TooLong {
+        /// The bound.
+        max_bytes: usize,
+    },
+}
+
+/// Reads one line of at most `max_bytes` bytes (its `\n` and a `\r` before it not counted,
+/// nor returned) into `line`, which is cleared first; `false` at the end of the stream with
+/// nothing read. Never holds more than `max_bytes` + the reader's buffer in memory, however long
+/// the line (an endless line on a pipe is refused, not collected).
+///
+/// # Errors
+/// [`LineError::TooLong`] as soon as the line passes `max_bytes`; [`LineError::Io`].
+///
+/// ```
+/// use gonio_core::text::{read_line_bounded, LineError};
+/// let mut input = &b"skip\r\nquit\n"[..];
+/// let mut line = Vec::new();
+/// assert!(read_line_bounded(&mut input, 16, &mut line).unwrap());
+/// assert_eq!(line, b"skip");
+/// assert!(read_line_bounded(&mut input, 16, &mut line).unwrap());
+/// assert_eq!(line, b"quit");
+/// assert!(!read_line_bounded(&mut input, 16, &mut line).unwrap());
+/// let mut endless = std::io::repeat(b'x');
+/// let mut reader = std::io::BufReader::new(&mut endless);
+/// let e = read_line_bounded(&mut reader, 4096, &mut line).unwrap_err();
+/// assert!(matches!(e, LineError::TooLong { max_bytes: 4096 }));
+/// ```
+pub fn read_line_bounded(
+    r: &mut impl std::io::BufRead,
+    max_bytes: usize,
+    line: &mut Vec<u8>,
+) -> Result<bool, LineError> {
+    line.clear();
+    let mut any = false;
+    loop {
+        let buf = match r.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e.into()),
+        };
+        if buf.is_empty() {
+            break;
+        }
+        any = true;
+        let (take, end) = match buf.iter().position(|&b| b == b'\n') {
+            Some(i) => (i, true),
+            None => (buf.len(), false),
+        };
+        // A `\r` just before the `\n` may still come: allow one byte over until the end.
+        if line.len() + take > max_bytes + 1 {
+            return Err(LineError::TooLong { max_bytes });
+        }
+        line.extend_from_slice(&buf[..take]);
+        r.consume(take + usize::from(end));
+        if end {
+            break;
+        }
+    }
+    if line.last() == Some(&b'\r') {
+        line.pop();
+    }
+    if line.len() > max_bytes {
+        return Err(LineError::TooLong { max_bytes });
+    }
+    Ok(any)
 }
 
 #[cfg(test)]

@@ -35,6 +35,7 @@ use crate::log::{Mode, Reply};
 use crate::plan::{Plan, PlannedReading};
 use crate::readings::Row;
 use gonio_calib::shift_angle::ShiftKey;
+use gonio_core::bound::{Bound, Num, OutOfBound};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -69,7 +70,47 @@ impl Default for Settings {
     }
 }
 
+/// Samples averaged per position ([`Settings::samples`]).
+pub const SAMPLES: Bound = Bound::new(1.0, 1000.0, "");
+/// The instrument's σ of one sample ([`Settings::sigma_arcsec`]): an autocollimator's is a few
+/// hundredths of an arcsecond.
+pub const SIGMA_ARCSEC: Bound = Bound::new(0.0, 100.0, "″").lo_excluded();
+/// The spread limit of one position's samples ([`Settings::max_spread_arcsec`]): an
+/// autocollimator's whole range is a few thousand arcseconds.
+pub const MAX_SPREAD_ARCSEC: Bound = Bound::new(0.0, 10_000.0, "″");
+/// Re-reads before the operator is asked ([`Settings::rereads`]) and rejected answers in a row
+/// ([`Settings::rejects`]).
+pub const REREADS: Bound = Bound::new(0.0, 100.0, "");
+/// The wait for one answer (the driver's `timeout`): long enough for 50 baud, short enough that
+/// a silent instrument is noticed.
+pub const ANSWER_TIMEOUT_S: Bound = Bound::new(0.05, 60.0, "s");
+
 impl Settings {
+    /// Checks every setting against its bound ([`SAMPLES`], [`SIGMA_ARCSEC`],
+    /// [`MAX_SPREAD_ARCSEC`], [`REREADS`]).
+    ///
+    /// # Errors
+    /// [`AcquireError::Setting`] naming the first setting out of its bound.
+    pub fn validate(&self) -> Result<(), AcquireError> {
+        let bad = |name: &'static str, e: OutOfBound| AcquireError::Setting { name, error: e };
+        SAMPLES
+            .check_int(self.samples as u64)
+            .map_err(|e| bad("samples", e))?;
+        SIGMA_ARCSEC
+            .check(self.sigma_arcsec)
+            .map_err(|e| bad("sigma_arcsec", e))?;
+        MAX_SPREAD_ARCSEC
+            .check(self.max_spread_arcsec)
+            .map_err(|e| bad("max_spread_arcsec", e))?;
+        REREADS
+            .check_int(self.rereads)
+            .map_err(|e| bad("rereads", e))?;
+        REREADS
+            .check_int(self.rejects)
+            .map_err(|e| bad("rejects", e))?;
+        Ok(())
+    }
+
     /// The limit of a closure or drift: 3·√2·σ/√K, arcsec.
     pub fn check_limit_arcsec(&self) -> f64 {
         3.0 * std::f64::consts::SQRT_2 * self.sigma_arcsec / (self.samples.max(1) as f64).sqrt()
@@ -86,6 +127,14 @@ pub enum AcquireError {
     /// The journal.
     #[error(transparent)]
     Journal(#[from] JournalError),
+    /// A setting out of its bound.
+    #[error("{name} = {}: {error}", Num(error.value))]
+    Setting {
+        /// The setting ([`Settings`]' field).
+        name: &'static str,
+        /// The bound it broke.
+        error: OutOfBound,
+    },
     /// A position that is not in the plan.
     #[error("position {index} is not in the plan's {planned} readings")]
     NoSuchPosition {
@@ -173,13 +222,15 @@ impl Acquisition {
     /// there (`resume`; a new one when there is none).
     ///
     /// # Errors
-    /// [`JournalError`]: a journal is there without `resume`, or is for another plan or mode.
+    /// [`AcquireError::Setting`] for a setting out of its bound; [`JournalError`]: a journal is
+    /// there without `resume`, or is for another plan or mode.
     pub fn start(
         plan: Plan,
         settings: Settings,
         journal_path: &Path,
         resume: bool,
     ) -> Result<Acquisition, AcquireError> {
+        settings.validate()?;
         let planned = plan.readings();
         let header = Header {
             plan: plan.fingerprint(),
@@ -542,6 +593,44 @@ mod tests {
     use std::collections::VecDeque;
     use std::io::{Read, Write};
     use std::time::Duration;
+
+    #[test]
+    fn settings_out_of_their_bounds_are_refused_naming_the_bound() {
+        for (settings, want) in [
+            (
+                Settings {
+                    sigma_arcsec: 1e300,
+                    ..Settings::default()
+                },
+                "sigma_arcsec = 1e300: at most 100″",
+            ),
+            (
+                Settings {
+                    samples: 0,
+                    ..Settings::default()
+                },
+                "samples = 0: at least 1",
+            ),
+            (
+                Settings {
+                    max_spread_arcsec: f64::NAN,
+                    ..Settings::default()
+                },
+                "max_spread_arcsec = NaN: not a finite number",
+            ),
+            (
+                Settings {
+                    rereads: u32::MAX,
+                    ..Settings::default()
+                },
+                "rereads = 4294967295: at most 100",
+            ),
+        ] {
+            let e = settings.validate().unwrap_err().to_string();
+            assert!(e.starts_with(want), "{e}");
+        }
+        assert!(Settings::default().validate().is_ok());
+    }
 
     /// An instrument that answers each request with the next scripted line (none: silent).
     struct Scripted {

@@ -29,8 +29,13 @@
 //! ```
 
 use crate::log::{self, Mode, Reply};
+use gonio_core::bound::Bound;
 use std::io::{ErrorKind, Read, Write};
 use std::time::{Duration, Instant};
+
+/// The baud rates a serial line is opened at: from the slowest teleprinter rate to what USB
+/// adapters reach.
+pub const BAUD: Bound = Bound::new(50.0, 4_000_000.0, "baud");
 
 /// Longest answer line read (an answer is about 25 bytes); a longer one is garbage.
 pub const MAX_LINE_BYTES: usize = 256;
@@ -133,8 +138,17 @@ impl Autocollimator<Box<dyn serialport::SerialPort>> {
     /// control), exclusively; `timeout` bounds the wait for one answer.
     ///
     /// # Errors
-    /// [`InstrumentError::Missing`], [`InstrumentError::Busy`] or [`InstrumentError::Open`].
+    /// [`InstrumentError::Missing`], [`InstrumentError::Busy`] or [`InstrumentError::Open`] (also
+    /// for a baud rate outside [`BAUD`]).
     pub fn open(path: &str, baud: u32, timeout: Duration) -> Result<Self, InstrumentError> {
+        // 0 baud is B0 to the kernel: it hangs the line up instead of setting a speed.
+        if let Err(e) = BAUD.check_int(baud) {
+            return Err(InstrumentError::Open {
+                port: path.to_string(),
+                baud,
+                reason: format!("the baud rate must be {e} (0 baud hangs up a real line)"),
+            });
+        }
         let port = serialport::new(path, baud)
             .timeout(timeout.min(Duration::from_millis(200)))
             .data_bits(serialport::DataBits::Eight)
@@ -261,5 +275,59 @@ impl<T: Transport> Autocollimator<T> {
                 Err(e) => return Err(self.lost(&e)),
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An instrument that answers every request with bytes and never a line end.
+    struct Endless(usize);
+
+    impl Read for Endless {
+        fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+            self.0 += b.len();
+            b.fill(b'7');
+            Ok(b.len())
+        }
+    }
+
+    impl Write for Endless {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Transport for Endless {}
+
+    #[test]
+    fn an_endless_answer_is_garbage_after_its_bound_not_collected() {
+        let mut ac = Autocollimator::new(Endless(0), "endless", Duration::from_secs(5));
+        let e = ac.read(Mode::Absolute).unwrap();
+        match e.reply {
+            Reply::Garbage { message } => {
+                assert_eq!(message, "more than 256 bytes without a line end");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(e.raw.len() <= MAX_LINE_BYTES + 64, "{}", e.raw.len());
+        assert!(ac.port.0 <= MAX_LINE_BYTES + 64);
+    }
+
+    #[test]
+    fn zero_baud_is_refused_before_the_port_is_touched() {
+        // B0 would hang a real line up; the port need not exist to be refused.
+        let e = Autocollimator::open("/nonexistent/tty", 0, Duration::from_secs(1)).unwrap_err();
+        let m = e.to_string();
+        assert!(
+            m.contains("at least 50 baud") && m.contains("hangs up"),
+            "{m}"
+        );
+        let e = Autocollimator::open("/nonexistent/tty", 9600, Duration::from_secs(1)).unwrap_err();
+        assert!(!e.to_string().contains("baud rate must be"), "{e}");
     }
 }

@@ -28,7 +28,8 @@
 //! assert!(e.to_string().starts_with("p.toml:1:9: faces = 2"));
 //! ```
 
-use gonio_calib::shift_angle::{MAX_FACES, ShiftKey};
+use gonio_calib::shift_angle::{MAX_FACES, SHIFT_DEG, ShiftKey};
+use gonio_core::bound::Num;
 use serde::Deserialize;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -311,6 +312,15 @@ impl Plan {
                     )
                 })?,
         };
+        if let Some((s, e)) = shifts_deg
+            .iter()
+            .find_map(|&s| SHIFT_DEG.check(s).err().map(|e| (s, e)))
+        {
+            return Err(at(
+                raw.shifts_deg.span(),
+                format!("shifts_deg: a shift of {}° is out of range: {e}", Num(s)),
+            ));
+        }
         let per_shift = (start_faces.len() + steps.len()) as u64;
         if shifts_deg.len() as u64 * per_shift.max(1) > MAX_PLANNED_READINGS {
             return Err(at(
@@ -646,6 +656,11 @@ mod tests {
 
     #[test]
     fn errors_name_line_and_column() {
+        let e = parse("faces = 3\nshifts_deg = [0, 1e300]\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "p.toml:2:14: shifts_deg: a shift of 1e300° is out of range: below 360°"
+        );
         let e = parse("faces = 3\nshifts_deg = [0]\nstart_faces = [1, 4]\n").unwrap_err();
         assert_eq!(
             e.to_string(),

@@ -10,6 +10,10 @@
 //! Units: angles are sent as integers of `1 / scale.angle_per_deg` degrees (default 0.0001°),
 //! speeds of `1 / scale.speed_per_deg_s` °/s, lengths of `1 / scale.length_per_um` µm (1 nm).
 //!
+//! Every number is bounded where it is read, and a value outside its bound is refused naming the
+//! bound (`timing.command_timeout_s = 1e300: at most 3600 s`), so that no timing or length from
+//! the file can stall the link or overflow a `Duration`.
+//!
 //! Errors: [`MapError`], naming the line and column of a bad key or value.
 //!
 //! ```
@@ -19,6 +23,7 @@
 //! assert_eq!(m.input.latch_ring, RegisterMap::default().input.latch_ring);
 //! ```
 
+use gonio_core::bound::{Bound, Num};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -45,14 +50,19 @@ pub enum MapError {
         message: String,
     },
     /// A value is out of its range or two regions overlap.
-    #[error("{key} = {value}: expected {expected}")]
+    #[error("{key} = {value}: {expected}")]
     Value {
         /// The key, with its section.
         key: String,
-        /// The value given.
+        /// The value given, as written in the file when it was read from one.
         value: String,
-        /// What is allowed.
+        /// What is allowed (`at most 3600 s`, `expected no overlap with …`).
         expected: String,
+        /// 1-based line and column of the value in the text it was read from (0 when not read
+        /// from a text).
+        line: usize,
+        /// See `line`.
+        column: usize,
     },
 }
 
@@ -256,12 +266,96 @@ impl Default for RegisterMap {
     }
 }
 
+impl MapError {
+    /// 1-based line and column of the key or value the error is about, when known.
+    pub fn position(&self) -> Option<(usize, usize)> {
+        match *self {
+            MapError::Syntax { line, column, .. } | MapError::Value { line, column, .. }
+                if line > 0 =>
+            {
+                Some((line, column))
+            }
+            _ => None,
+        }
+    }
+}
+
 fn bad(key: &str, value: impl std::fmt::Display, expected: &str) -> MapError {
     MapError::Value {
         key: key.into(),
         value: value.to_string(),
-        expected: expected.into(),
+        expected: format!("expected {expected}"),
+        line: 0,
+        column: 0,
     }
+}
+
+/// `v` within `bound`, or the error naming `key` and the bound.
+fn within(key: &str, v: f64, bound: Bound) -> Result<(), MapError> {
+    bound.check(v).map(|_| ()).map_err(|e| MapError::Value {
+        key: key.into(),
+        value: Num(v).to_string(),
+        expected: e.to_string(),
+        line: 0,
+        column: 0,
+    })
+}
+
+/// The bounds of the map's numbers: far beyond any real station's, short of values that would
+/// stall the link for hours or overflow a time.
+pub mod bounds {
+    use gonio_core::bound::Bound;
+
+    /// `timing.watchdog_ms`.
+    pub const WATCHDOG_MS: Bound = Bound::new(10.0, 600_000.0, "ms");
+    /// `timing.heartbeat_ms` (and at most half the watchdog).
+    pub const HEARTBEAT_MS: Bound = Bound::new(1.0, 300_000.0, "ms");
+    /// `timing.reply_timeout_ms` and `timing.frame_timeout_ms`.
+    pub const TIMEOUT_MS: Bound = Bound::new(1.0, 600_000.0, "ms");
+    /// `timing.poll_ms`.
+    pub const POLL_MS: Bound = Bound::new(1.0, 10_000.0, "ms");
+    /// `timing.command_timeout_s`: an hour, for the slowest move.
+    pub const COMMAND_TIMEOUT_S: Bound = Bound::new(0.0, 3600.0, "s").lo_excluded();
+    /// `scale.*`: counts per unit on the wire.
+    pub const COUNTS_PER_UNIT: Bound = Bound::new(0.0, 1e9, "counts per unit").lo_excluded();
+    /// `rod.gap_centred_um` and `rod.travel_limit_um`: up to a metre.
+    pub const TRAVEL_UM: Bound = Bound::new(0.0, 1e6, "µm").lo_excluded();
+    /// `rod.margin_um`.
+    pub const MARGIN_UM: Bound = Bound::new(0.0, 1e6, "µm");
+    /// `rod.creep_fast_um_per_s` and `rod.creep_slow_um_per_s`.
+    pub const CREEP_UM_PER_S: Bound = Bound::new(0.0, 1e6, "µm/s").lo_excluded();
+    /// `rod.centre_column_px`: a column of any sensor.
+    pub const COLUMN_PX: Bound = Bound::new(-1e5, 1e5, "px");
+    /// `rod.contact_sigmas`.
+    pub const CONTACT_SIGMAS: Bound = Bound::new(0.0, 1000.0, "σ").lo_excluded();
+    /// `rod.contact_min_px`.
+    pub const CONTACT_MIN_PX: Bound = Bound::new(0.0, 1e4, "px");
+    /// `rod.baseline_frames`.
+    pub const BASELINE_FRAMES: Bound = Bound::new(3.0, 10_000.0, "frames");
+    /// `rod.contact_frames`.
+    pub const CONTACT_FRAMES: Bound = Bound::new(1.0, 10_000.0, "frames");
+}
+
+/// 1-based line and column, and the text, of the value of a dotted key (`timing.poll_ms`) in a
+/// TOML text, if the text sets it.
+fn value_in(text: &str, key: &str) -> Option<(usize, usize, String)> {
+    let doc = toml::de::DeTable::parse(text).ok()?;
+    let mut table = doc.get_ref();
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, part) in parts.iter().enumerate() {
+        let (_, v) = table.iter().find(|(k, _)| k.get_ref().as_ref() == *part)?;
+        if i + 1 == parts.len() {
+            let span = v.span();
+            let (line, column) = gonio_core::text::line_col(text, span.start);
+            let raw = text.get(span).unwrap_or_default().trim().to_string();
+            return Some((line, column, raw));
+        }
+        match v.get_ref() {
+            toml::de::DeValue::Table(t) => table = t,
+            _ => return None,
+        }
+    }
+    None
 }
 
 impl RegisterMap {
@@ -269,7 +363,7 @@ impl RegisterMap {
     ///
     /// # Errors
     /// [`MapError::Syntax`] with the line and column; [`MapError::Value`] from
-    /// [`RegisterMap::validate`].
+    /// [`RegisterMap::validate`], with the line and column of the value and the value as written.
     pub fn from_toml(text: &str) -> Result<Self, MapError> {
         let m: RegisterMap = toml::from_str(text).map_err(|e| {
             let (line, column) = e
@@ -287,7 +381,30 @@ impl RegisterMap {
                 message: e.message().to_string(),
             }
         })?;
-        m.validate()?;
+        m.validate().map_err(|e| match e {
+            MapError::Value {
+                key,
+                value,
+                expected,
+                ..
+            } => match value_in(text, &key) {
+                Some((line, column, raw)) => MapError::Value {
+                    key,
+                    value: if raw.is_empty() { value } else { raw },
+                    expected,
+                    line,
+                    column,
+                },
+                None => MapError::Value {
+                    key,
+                    value,
+                    expected,
+                    line: 0,
+                    column: 0,
+                },
+            },
+            other => other,
+        })?;
         Ok(m)
     }
 
@@ -354,61 +471,67 @@ impl RegisterMap {
                 "at least 16 entries",
             ));
         }
+        use bounds::*;
         let s = &self.scale;
-        for (k, v) in [
-            ("scale.angle_per_deg", s.angle_per_deg),
-            ("scale.speed_per_deg_s", s.speed_per_deg_s),
-            ("scale.length_per_um", s.length_per_um),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(k, v, "a positive number"));
-            }
-        }
         let t = &self.timing;
-        if t.heartbeat_ms == 0 || t.heartbeat_ms * 2 > t.watchdog_ms {
+        let r = &self.rod;
+        for (k, v, b) in [
+            ("scale.angle_per_deg", s.angle_per_deg, COUNTS_PER_UNIT),
+            ("scale.speed_per_deg_s", s.speed_per_deg_s, COUNTS_PER_UNIT),
+            ("scale.length_per_um", s.length_per_um, COUNTS_PER_UNIT),
+            ("timing.watchdog_ms", t.watchdog_ms as f64, WATCHDOG_MS),
+            ("timing.heartbeat_ms", t.heartbeat_ms as f64, HEARTBEAT_MS),
+            (
+                "timing.reply_timeout_ms",
+                t.reply_timeout_ms as f64,
+                TIMEOUT_MS,
+            ),
+            (
+                "timing.command_timeout_s",
+                t.command_timeout_s,
+                COMMAND_TIMEOUT_S,
+            ),
+            (
+                "timing.frame_timeout_ms",
+                t.frame_timeout_ms as f64,
+                TIMEOUT_MS,
+            ),
+            ("timing.poll_ms", t.poll_ms as f64, POLL_MS),
+            ("rod.gap_centred_um", r.gap_centred_um, TRAVEL_UM),
+            ("rod.centre_column_px", r.centre_column_px, COLUMN_PX),
+            ("rod.margin_um", r.margin_um, MARGIN_UM),
+            (
+                "rod.creep_fast_um_per_s",
+                r.creep_fast_um_per_s,
+                CREEP_UM_PER_S,
+            ),
+            (
+                "rod.creep_slow_um_per_s",
+                r.creep_slow_um_per_s,
+                CREEP_UM_PER_S,
+            ),
+            ("rod.travel_limit_um", r.travel_limit_um, TRAVEL_UM),
+            (
+                "rod.baseline_frames",
+                r.baseline_frames as f64,
+                BASELINE_FRAMES,
+            ),
+            ("rod.contact_sigmas", r.contact_sigmas, CONTACT_SIGMAS),
+            ("rod.contact_min_px", r.contact_min_px, CONTACT_MIN_PX),
+            (
+                "rod.contact_frames",
+                r.contact_frames as f64,
+                CONTACT_FRAMES,
+            ),
+        ] {
+            within(k, v, b)?;
+        }
+        if t.heartbeat_ms * 2 > t.watchdog_ms {
             return Err(bad(
                 "timing.heartbeat_ms",
                 t.heartbeat_ms,
-                "1 ms to half of timing.watchdog_ms",
+                "at most half of timing.watchdog_ms",
             ));
-        }
-        if t.reply_timeout_ms == 0 || t.frame_timeout_ms == 0 || t.poll_ms == 0 {
-            return Err(bad(
-                "timing",
-                "0",
-                "reply_timeout_ms, frame_timeout_ms and poll_ms above 0",
-            ));
-        }
-        if !(t.command_timeout_s.is_finite() && t.command_timeout_s > 0.0) {
-            return Err(bad(
-                "timing.command_timeout_s",
-                t.command_timeout_s,
-                "a positive number of seconds",
-            ));
-        }
-        let r = &self.rod;
-        for (k, v) in [
-            ("rod.gap_centred_um", r.gap_centred_um),
-            ("rod.creep_fast_um_per_s", r.creep_fast_um_per_s),
-            ("rod.creep_slow_um_per_s", r.creep_slow_um_per_s),
-            ("rod.travel_limit_um", r.travel_limit_um),
-            ("rod.contact_sigmas", r.contact_sigmas),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(k, v, "a positive number"));
-            }
-        }
-        if !(r.margin_um.is_finite() && r.margin_um >= 0.0) {
-            return Err(bad("rod.margin_um", r.margin_um, "0 µm or more"));
-        }
-        if !(r.contact_min_px.is_finite() && r.contact_min_px >= 0.0) {
-            return Err(bad("rod.contact_min_px", r.contact_min_px, "0 px or more"));
-        }
-        if r.baseline_frames < 3 {
-            return Err(bad("rod.baseline_frames", r.baseline_frames, "at least 3"));
-        }
-        if r.contact_frames == 0 {
-            return Err(bad("rod.contact_frames", r.contact_frames, "at least 1"));
         }
         Ok(())
     }
@@ -507,6 +630,63 @@ mod tests {
             RegisterMap::from_toml(text).unwrap(),
             RegisterMap::default()
         );
+    }
+
+    #[test]
+    fn every_number_is_bounded_and_located_where_it_is_written() {
+        let e = RegisterMap::from_toml("unit = 1\n\n[timing]\ncommand_timeout_s = 1e300\n")
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "timing.command_timeout_s = 1e300: at most 3600 s"
+        );
+        assert_eq!(e.position(), Some((4, 21)));
+        for (text, key, why) in [
+            (
+                "[timing]\ncommand_timeout_s = 1e20\n",
+                "command_timeout_s = 1e20",
+                "at most 3600 s",
+            ),
+            (
+                "[timing]\ncommand_timeout_s = 0.0\n",
+                "command_timeout_s = 0.0",
+                "above 0 s",
+            ),
+            (
+                "[timing]\nreply_timeout_ms = 9223372036854775807\n",
+                "reply_timeout_ms",
+                "at most 600000 ms",
+            ),
+            ("[timing]\npoll_ms = 0\n", "poll_ms = 0", "at least 1 ms"),
+            (
+                "[timing]\nwatchdog_ms = 100000000\n",
+                "watchdog_ms",
+                "at most 600000 ms",
+            ),
+            (
+                "[scale]\nangle_per_deg = 1e300\n",
+                "angle_per_deg = 1e300",
+                "at most 1000000000",
+            ),
+            (
+                "[rod]\ncentre_column_px = -1e300\n",
+                "centre_column_px = -1e300",
+                "at least -100000 px",
+            ),
+            (
+                "[rod]\ncontact_frames = 100000000\n",
+                "contact_frames",
+                "at most 10000 frames",
+            ),
+        ] {
+            let e = RegisterMap::from_toml(text).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.contains(key) && msg.contains(why), "{text}: {msg}");
+            assert_eq!(e.position().map(|p| p.0), Some(2), "{text}: {msg}");
+        }
+        // The largest values allowed are accepted.
+        let m = RegisterMap::from_toml("[timing]\ncommand_timeout_s = 3600\n").unwrap();
+        assert_eq!(m.timing.command_timeout_s, 3600.0);
     }
 
     #[test]

@@ -7,6 +7,9 @@ use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
 
+/// `seed`: any 64-bit seed.
+const SEED: gonio_core::bound::Bound = gonio_core::bound::Bound::new(0.0, u64::MAX as f64, "");
+
 /// Evaluates a GUM uncertainty budget (TOML, docs/budget-format.md): what `gonio budget --json`
 /// writes, as a dict (the reported budget's ``u_c``, ``nu_eff``, ``k``, ``U``, ``contributions``
 /// … at the top level, every budget under ``budgets``).
@@ -21,16 +24,20 @@ use pyo3::types::PyBool;
 ///     r = gonio.budget("examples/budgets/hsieh2022-shift-angle.toml", monte_carlo=True)
 ///     print(r["u_c"], r["nu_eff"], r["k"], r["U"], r["monte_carlo"]["reported"])
 #[pyfunction]
-#[pyo3(signature = (toml_text_or_path, monte_carlo=None, coverage=None, budget=None, seed=1, ndig=2))]
+#[pyo3(signature = (toml_text_or_path, monte_carlo=None, coverage=None, budget=None, seed=None, ndig=None))]
 pub fn budget<'py>(
     py: Python<'py>,
     toml_text_or_path: &Bound<'py, PyAny>,
     monte_carlo: Option<&Bound<'py, PyAny>>,
-    coverage: Option<f64>,
+    coverage: Option<&Bound<'py, PyAny>>,
     budget: Option<String>,
-    seed: u64,
-    ndig: u32,
+    seed: Option<&Bound<'py, PyAny>>,
+    ndig: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let coverage = convert::opt_real(coverage, "coverage", Some(gonio_uncertainty::COVERAGE))?;
+    let seed = convert::opt_whole::<u64>(seed, "seed", SEED)?.unwrap_or(1);
+    let ndig =
+        convert::opt_whole::<u32>(ndig, "ndig", gonio_uncertainty::montecarlo::NDIG)?.unwrap_or(2);
     let mc = match monte_carlo {
         None => None,
         Some(m) if m.is_none() => None,
@@ -41,9 +48,16 @@ pub fn budget<'py>(
         }),
         Some(m) => Some(McRequest {
             seed,
-            trials: Some(m.extract::<usize>().map_err(|_| {
-                refuse("monte_carlo: expected True (adaptive), a number of trials, or None")
-            })?),
+            trials: Some(
+                convert::opt_whole::<usize>(
+                    Some(m),
+                    "monte_carlo",
+                    gonio_uncertainty::montecarlo::TRIALS,
+                )?
+                .ok_or_else(|| {
+                    refuse("monte_carlo: expected True (adaptive), a number of trials, or None")
+                })?,
+            ),
             ndig,
         }),
     };

@@ -1,11 +1,14 @@
 //! Between Python and gonio: errors as `GonioError`, results as Python objects (the command
-//! line's JSON parsed by Python's `json`), paths, texts and numpy arrays as inputs.
+//! line's JSON parsed by Python's `json`), paths, texts and numpy arrays as inputs, numbers
+//! checked against their bounds ([`opt_whole`], [`opt_real`]) and frames read in C order
+//! ([`c_order`]).
 
 use crate::GonioError;
+use gonio_core::bound::Bound as Range;
 use gonio_io::formats::csv::CsvTable;
 use numpy::{AllowTypeChange, PyArrayLike2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyString};
+use pyo3::types::{PyBool, PyDict, PyInt, PyString};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -195,4 +198,112 @@ pub fn columns(cols: [(&Bound<'_, PyAny>, &str); 2], name: &str) -> PyResult<Csv
             .map(|r| (r as u64 + 1, vec![field(data[0][r]), field(data[1][r])]))
             .collect(),
     })
+}
+
+/// A whole-number argument within `range`, or `None` when not given (or `None`): any Python
+/// `int` or numpy integer, however large, and every refusal a `GonioError` naming the bound
+/// (`threads=1000000: at most 256`), never pyo3's `OverflowError` for a negative or huge one.
+pub fn opt_whole<T>(obj: Option<&Bound<'_, PyAny>>, arg: &str, range: Range) -> PyResult<Option<T>>
+where
+    T: TryFrom<i128> + TryInto<i128> + Copy,
+{
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let shown = || {
+        obj.repr()
+            .map(|r| gonio_core::text::short(&r.to_string_lossy()))
+            .unwrap_or_default()
+    };
+    if obj.is_instance_of::<PyBool>() {
+        return Err(refuse(format!(
+            "{arg}={}: expected a whole number ({range})",
+            shown()
+        )));
+    }
+    let i: i128 = match obj.extract::<i128>() {
+        Ok(i) => i,
+        // An int beyond 128 bits: past one end of any bound.
+        Err(_) if obj.is_instance_of::<PyInt>() => {
+            let negative = obj.lt(0).unwrap_or(false);
+            let end = range.check(if negative { f64::MIN } else { f64::MAX });
+            return Err(refuse(match end {
+                Err(e) => format!("{arg}={}: {e}", shown()),
+                Ok(_) => format!("{arg}={}: expected a whole number ({range})", shown()),
+            }));
+        }
+        Err(_) => {
+            return Err(refuse(format!(
+                "{arg}={}: expected a whole number ({range})",
+                shown()
+            )));
+        }
+    };
+    range
+        .check_int(i)
+        .map_err(|e| refuse(format!("{arg}={i}: {e}")))?;
+    T::try_from(i)
+        .map(Some)
+        .map_err(|_| refuse(format!("{arg}={i}: expected a whole number ({range})")))
+}
+
+/// A number argument, or `None` when not given (or `None`): any Python number (an `int` too
+/// large for a float is refused as not finite), checked against `range` when one is given;
+/// every refusal a `GonioError`, never an `OverflowError`.
+pub fn opt_real(
+    obj: Option<&Bound<'_, PyAny>>,
+    arg: &str,
+    range: Option<Range>,
+) -> PyResult<Option<f64>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let shown = || {
+        obj.repr()
+            .map(|r| gonio_core::text::short(&r.to_string_lossy()))
+            .unwrap_or_default()
+    };
+    if obj.is_instance_of::<PyBool>() {
+        return Err(refuse(format!("{arg}={}: expected a number", shown())));
+    }
+    let v: f64 = match obj.extract::<f64>() {
+        Ok(v) => v,
+        Err(_) if obj.is_instance_of::<PyInt>() => f64::INFINITY,
+        Err(_) => return Err(refuse(format!("{arg}={}: expected a number", shown()))),
+    };
+    if let Some(range) = range {
+        range
+            .check(v)
+            .map_err(|e| refuse(format!("{arg}={}: {e}", shown())))?;
+    } else if !v.is_finite() {
+        return Err(refuse(format!(
+            "{arg}={}: expected a finite number",
+            shown()
+        )));
+    }
+    Ok(Some(v))
+}
+
+/// A 2-D `uint8` frame's pixels in C order (row after row): read where numpy holds them when
+/// the array is C-contiguous, else copied once into C order (a Fortran-ordered or strided view
+/// is never read in the wrong order).
+pub fn c_order<'a>(a: &'a numpy::PyReadonlyArray2<'_, u8>, copy: &'a mut Vec<u8>) -> &'a [u8] {
+    if a.is_c_contiguous()
+        && let Ok(s) = a.as_slice()
+    {
+        return s;
+    }
+    *copy = a.as_array().iter().copied().collect();
+    copy
+}
+
+/// The frames of an N×H×W `uint8` array in C order, as [`c_order`].
+pub fn c_order3<'a>(a: &'a numpy::PyReadonlyArray3<'_, u8>, copy: &'a mut Vec<u8>) -> &'a [u8] {
+    if a.is_c_contiguous()
+        && let Ok(s) = a.as_slice()
+    {
+        return s;
+    }
+    *copy = a.as_array().iter().copied().collect();
+    copy
 }

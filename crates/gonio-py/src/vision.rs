@@ -4,11 +4,11 @@
 
 use crate::convert::{self, OrGonio, Source, refuse};
 use anyhow::anyhow;
-use gonio_io::formats::{frames, recipe, samples};
+use gonio_io::formats::{frames, samples};
 use gonio_io::results::detect::Line;
 use gonio_io::results::eccentricity::{Settings, evaluate};
-use gonio_station::Recipe;
 use gonio_station::fit::FitMethod;
+use gonio_station::{Recipe, recipe};
 use gonio_vision::{
     DetectInOrderError, Detector, FrameHeader, FrameSource, FrameStamp, Optics, SourceError,
     detect_in_order,
@@ -21,6 +21,9 @@ use std::sync::Mutex;
 /// Detectors made for earlier calls, with their optics: a detector is sized once for its
 /// optics, and a call takes one (or makes one) and gives it back.
 static DETECTORS: Mutex<Vec<(Optics, Detector)>> = Mutex::new(Vec::new());
+
+/// `threads` of `detect_many`: as `gonio detect --threads`.
+const THREADS: gonio_core::bound::Bound = gonio_core::bound::Bound::new(1.0, 256.0, "");
 
 /// At most this many detectors are kept.
 const KEPT_DETECTORS: usize = 8;
@@ -67,9 +70,11 @@ fn line_json(
 /// `gonio detect` (``c_px``, ``c_um``, ``valid``, ``reason``, ``score``, ``margin``, ``edges``
 /// …; ``frame`` is 0, ``theta_deg`` and ``time_s`` None).
 ///
-/// ``frame`` is a 2-D ``uint8`` C-contiguous array of the optics' window (default 1440×540) or
-/// sensor size (the window is cut out); it is read where it lies, not copied. ``optics`` is an
-/// optics TOML file (or its text); default: the station of Yu et al., 2024.
+/// ``frame`` is a 2-D ``uint8`` array (height × width) of the optics' window (default 1440×540)
+/// or sensor size (the window is cut out). A C-contiguous array is read where it lies, not
+/// copied; any other (Fortran order, a strided view) is copied once into C order, so that rows
+/// are always rows. ``optics`` is an optics TOML file (or its text); default: the station of Yu
+/// et al., 2024.
 ///
 /// Example::
 ///
@@ -90,9 +95,8 @@ pub fn detect<'py>(
         .extract()
         .map_err(|_| refuse("frame: expected a 2-D numpy array of uint8 (height × width)"))?;
     let (h, w) = (a.shape()[0], a.shape()[1]);
-    let pixels = a
-        .as_slice()
-        .map_err(|_| refuse("frame: not C-contiguous; pass np.ascontiguousarray(frame)"))?;
+    let mut copy = Vec::new();
+    let pixels = convert::c_order(&a, &mut copy);
     let um_per_px = optics
         .params()
         .map_err(|e| refuse(e.to_string()))?
@@ -139,8 +143,10 @@ impl FrameSource for Stack<'_> {
 }
 
 /// Finds the ring in every frame of an N×H×W ``uint8`` array on ``threads`` worker threads
-/// (default: every core), without holding the GIL: a list of what :func:`detect` returns, in
-/// frame order (``frame`` = the index), the same values whatever the thread count.
+/// (1 to 256, as ``gonio detect --threads``; default: every core, at most 256), without holding
+/// the GIL: a list of what :func:`detect` returns, in frame order (``frame`` = the index), the
+/// same values whatever the thread count. An array that is not C-contiguous is copied once into
+/// C order, as for :func:`detect`.
 ///
 /// Example::
 ///
@@ -151,22 +157,20 @@ impl FrameSource for Stack<'_> {
 pub fn detect_many<'py>(
     py: Python<'py>,
     frames: &Bound<'py, PyAny>,
-    threads: Option<usize>,
+    threads: Option<&Bound<'py, PyAny>>,
     optics: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
+    let threads = convert::opt_whole::<usize>(threads, "threads", THREADS)?;
     let optics = self::optics(optics)?;
     let a: PyReadonlyArray3<'py, u8> = frames.extract().map_err(|_| {
         refuse("frames: expected a 3-D numpy array of uint8 (frames × height × width)")
     })?;
     let (h, w) = (a.shape()[1], a.shape()[2]);
-    let pixels = a
-        .as_slice()
-        .map_err(|_| refuse("frames: not C-contiguous; pass np.ascontiguousarray(frames)"))?;
-    if threads == Some(0) {
-        return Err(refuse("threads=0: expected at least 1"));
-    }
-    let threads =
-        threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let mut copy = Vec::new();
+    let pixels: &[u8] = convert::c_order3(&a, &mut copy);
+    let threads = threads.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, |n| n.get().min(THREADS.hi() as usize))
+    });
     let um_per_px = optics
         .params()
         .map_err(|e| refuse(e.to_string()))?
@@ -230,12 +234,16 @@ pub fn eccentricity<'py>(
     py: Python<'py>,
     theta_deg: &Bound<'py, PyAny>,
     c_px: Option<&Bound<'py, PyAny>>,
-    um_per_px: Option<f64>,
+    um_per_px: Option<&Bound<'py, PyAny>>,
     method: &str,
-    frames_taken: Option<usize>,
-    threshold_um: Option<f64>,
+    frames_taken: Option<&Bound<'py, PyAny>>,
+    threshold_um: Option<&Bound<'py, PyAny>>,
     recipe: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let um_per_px = convert::opt_real(um_per_px, "um_per_px", Some(recipe::UM_PER_PX))?;
+    let threshold_um = convert::opt_real(threshold_um, "threshold_um", Some(recipe::THRESHOLD_UM))?;
+    let frames_taken =
+        convert::opt_whole::<usize>(frames_taken, "frames_taken", recipe::FRAMES_PER_TURN)?;
     let method = match method {
         "least-squares" => FitMethod::LeastSquares,
         "paper" => FitMethod::Paper,
@@ -247,7 +255,7 @@ pub fn eccentricity<'py>(
     };
     let recipe = match convert::opt_source(recipe, "recipe", false)? {
         None => Recipe::default(),
-        Some(s) => s.parse(recipe::parse).or_gonio()?,
+        Some(s) => s.parse(gonio_io::formats::recipe::parse).or_gonio()?,
     };
     let settings = Settings::new(recipe, um_per_px, threshold_um).or_gonio()?;
     let read = match c_px.filter(|c| !c.is_none()) {

@@ -18,6 +18,7 @@
 //! ```
 
 use crate::SimError;
+use gonio_core::bound::Bound;
 use gonio_core::{Arcsec, Degrees, Harmonic, Radians};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -27,6 +28,13 @@ use serde::{Deserialize, Serialize};
 /// Most graduation lines of a model (each holds one random error: 800 MB at this limit; real
 /// gratings have up to a few hundred thousand).
 pub const MAX_LINES: u32 = 100_000_000;
+
+/// A harmonic's amplitude: an encoder error of up to a few degrees.
+pub const AMPLITUDE_ARCSEC: Bound = Bound::new(-1e4, 1e4, "″");
+/// A harmonic's phase.
+pub const PHASE_RAD: Bound = Bound::new(-1e3, 1e3, "rad");
+/// The graduation lines' σ.
+pub const GRADUATION_SIGMA_ARCSEC: Bound = Bound::new(0.0, 3600.0, "″");
 
 /// Most harmonics of a model.
 pub const MAX_HARMONICS: usize = 10_000;
@@ -126,20 +134,21 @@ impl EncoderModel {
     /// A model from its harmonics and graduation.
     ///
     /// # Errors
-    /// [`SimError::Parameter`] for order 0, a non-finite amplitude or phase, zero lines or more
-    /// than [`MAX_LINES`], more than [`MAX_HARMONICS`] harmonics, or a negative or non-finite
-    /// sigma.
+    /// [`SimError::Parameter`] for order 0, an amplitude or phase outside [`AMPLITUDE_ARCSEC`]
+    /// or [`PHASE_RAD`], zero lines or more than [`MAX_LINES`], more than [`MAX_HARMONICS`]
+    /// harmonics, or a sigma outside [`GRADUATION_SIGMA_ARCSEC`].
     pub fn new(harmonics: Vec<HarmonicArcsec>, graduation: Graduation) -> Result<Self, SimError> {
         for h in &harmonics {
             if h.order == 0 {
                 return Err(SimError::parameter("order", 0, "a harmonic order ≥ 1"));
             }
-            if !h.amplitude_arcsec.is_finite() || !h.phase_rad.is_finite() {
-                return Err(SimError::parameter(
-                    "amplitude_arcsec/phase_rad",
-                    format!("{}/{}", h.amplitude_arcsec, h.phase_rad),
-                    "finite numbers",
-                ));
+            for (name, v, bound) in [
+                ("amplitude_arcsec", h.amplitude_arcsec, AMPLITUDE_ARCSEC),
+                ("phase_rad", h.phase_rad, PHASE_RAD),
+            ] {
+                if let Err(e) = bound.check(v) {
+                    return Err(SimError::parameter(name, v, &e.to_string()));
+                }
             }
         }
         if harmonics.len() > MAX_HARMONICS {
@@ -156,11 +165,11 @@ impl EncoderModel {
                 "1 to 100000000 graduation lines",
             ));
         }
-        if !(graduation.sigma_arcsec >= 0.0 && graduation.sigma_arcsec.is_finite()) {
+        if let Err(e) = GRADUATION_SIGMA_ARCSEC.check(graduation.sigma_arcsec) {
             return Err(SimError::parameter(
                 "sigma_arcsec",
                 graduation.sigma_arcsec,
-                "a finite value ≥ 0",
+                &e.to_string(),
             ));
         }
         let lines = if graduation.sigma_arcsec > 0.0 {

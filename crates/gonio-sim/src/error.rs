@@ -29,11 +29,12 @@ pub enum SimError {
 }
 
 impl SimError {
-    /// Shorthand for [`SimError::Parameter`].
+    /// Shorthand for [`SimError::Parameter`] (a number found is written the short way:
+    /// `1e300`, not three hundred digits).
     pub fn parameter(name: &str, found: impl ToString, expected: &str) -> Self {
         SimError::Parameter {
             name: name.to_string(),
-            found: found.to_string(),
+            found: gonio_core::bound::tidy(&found.to_string()),
             expected: expected.to_string(),
         }
     }

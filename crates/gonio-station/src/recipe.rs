@@ -14,6 +14,7 @@
 use crate::StationError;
 use crate::fit::FitOptions;
 use crate::quality::{QualityLimits, QualitySettings};
+use gonio_core::bound::Bound;
 use serde::{Deserialize, Serialize};
 
 /// One grating type's settings.
@@ -256,6 +257,13 @@ impl Default for PushSettings {
 /// measure.fps`): a turn's samples are held whole.
 pub const MAX_FRAMES_PER_TURN: usize = 100_000;
 
+/// The pixel scale on the grating ([`Recipe::um_per_px`]).
+pub const UM_PER_PX: Bound = Bound::new(0.0, 1000.0, "µm/px").lo_excluded();
+/// The acceptance threshold of e ([`Recipe::threshold_um`]).
+pub const THRESHOLD_UM: Bound = Bound::new(0.0, 10_000.0, "µm").lo_excluded();
+/// Frames one turn had, valid or not: up to [`MAX_FRAMES_PER_TURN`].
+pub const FRAMES_PER_TURN: Bound = Bound::new(1.0, MAX_FRAMES_PER_TURN as f64, "frames");
+
 /// Default absolute part of the verify-turn tolerance, µm (`docs/quality-gates.md`).
 pub const VERIFY_TOLERANCE_UM: f64 = 8.0;
 /// Default share of the predicted move in the verify-turn tolerance (`docs/quality-gates.md`).
@@ -264,7 +272,7 @@ pub const VERIFY_TOLERANCE_FRACTION: f64 = 0.45;
 fn bad(key: &str, value: impl ToString, expected: &str) -> StationError {
     StationError::RecipeValue {
         key: key.to_string(),
-        value: value.to_string(),
+        value: gonio_core::bound::tidy(&value.to_string()),
         expected: expected.to_string(),
         line: 0,
         column: 0,
@@ -628,6 +636,62 @@ impl Recipe {
             ));
         }
         pos("learn.prior_weight", l.prior_weight)?;
+        // The settings above that have no natural end get one, far above real use.
+        let um = Bound::new(0.0, 10_000.0, "µm");
+        let ratio = Bound::new(0.0, 1000.0, "");
+        for (key, v, bound) in [
+            (
+                "measure.speed_deg_per_s",
+                m.speed_deg_per_s,
+                Bound::new(0.0, 1e6, "°/s"),
+            ),
+            ("measure.fps", m.fps, Bound::new(0.0, 1e6, "frames/s")),
+            ("focus.min_measure", f.min_measure, Bound::new(0.0, 1e6, "")),
+            ("focus.min_contrast", f.min_contrast, ratio),
+            (
+                "push.live_first_step_above_um",
+                p.live_first_step_above_um,
+                um,
+            ),
+            ("push.live_gain_min_move_um", p.live_gain_min_move_um, um),
+            ("push.live_stall_um", p.live_stall_um, um),
+            ("push.verify_tolerance_um", p.verify_tolerance_um, um),
+            (
+                "push.verify_tolerance_fraction",
+                p.verify_tolerance_fraction,
+                ratio,
+            ),
+            (
+                "quality.detector_accuracy_px",
+                q.detector_accuracy_px,
+                Bound::new(0.0, 1000.0, "px"),
+            ),
+            (
+                "quality.frame_noise_px",
+                q.frame_noise_px,
+                Bound::new(0.0, 1000.0, "px"),
+            ),
+            (
+                "quality.max_residual_rms_px",
+                q.max_residual_rms_px.unwrap_or(1.0),
+                Bound::new(0.0, 1000.0, "px"),
+            ),
+            ("quality.max_u_e_fraction", q.max_u_e_fraction, ratio),
+            ("quality.max_half_turn_z", q.max_half_turn_z, ratio),
+            ("learn.gain_min", l.gain_min, ratio),
+            ("learn.gain_max", l.gain_max, ratio),
+            ("learn.gain_min_push_um", l.gain_min_push_um, um),
+            ("learn.offset_min_move_um", l.offset_min_move_um, um),
+            (
+                "learn.prior_weight",
+                l.prior_weight,
+                Bound::new(0.0, 1e6, ""),
+            ),
+        ] {
+            if let Err(e) = bound.check(v) {
+                return Err(bad(key, v, &e.to_string()));
+            }
+        }
         Ok(())
     }
 
@@ -681,6 +745,13 @@ mod tests {
             ),
             ("[quality]\nmax_gap_deg = 0.0\n", "quality.max_gap_deg", 2),
             ("[measure]\nexposure_s = 0.5\n", "measure.exposure_s", 2),
+            ("[learn]\nprior_weight = 1e300\n", "learn.prior_weight", 2),
+            (
+                "[quality]\nframe_noise_px = 1e300\n",
+                "quality.frame_noise_px",
+                2,
+            ),
+            ("[push]\nlive_stall_um = 1e300\n", "push.live_stall_um", 2),
         ] {
             match Recipe::from_toml(text).unwrap_err() {
                 StationError::RecipeValue {
@@ -689,6 +760,11 @@ mod tests {
                 other => panic!("{text}: {other:?}"),
             }
         }
+        let e = Recipe::from_toml("[learn]\nprior_weight = 1e300\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "line 2, column 1: learn.prior_weight = 1e300: expected at most 1000000"
+        );
         let e = Recipe::from_toml("[fit]\nhuber_k = 0.0\n").unwrap_err();
         assert_eq!(
             e.to_string(),

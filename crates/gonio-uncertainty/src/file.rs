@@ -419,7 +419,10 @@ pub(crate) fn build_contribution(
             if v.is_nan() || v <= 0.0 {
                 return at(
                     nu.span(),
-                    format!("degrees of freedom must be > 0 (or \"inf\"), found {v}"),
+                    format!(
+                        "degrees of freedom must be > 0 (or \"inf\"), found {}",
+                        gonio_core::bound::Num(v)
+                    ),
                 );
             }
             contrib = contrib.with_dof(v);
@@ -438,7 +441,10 @@ pub(crate) fn build_contribution(
             if !(v.is_finite() && v >= 0.0) {
                 return at(
                     r.span(),
-                    format!("relative_uncertainty must be ≥ 0 (0.10 means 10 %), found {v}"),
+                    format!(
+                        "relative_uncertainty must be ≥ 0 (0.10 means 10 %), found {}",
+                        gonio_core::bound::Num(v)
+                    ),
                 );
             }
             contrib = contrib.with_relative_uncertainty(v);

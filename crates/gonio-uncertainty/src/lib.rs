@@ -37,6 +37,7 @@ pub use budget::{
     Term, combine, en, gum_for_model,
 };
 pub use file::{BudgetFile, BudgetFileError, decode_text, parse_budget_bytes, parse_budget_file};
+use gonio_core::bound::Num;
 pub use instrument::{InstrumentFile, combine_with_instrument};
 pub use montecarlo::{
     InputDistribution, Interval, McConfig, McResult, McTrials, Validation, monte_carlo,
@@ -51,7 +52,11 @@ pub use montecarlo::{
 #[non_exhaustive]
 pub enum UncertaintyError {
     /// A standard uncertainty (or a bound it was derived from) is negative or not finite.
-    #[error("contribution '{}': {what} must be a finite number ≥ 0, found {value}", short(.name))]
+    #[error(
+        "contribution '{}': {what} must be a finite number ≥ 0, found {}",
+        short(.name),
+        Num(*.value)
+    )]
     BadUncertainty {
         /// Contribution name.
         name: String,
@@ -62,8 +67,9 @@ pub enum UncertaintyError {
     },
     /// Degrees of freedom ≤ 0 or NaN.
     #[error(
-        "contribution '{}': degrees of freedom must be > 0 (or infinite), found {nu}",
-        short(.name)
+        "contribution '{}': degrees of freedom must be > 0 (or infinite), found {}",
+        short(.name),
+        Num(*.nu)
     )]
     BadDof {
         /// Contribution name.
@@ -81,7 +87,10 @@ pub enum UncertaintyError {
         what: String,
     },
     /// Coverage probability outside (0, 1).
-    #[error("coverage probability must be strictly between 0 and 1, found {coverage}")]
+    #[error(
+        "coverage probability must be strictly between 0 and 1, found {}",
+        Num(*.coverage)
+    )]
     BadCoverage {
         /// The value found.
         coverage: f64,
@@ -211,9 +220,14 @@ fn place(budget: &str, contribution: &Option<String>) -> String {
     }
 }
 
-/// Checks a coverage probability: 0 < p < 1.
+/// A coverage probability p: 0 < p < 1 (the flags' and files' bound).
+pub const COVERAGE: gonio_core::bound::Bound = gonio_core::bound::Bound::new(0.0, 1.0, "")
+    .lo_excluded()
+    .hi_excluded();
+
+/// Checks a coverage probability: 0 < p < 1 ([`COVERAGE`]).
 pub fn check_coverage(coverage: f64) -> Result<f64, UncertaintyError> {
-    if coverage > 0.0 && coverage < 1.0 {
+    if COVERAGE.contains(coverage) {
         Ok(coverage)
     } else {
         Err(UncertaintyError::BadCoverage { coverage })

@@ -264,6 +264,15 @@ fn sin_two_pi(r: f64) -> f64 {
 /// The most trials one run may use (memory: 8 bytes per trial).
 pub const MAX_TRIALS: usize = 100_000_000;
 
+/// A fixed number of trials ([`McTrials::Fixed`]): at most [`MAX_TRIALS`] (the coverage asks
+/// for a lower bound of its own, checked by the run).
+pub const TRIALS: gonio_core::bound::Bound =
+    gonio_core::bound::Bound::new(1.0, MAX_TRIALS as f64, "trials");
+
+/// Significant digits of u regarded as meaningful ([`McConfig::ndig`], JCGM 101 §7.9.2: 1 or 2
+/// in practice); beyond 6 the adaptive run's tolerance asks for more trials than it may use.
+pub const NDIG: gonio_core::bound::Bound = gonio_core::bound::Bound::new(1.0, 6.0, "");
+
 /// How many trials to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum McTrials {

@@ -15,6 +15,7 @@
 //! ```
 
 use crate::VisionError;
+use gonio_core::bound::{Bound, tidy};
 use serde::{Deserialize, Serialize};
 
 /// Whether the alignment ring is darker or brighter than its surroundings.
@@ -184,10 +185,25 @@ pub const MAX_WINDOW_PIXELS: u64 = 1 << 24;
 /// Widest ring once imaged, px: the morphology's structuring elements grow with it.
 pub const MAX_RING_WIDTH_PX: f64 = 512.0;
 
+/// A sensor's pixel pitch ([`Optics::pixel_pitch_um`]).
+pub const PIXEL_PITCH_UM: Bound = Bound::new(0.0, 1000.0, "µm").lo_excluded();
+/// A lens's magnification ([`Optics::magnification`]).
+pub const MAGNIFICATION: Bound = Bound::new(0.0, 1000.0, "").lo_excluded();
+/// The ring's width and radius on the grating ([`Optics::ring_width_um`],
+/// [`Optics::ring_radius_um`]): up to a metre.
+pub const RING_UM: Bound = Bound::new(0.0, 1e6, "µm").lo_excluded();
+/// The faintest ring depth ([`Optics::min_ring_contrast_grey`]): an 8-bit frame's range.
+pub const RING_CONTRAST_GREY: Bound = Bound::new(0.0, 255.0, "grey levels").lo_excluded();
+/// The largest eccentricity to see ([`Optics::max_eccentricity_um`]).
+pub const MAX_ECCENTRICITY_UM: Bound = Bound::new(0.0, 1e6, "µm");
+/// The focus threshold ([`Optics::min_focus`]): grey²/px², at most the largest a frame of 8-bit
+/// grey levels can show.
+pub const MIN_FOCUS: Bound = Bound::new(0.0, 1e6, "grey²/px²");
+
 fn bad(name: &'static str, found: impl ToString, expected: &str) -> VisionError {
     VisionError::Optics {
         name,
-        found: found.to_string(),
+        found: tidy(&found.to_string()),
         expected: expected.to_string(),
     }
 }
@@ -261,24 +277,26 @@ impl Optics {
     /// window larger than the sensor, a ring narrower than 2 px or wider than a quarter of the
     /// window, thresholds with low > high, fractions outside 0–1).
     pub fn params(&self) -> Result<Params, VisionError> {
-        let pos = |name, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(bad(name, v, "a finite number > 0"))
-            }
-        };
-        pos("pixel_pitch_um", self.pixel_pitch_um)?;
-        pos("magnification", self.magnification)?;
-        pos("ring_width_um", self.ring_width_um)?;
-        pos("ring_radius_um", self.ring_radius_um)?;
-        pos("min_ring_contrast_grey", self.min_ring_contrast_grey)?;
-        if !(self.max_eccentricity_um.is_finite() && self.max_eccentricity_um >= 0.0) {
-            return Err(bad(
+        for (name, v, bound) in [
+            ("pixel_pitch_um", self.pixel_pitch_um, PIXEL_PITCH_UM),
+            ("magnification", self.magnification, MAGNIFICATION),
+            ("ring_width_um", self.ring_width_um, RING_UM),
+            ("ring_radius_um", self.ring_radius_um, RING_UM),
+            (
+                "min_ring_contrast_grey",
+                self.min_ring_contrast_grey,
+                RING_CONTRAST_GREY,
+            ),
+            (
                 "max_eccentricity_um",
                 self.max_eccentricity_um,
-                "a finite number ≥ 0",
-            ));
+                MAX_ECCENTRICITY_UM,
+            ),
+            ("min_focus", self.min_focus, MIN_FOCUS),
+        ] {
+            if let Err(e) = bound.check(v) {
+                return Err(bad(name, v, &e.to_string()));
+            }
         }
         if self.window_width_px < 16
             || self.window_width_px > self.sensor_width_px
@@ -340,9 +358,6 @@ impl Optics {
                 self.ring_width_tolerance,
                 "a fraction > 0 and < 0.9",
             ));
-        }
-        if !(self.min_focus.is_finite() && self.min_focus >= 0.0) {
-            return Err(bad("min_focus", self.min_focus, "a finite number ≥ 0"));
         }
         let um_per_px = self.pixel_pitch_um / self.magnification;
         let width = self.window_width_px as usize;

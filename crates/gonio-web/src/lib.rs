@@ -14,7 +14,8 @@
 //!
 //! Everything is read-only (only `GET`), and every asset is built into the binary: no CDN, no
 //! network. Errors are JSON (`{"error": "…"}`), bad query strings included. How connections
-//! are limited, hosts checked, and TLS and a bearer token served: [`server`]. The station publishes through [`live::LiveObserver`]; the web layer never calls
+//! are limited, hosts checked, and TLS and a bearer token served: [`server`]; the token and the
+//! key are read from files only their owner may read: [`secret`]. The station publishes through [`live::LiveObserver`]; the web layer never calls
 //! the station.
 //!
 //! ```no_run
@@ -31,6 +32,7 @@ mod api;
 mod assets;
 pub mod live;
 mod pages;
+pub mod secret;
 pub mod server;
 mod state;
 

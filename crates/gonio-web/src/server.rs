@@ -3,7 +3,10 @@
 //! Every connection gets at most [`ServeOptions::header_read_timeout`] to send a request's
 //! headers (a TLS handshake the same), and at most [`ServeOptions::max_connections`] are open
 //! at once: clients that connect and send nothing (or a byte a second) are closed when their
-//! time is up, so they cannot lock the dashboard out for longer than that.
+//! time is up, so they cannot lock the dashboard out for longer than that. A request's line and
+//! headers together are at most [`ServeOptions::max_header_bytes`] (and 100 headers): a longer
+//! head is answered `431 Request Header Fields Too Large` and the connection closed, never
+//! collected.
 //!
 //! Every request's `Host` is checked against the names this dashboard serves (DNS
 //! rebinding: a page of another site whose name was made to point at this machine sends its own
@@ -145,6 +148,8 @@ impl BearerToken {
 pub struct ServeOptions {
     /// Time a connection has to send a request's headers (and to finish a TLS handshake).
     pub header_read_timeout: Duration,
+    /// Longest request line and headers together, bytes (at least 8192).
+    pub max_header_bytes: usize,
     /// Connections open at once; more wait until one closes.
     pub max_connections: usize,
     /// Host names served besides the connection's own address (and `localhost` on loopback).
@@ -156,10 +161,11 @@ pub struct ServeOptions {
 }
 
 impl Default for ServeOptions {
-    /// 10 s for the headers, 256 connections, no TLS, no token.
+    /// 10 s and 16 KiB for the headers, 256 connections, no TLS, no token.
     fn default() -> Self {
         ServeOptions {
             header_read_timeout: Duration::from_secs(10),
+            max_header_bytes: 16 << 10,
             max_connections: 256,
             host_names: Vec::new(),
             tls: None,
@@ -255,7 +261,7 @@ impl Gate {
     }
 }
 
-async fn serve_connection<I>(io: I, gate: Gate, header_read_timeout: Duration)
+async fn serve_connection<I>(io: I, gate: Gate, header_read_timeout: Duration, max_header: usize)
 where
     I: AsyncRead + AsyncWrite + Unpin + Send + 'static,
 {
@@ -263,6 +269,7 @@ where
     let conn = hyper::server::conn::http1::Builder::new()
         .timer(TokioTimer::new())
         .header_read_timeout(header_read_timeout)
+        .max_header_size(max_header)
         .serve_connection(TokioIo::new(io), service);
     // A client that goes away or times out is not the server's error.
     let _ = conn.await;
@@ -282,6 +289,7 @@ pub(crate) async fn run(
         .map(|t| tokio_rustls::TlsAcceptor::from(t.0.clone()));
     let names: Arc<[String]> = options.host_names.clone().into();
     let timeout = options.header_read_timeout;
+    let max_header = options.max_header_bytes.max(8192);
     let mut tasks = JoinSet::new();
     tokio::pin!(shutdown);
     loop {
@@ -316,10 +324,10 @@ pub(crate) async fn run(
         tasks.spawn(async move {
             let _permit = permit;
             match acceptor {
-                None => serve_connection(stream, gate, timeout).await,
+                None => serve_connection(stream, gate, timeout, max_header).await,
                 Some(a) => {
                     if let Ok(Ok(tls)) = tokio::time::timeout(timeout, a.accept(stream)).await {
-                        serve_connection(tls, gate, timeout).await;
+                        serve_connection(tls, gate, timeout, max_header).await;
                     }
                 }
             }

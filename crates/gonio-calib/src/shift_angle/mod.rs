@@ -43,7 +43,7 @@ mod result;
 pub use check::{HarmonicCheck, ShiftCheck, harmonic_check};
 pub use data::{MAX_FACES, Reading, ReadingSet, ShiftKey};
 pub use error::ShiftAngleError;
-pub use range::{MAX_SHIFTS, shift_range};
+pub use range::{MAX_SHIFTS, SHIFT_DEG, shift_range};
 pub(crate) use result::residual_stats;
 pub use result::{
     Calibration, Chi2Check, FullCovariance, Residuals, SetupError, ShiftResult, undetectable_orders,

@@ -4,6 +4,10 @@
 /// Most shifts in a range `START:STEP:END`.
 pub const MAX_SHIFTS: usize = 100_000;
 
+/// A shift of the polygon's start: 0 ≤ shift < 360°, as a readings file takes it.
+pub const SHIFT_DEG: gonio_core::bound::Bound =
+    gonio_core::bound::Bound::new(0.0, 360.0, "°").hi_excluded();
+
 /// The shifts of `START:STEP:END` (inclusive end) or a single `S`, degrees; `None` when it is
 /// neither, or has more than [`MAX_SHIFTS`] shifts.
 ///

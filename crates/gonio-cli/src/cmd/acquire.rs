@@ -8,17 +8,19 @@
 mod screen;
 
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_cli::{note, say};
+use gonio_core::bound::{Num, duration_s};
 use gonio_io::input;
-use gonio_lab::acquire::{AcquireError, Acquisition, Attempt, Check, CheckKind, Settings};
+use gonio_lab::acquire::{self, AcquireError, Acquisition, Attempt, Check, CheckKind, Settings};
+use gonio_lab::instrument;
 use gonio_lab::instrument::{Autocollimator, Transport};
 use gonio_lab::journal::{self, Outcome};
 use gonio_lab::log::Mode;
 use gonio_lab::plan::{ModeRule, Plan, PlannedReading};
 use std::io::{BufRead, IsTerminal};
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// What to acquire.
 #[derive(Debug, clap::Subcommand)]
@@ -63,28 +65,28 @@ pub struct Args {
     /// The readings CSV to write when the plan is complete; the journal is OUT.journal.
     #[arg(long)]
     pub out: PathBuf,
-    /// Baud rate of the serial line.
-    #[arg(long, default_value_t = 9600)]
+    /// Baud rate of the serial line (50 to 4000000).
+    #[arg(long, default_value_t = 9600, value_parser = flag::whole::<u32>(instrument::BAUD))]
     pub baud: u32,
     /// Readings to ask for: `absolute` (`a`, answered `4 003 …`) or `relative` (`r`, `2 103
     /// …`). Default: the plan's mode, absolute when it allows either.
     #[arg(long, value_enum, hide_possible_values = true)]
     pub mode: Option<Mode>,
-    /// Answers averaged per position.
-    #[arg(long, default_value_t = 3)]
+    /// Answers averaged per position (1 to 1000).
+    #[arg(long, default_value_t = 3, value_parser = flag::whole::<usize>(acquire::SAMPLES))]
     pub samples: usize,
     /// Largest spread (largest − smallest X) of one position's samples, arcsec. Default: 5σ.
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(acquire::MAX_SPREAD_ARCSEC))]
     pub max_spread_arcsec: Option<f64>,
     /// The autocollimator's standard deviation of one answer, arcsec: the default spread
     /// limit and the limits of the closure and drift checks (3·√2·σ/√samples).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = flag::real(acquire::SIGMA_ARCSEC))]
     pub sigma_arcsec: f64,
     /// Sets read again when their spread is over the limit, before the operator is asked.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = flag::whole::<u32>(acquire::REREADS))]
     pub rereads: u32,
-    /// Seconds to wait for one answer before the instrument counts as silent.
-    #[arg(long, default_value_t = 2.0)]
+    /// Seconds to wait for one answer before the instrument counts as silent (0.05 to 60).
+    #[arg(long, default_value_t = 2.0, value_parser = flag::real(acquire::ANSWER_TIMEOUT_S))]
     pub timeout_s: f64,
     /// Also write what the instrument sent (samples and rejected answers as `#` lines, each
     /// reading as the mean line `gonio import elcomat` reads) when the plan is complete.
@@ -126,25 +128,7 @@ fn settings(args: &Args, plan: &Plan) -> Result<Settings> {
         ),
         (Some(m), _) => m,
     };
-    if !(1..=1000).contains(&args.samples) {
-        bail!("--samples {}: expected 1 to 1000", args.samples);
-    }
-    if !(args.sigma_arcsec.is_finite() && args.sigma_arcsec > 0.0) {
-        bail!(
-            "--sigma-arcsec {}: expected a positive number",
-            args.sigma_arcsec
-        );
-    }
     let max_spread = args.max_spread_arcsec.unwrap_or(5.0 * args.sigma_arcsec);
-    if !(max_spread.is_finite() && max_spread >= 0.0) {
-        bail!("--max-spread-arcsec {max_spread}: expected a number ≥ 0");
-    }
-    if !(args.timeout_s.is_finite() && (0.05..=60.0).contains(&args.timeout_s)) {
-        bail!(
-            "--timeout-s {}: expected 0.05 to 60 seconds",
-            args.timeout_s
-        );
-    }
     Ok(Settings {
         mode,
         samples: args.samples,
@@ -168,7 +152,8 @@ fn shift_angle(args: Args) -> Result<()> {
     let csv_out = out.file("--out", &args.out)?;
     let log_out = out.optional("--log", args.log.as_deref())?;
     let journal_path = journal::path_for(&args.out);
-    let timeout = Duration::from_secs_f64(args.timeout_s);
+    let timeout = duration_s(args.timeout_s, &acquire::ANSWER_TIMEOUT_S)
+        .map_err(|e| anyhow!("--timeout-s {}: {e}", Num(args.timeout_s)))?;
     let resuming = args.resume && journal_path.exists();
     // A new journal only once the port is open: a missing port leaves nothing behind.
     let (mut acq, mut port) = if resuming {
@@ -312,13 +297,22 @@ pub(crate) fn check_line(c: &Check) -> String {
     )
 }
 
+/// The longest operator line read (the longest answer, `accept`, is 6 bytes).
+const MAX_OPERATOR_LINE_BYTES: usize = 4096;
+
 /// Reads one operator line; `None` at the end of input.
+///
+/// # Errors
+/// Standard input cannot be read, or a line goes on beyond [`MAX_OPERATOR_LINE_BYTES`].
 fn operator_line(stdin: &mut impl BufRead) -> Result<Option<String>> {
-    let mut s = String::new();
-    let n = stdin
-        .read_line(&mut s)
-        .map_err(|e| anyhow!("cannot read standard input: {e}"))?;
-    Ok((n > 0).then(|| s.trim().to_string()))
+    let mut line = Vec::new();
+    let more = gonio_core::text::read_line_bounded(stdin, MAX_OPERATOR_LINE_BYTES, &mut line)
+        .map_err(|e| {
+            anyhow!(
+                "standard input: {e}: expected an empty line (read), redo, skip, accept or quit"
+            )
+        })?;
+    Ok(more.then(|| String::from_utf8_lossy(&line).trim().to_string()))
 }
 
 /// The line protocol (standard input not a terminal).

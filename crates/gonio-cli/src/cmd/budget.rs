@@ -2,9 +2,11 @@
 
 use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_io::results::budget::{self, McJson, Progress};
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
+use gonio_uncertainty::montecarlo;
 use gonio_uncertainty::{BudgetResult, short};
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -25,7 +27,7 @@ pub struct Args {
     /// Budget file (TOML; `-` for standard input).
     pub budget: PathBuf,
     /// Coverage probability p, 0 < p < 1 (default: the file's `coverage`, else 0.95).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_uncertainty::COVERAGE))]
     pub coverage: Option<f64>,
     /// Budget to report (default: the last one in the file).
     #[arg(long = "budget", value_name = "NAME")]
@@ -36,11 +38,12 @@ pub struct Args {
     /// Monte Carlo seed (same seed, same result).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Monte Carlo trials (default: adaptive, JCGM 101 §7.9, up to 10⁷).
-    #[arg(long)]
+    /// Monte Carlo trials (default: adaptive, JCGM 101 §7.9, up to 10⁷; at most 10⁸).
+    #[arg(long, value_parser = flag::whole::<usize>(montecarlo::TRIALS))]
     pub trials: Option<usize>,
-    /// Significant digits of u regarded as meaningful (Monte Carlo tolerance and validation).
-    #[arg(long, default_value_t = 2)]
+    /// Significant digits of u regarded as meaningful (Monte Carlo tolerance and validation),
+    /// 1 to 6.
+    #[arg(long, default_value_t = 2, value_parser = flag::whole::<u32>(montecarlo::NDIG))]
     pub ndig: u32,
     /// Table format on standard output: text, markdown or csv.
     #[arg(long, default_value = "text")]

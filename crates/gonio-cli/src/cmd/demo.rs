@@ -52,7 +52,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Autocollimator noise per reading, arcsec.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = gonio_cli::flag::real(gonio_cli::flag::SIGMA_ARCSEC))]
     pub sigma: f64,
     /// Directory for the report, the certificates, the comparison and the batch.
     #[arg(long, default_value = "gonio-demo")]

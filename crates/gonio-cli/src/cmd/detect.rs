@@ -3,6 +3,8 @@
 
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::output::{OutId, Outputs};
+use gonio_cli::{flag, memory};
+use gonio_core::bound::Bound;
 use gonio_core::quantile::quantile_sorted;
 use gonio_io::formats::angles::{self, AngleLog};
 use gonio_io::formats::csv::CsvTable;
@@ -74,13 +76,13 @@ pub struct Args {
     #[arg(long, value_name = "ANGLES.csv", conflicts_with_all = ["speed_deg_s", "fps"])]
     pub angles: Option<PathBuf>,
     /// Constant table speed, degrees per second (with --fps): θ = start + frame·speed/fps.
-    #[arg(long, requires = "fps")]
+    #[arg(long, requires = "fps", allow_hyphen_values = true, value_parser = flag::real(flag::SPEED_DEG_S))]
     pub speed_deg_s: Option<f64>,
     /// Frame rate, frames per second (with --speed-deg-s).
-    #[arg(long, requires = "speed_deg_s")]
+    #[arg(long, requires = "speed_deg_s", value_parser = flag::real(flag::FPS))]
     pub fps: Option<f64>,
     /// θ of frame 0 with --speed-deg-s, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = flag::real(flag::ANGLE_DEG))]
     pub start_deg: f64,
     /// Optics TOML (sensor, window, pixel pitch, magnification, ring width and radius, polarity,
     /// thresholds…); default: the station of Yu et al., 2024.
@@ -93,11 +95,11 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub dump_stages: Option<PathBuf>,
     /// The frame to dump (0-based).
-    #[arg(long, default_value_t = 0, requires = "dump_stages")]
+    #[arg(long, default_value_t = 0, requires = "dump_stages", value_parser = flag::whole::<usize>(FRAME_INDEX))]
     pub frame: usize,
     /// Worker threads detecting frames in parallel (default: all cores; 1 to 256); the output
     /// stays in frame order.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=256))]
+    #[arg(long, value_name = "N", value_parser = flag::whole::<u16>(THREADS))]
     pub threads: Option<u16>,
     /// Also time the detector alone: its CPU time per frame (median, 99th percentile, maximum;
     /// reading the frames and writing the lines not counted) on standard error. The frames are
@@ -114,7 +116,7 @@ pub struct Args {
         long,
         value_name = "N",
         conflicts_with = "threads",
-        value_parser = clap::value_parser!(u8).range(1..=2)
+        value_parser = flag::whole::<u8>(FRAME_THREADS)
     )]
     pub frame_threads: Option<u8>,
     /// Stream from this GenICam camera (an id of `gonio camera list`; needs a build with
@@ -126,14 +128,15 @@ pub struct Args {
         long = "frames",
         id = "frame_count",
         value_name = "N",
-        requires = "camera"
+        requires = "camera",
+        value_parser = flag::whole::<u64>(FRAME_COUNT)
     )]
     pub frame_count: Option<u64>,
     /// With --camera: exposure time, µs (default: the camera's).
-    #[arg(long, requires = "camera")]
+    #[arg(long, requires = "camera", value_parser = flag::real(EXPOSURE_US))]
     pub exposure_us: Option<f64>,
     /// With --camera: gain, dB (default: the camera's).
-    #[arg(long, requires = "camera", allow_hyphen_values = true)]
+    #[arg(long, requires = "camera", allow_hyphen_values = true, value_parser = flag::real(GAIN_DB))]
     pub gain_db: Option<f64>,
     /// With --camera: the trigger (free running, one software trigger per frame, or hardware
     /// line 1 from the PLC).
@@ -141,10 +144,10 @@ pub struct Args {
     pub trigger: TriggerArg,
     /// With --camera: GigE Vision packet size, bytes (default: the camera's; jumbo frames
     /// e.g. 8192 need the network card's MTU raised).
-    #[arg(long, requires = "camera")]
+    #[arg(long, requires = "camera", value_parser = flag::whole::<u32>(PACKET_BYTES))]
     pub packet_size: Option<u32>,
     /// With --camera: the stream socket's receive buffer, bytes (0: Aravis's, one frame).
-    #[arg(long, default_value_t = 4 << 20)]
+    #[arg(long, default_value_t = 4 << 20, value_parser = flag::whole::<u32>(SOCKET_BUFFER_BYTES))]
     pub socket_buffer_bytes: u32,
     /// With --camera: use Aravis's packet socket (faster on a network card; sees nothing on
     /// loopback, hence off by default).
@@ -154,8 +157,57 @@ pub struct Args {
     #[arg(long)]
     pub no_packet_resend: bool,
     /// With --camera: give up when no frame comes for this long, ms (the camera gone).
-    #[arg(long, default_value_t = 3000)]
+    #[arg(long, default_value_t = 3000, value_parser = flag::whole::<u64>(FRAME_TIMEOUT_MS))]
     pub frame_timeout_ms: u64,
+}
+
+/// `--threads`: worker threads (each holds a detector, ≈ 20 bytes a window pixel).
+const THREADS: Bound = Bound::new(1.0, 256.0, "");
+/// `--frame-threads`: one, or the frame split across two.
+const FRAME_THREADS: Bound = Bound::new(1.0, 2.0, "");
+/// `--frame`: the frame dumped (0-based).
+const FRAME_INDEX: Bound = Bound::new(0.0, 1e9, "");
+/// `--frames`: frames from the camera.
+const FRAME_COUNT: Bound = Bound::new(1.0, 1e12, "frames");
+/// `--exposure-us`: up to 100 s.
+const EXPOSURE_US: Bound = Bound::new(0.0, 1e8, "µs").lo_excluded();
+/// `--gain-db`.
+const GAIN_DB: Bound = Bound::new(-100.0, 100.0, "dB");
+/// `--packet-size`: from the smallest IP datagram every host takes to the largest jumbo frame.
+const PACKET_BYTES: Bound = Bound::new(576.0, 65_535.0, "bytes");
+/// `--socket-buffer-bytes` (0: Aravis's own).
+const SOCKET_BUFFER_BYTES: Bound = Bound::new(0.0, (1u32 << 30) as f64, "bytes");
+/// `--frame-timeout-ms`: up to an hour.
+const FRAME_TIMEOUT_MS: Bound = Bound::new(1.0, 3_600_000.0, "ms");
+
+/// Refuses a thread count whose detectors (one a worker, sized by the optics) the address space
+/// cannot hold, before any is made: one is made and measured, and the whole set reserved.
+fn check_threads_fit(optics: &Optics, threads: usize) -> Result<()> {
+    if threads <= 1 {
+        return Ok(());
+    }
+    let (det, grew) = memory::measured(|| gonio_vision::Detector::new(optics));
+    drop(det?);
+    let Some(detector) = grew else {
+        return Ok(());
+    };
+    let p = optics.params()?;
+    // A worker: its detector, its frame and the one being read for it, its stack; and the
+    // allocator's arenas of the worker threads.
+    let per = detector + 2 * (p.width * p.height) as u64 + (2 << 20);
+    let need = |k: usize| per * k as u64 + memory::thread_arenas(k);
+    if memory::available(need(threads)) {
+        return Ok(());
+    }
+    let fit = (1..threads)
+        .rev()
+        .find(|&k| memory::available(need(k)))
+        .unwrap_or(0);
+    bail!(
+        "--threads {threads}: {threads} workers need ≈{} MiB for these optics ({} MiB each), more memory than this process may have (an address-space limit, ulimit -v?): at most {fit} fit",
+        memory::mib(need(threads)),
+        memory::mib(per)
+    )
 }
 
 /// The trigger on the command line.
@@ -201,9 +253,6 @@ fn load_angles(inputs: &Inputs, a: &Args) -> Result<Angles> {
         return Ok(Angles::Table(angles::from_table(&table)?));
     }
     if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
-        if !speed.is_finite() || !fps.is_finite() || fps <= 0.0 {
-            bail!("--speed-deg-s {speed} --fps {fps}: expected a finite speed and fps > 0");
-        }
         return Ok(Angles::Speed {
             start: a.start_deg,
             speed,
@@ -369,6 +418,7 @@ where
             || std::thread::available_parallelism().map_or(1, |n| n.get()),
             usize::from,
         );
+        check_threads_fit(optics, threads)?;
         detect_in_order(source, optics, threads, |src, item| match item {
             Ok(d) => line(src, &d, &mut done, sink),
             Err(e) => failed(src, e, &mut done),
@@ -538,16 +588,6 @@ mod camera_run {
         sink: &mut Sink,
     ) -> Result<Detected> {
         let um_per_px = optics.params()?.um_per_px;
-        if let Some(us) = a.exposure_us
-            && !(us.is_finite() && us > 0.0)
-        {
-            anyhow::bail!("--exposure-us {us}: expected a time > 0");
-        }
-        if let Some(db) = a.gain_db
-            && !db.is_finite()
-        {
-            anyhow::bail!("--gain-db {db}: expected a finite gain");
-        }
         let config = CameraConfig {
             window_size: (optics.window_width_px, optics.window_height_px),
             window_offset: None,

@@ -1,6 +1,7 @@
 //! `gonio eccentricity`: the eccentricity of a grating from one turn's `(θ, c)` samples.
 
 use anyhow::Result;
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_cli::say;
 use gonio_io::formats::csv::CsvTable;
@@ -42,14 +43,14 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "least-squares")]
     pub method: Method,
     /// Pixel scale on the grating, µm per px [default: the recipe's, else 0.75].
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_station::recipe::UM_PER_PX))]
     pub um_per_px: Option<f64>,
     /// Frames the turn had, valid or not [default: the rows of the file].
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<usize>(gonio_station::recipe::FRAMES_PER_TURN))]
     pub frames_taken: Option<usize>,
     /// Acceptance threshold of e, µm, against which u(e) is judged [default: the recipe's, else
     /// 5].
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_station::recipe::THRESHOLD_UM))]
     pub threshold_um: Option<f64>,
     /// Recipe (TOML) whose fit settings and quality limits to use.
     #[arg(long)]

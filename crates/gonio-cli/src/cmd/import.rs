@@ -3,7 +3,7 @@
 //!
 //! Glue only: the log's format, the plan and the pairing of the two are `gonio_lab`'s.
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use gonio_cli::output::Outputs;
 use gonio_lab::plan::Plan;
 use gonio_lab::{import, log, readings};
@@ -38,7 +38,7 @@ Examples:
 pub struct ElcomatArgs {
     /// The log (`-` for standard input).
     pub log: PathBuf,
-    /// The measuring plan (TOML).
+    /// The measuring plan (TOML; `-` for standard input, when the log is a file).
     #[arg(long)]
     pub plan: PathBuf,
     /// The readings CSV to write (`-` for standard output).
@@ -54,6 +54,12 @@ pub fn run(i: Import) -> Result<()> {
 }
 
 fn elcomat(args: ElcomatArgs) -> Result<()> {
+    // Standard input is read once: said before either is read, not as the second's parse error.
+    if args.log.as_os_str() == "-" && args.plan.as_os_str() == "-" {
+        bail!(
+            "LOG - and --plan -: both are standard input, which can be read only once; give the plan as a file"
+        );
+    }
     let mut out = Outputs::new();
     let csv_out = out.file("--out", &args.out)?;
     let plan_text = out.inputs().read_text(&args.plan)?;

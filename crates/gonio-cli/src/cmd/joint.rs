@@ -5,6 +5,7 @@ use anyhow::Result;
 use gonio_calib::certificate::{Certificate, JointSection};
 use gonio_calib::joint::{HeadAngles, Interpolation, JointHarmonic, SigmaUsed};
 use gonio_calib::selfcal::NoiseModel;
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_io::formats::heads;
 use gonio_io::formats::source::{Document, Table};
@@ -40,7 +41,7 @@ pub struct Args {
     /// Head readings CSV.
     pub heads_readings: PathBuf,
     /// Polygon faces N.
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<usize>(flag::FACES))]
     pub faces: usize,
     /// Head arrangement: `selfa12`, `eda:N`, or a TOML/JSON heads file.
     #[arg(long)]
@@ -49,11 +50,11 @@ pub struct Args {
     #[arg(long)]
     pub raw: bool,
     /// σ of one polygon reading, arcsec (default: from the polygon's own residuals).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::SIGMA_ARCSEC))]
     pub sigma_polygon: Option<f64>,
     /// σ of one head reading (or difference, per --noise-model), arcsec (default: from the
     /// heads' own residuals).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::SIGMA_ARCSEC))]
     pub sigma_heads: Option<f64>,
     /// Heads' noise: `readings` (each head reading has its own noise) or `differences`.
     #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
@@ -67,18 +68,18 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
     pub interpolation: Interpolation,
     /// Largest order of the harmonic table and the blind lists.
-    #[arg(long, default_value_t = 360)]
+    #[arg(long, default_value_t = 360, value_parser = flag::whole::<u32>(flag::MAX_ORDER))]
     pub max_order: u32,
     /// Highest heads-blind order the polygon is asked to resolve (default: half the number of
     /// distinct polygon angles).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<u32>(flag::MAX_ORDER))]
     pub blind_max_order: Option<u32>,
     /// Instrument terms (TOML, see examples/instrument-shift-angle.toml) combined with the
     /// random part into u, ν_eff, k and U of every angle.
     #[arg(long)]
     pub instrument: Option<PathBuf>,
     /// Coverage probability of U (default: the instrument file's, else 0.95).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_uncertainty::COVERAGE))]
     pub coverage: Option<f64>,
     // `--json` and `--db`, shared with the other calibration commands.
     #[command(flatten)]

@@ -91,7 +91,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE", requires = "plc")]
     pub plc_map: Option<PathBuf>,
     /// Number of parts.
-    #[arg(long, default_value_t = 25)]
+    #[arg(long, default_value_t = 25, value_parser = gonio_cli::flag::whole::<usize>(crate::station::PARTS))]
     pub parts: usize,
     /// Push strategy (default live: through the wire and in the twin it needs fewer pushes,
     /// ends closer and sooner than learned; BENCHMARKS.md, "Station over Modbus TCP").
@@ -142,9 +142,6 @@ pub struct Args {
     pub record_parts: Option<String>,
 }
 
-/// Most parts in one batch (the one limit of `mount` and `serve --station`).
-use crate::station::MAX_PARTS;
-
 /// Runs `gonio mount`.
 pub fn run(a: Args) -> Result<()> {
     if let Some(plc) = a.plc.clone() {
@@ -156,9 +153,6 @@ pub fn run(a: Args) -> Result<()> {
     let Some(seed) = a.seed else {
         bail!("--sim needs --seed");
     };
-    if !(1..=MAX_PARTS).contains(&a.parts) {
-        bail!("--parts {}: expected 1 to {MAX_PARTS}", a.parts);
-    }
     let mut outputs = Outputs::new();
     if let Some(db) = &a.db {
         crate::db::reserve(outputs.inputs(), db);

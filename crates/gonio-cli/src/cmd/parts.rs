@@ -38,10 +38,10 @@ pub struct Args {
     #[arg(long)]
     pub serial: Option<String>,
     /// Only this batch (its id).
-    #[arg(long)]
+    #[arg(long, value_parser = gonio_cli::flag::whole::<i64>(BATCH_ID))]
     pub batch: Option<i64>,
     /// Only the most recent N parts.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = gonio_cli::flag::whole::<usize>(LIMIT))]
     pub limit: Option<usize>,
     /// Print the records as a JSON array.
     #[arg(long, conflicts_with = "csv")]
@@ -53,6 +53,11 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
 }
+
+/// `--batch`: a batch's id in the store.
+const BATCH_ID: gonio_core::bound::Bound = gonio_core::bound::Bound::new(1.0, 9.2e18, "");
+/// `--limit`: parts listed.
+const LIMIT: gonio_core::bound::Bound = gonio_core::bound::Bound::new(1.0, 1e9, "parts");
 
 /// The CSV columns (one row per part).
 const CSV_HEADER: [&str; 17] = [

@@ -4,6 +4,7 @@ use crate::db;
 use anyhow::Result;
 use gonio_calib::certificate::Certificate;
 use gonio_calib::selfcal::{Method, NoiseModel};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_io::formats::heads;
 use gonio_io::formats::source::{Document, Table};
@@ -52,14 +53,14 @@ pub struct Args {
     #[arg(long, default_value = "1")]
     pub reference: String,
     /// Largest harmonic order in the harmonic table and the undetectable list.
-    #[arg(long, default_value_t = 360)]
+    #[arg(long, default_value_t = 360, value_parser = flag::whole::<u32>(flag::MAX_ORDER))]
     pub max_order: u32,
     /// Instrument terms (TOML, e.g. examples/instrument-selfcal.toml: encoder resolution …)
     /// combined with the estimator's random part into u, ν_eff, k and U of every position.
     #[arg(long)]
     pub instrument: Option<PathBuf>,
     /// Coverage probability of U (default: the instrument file's, else 0.95).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_uncertainty::COVERAGE))]
     pub coverage: Option<f64>,
     // `--json` and `--db`, shared with the other calibration commands.
     #[command(flatten)]

@@ -4,12 +4,15 @@
 use crate::db::NewStore;
 use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
+use gonio_cli::flag;
+use gonio_core::bound::Bound;
 use gonio_plc::batch::LinkFigures;
 use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone};
 use gonio_station::observe::{LiveFrame, Observer, Phase};
 use gonio_station::tap::{FrameTap, SeenFrame};
 use gonio_station::{PartRecord, Recipe};
 use gonio_web::live::{Hub, LiveObserver};
+use gonio_web::secret::{self, Permissions};
 use serde_json::Value;
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
@@ -89,6 +92,10 @@ pub struct Args {
     /// (at least 16 visible ASCII characters; a final newline is dropped).
     #[arg(long, value_name = "FILE")]
     pub token_file: Option<PathBuf>,
+    /// Use a --token-file or --tls-key that its group or others may read or write (with a
+    /// warning); without it such a file is refused, as ssh refuses a private key.
+    #[arg(long)]
+    pub allow_insecure_permissions: bool,
     /// A host name the dashboard is reached by (besides its address, and `localhost` on
     /// loopback); requests naming another host are refused (421). Repeatable.
     #[arg(long, value_name = "NAME")]
@@ -108,7 +115,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub plc_map: Option<PathBuf>,
     /// Parts the station mounts.
-    #[arg(long, default_value_t = 25, requires = "station")]
+    #[arg(long, default_value_t = 25, requires = "station", value_parser = flag::whole::<usize>(station::PARTS))]
     pub parts: usize,
     /// Seed of the simulated station (same seed, same records) [default: 1].
     #[arg(long, requires = "station")]
@@ -125,7 +132,7 @@ pub struct Args {
     pub recipe: Option<PathBuf>,
     /// Simulated seconds per wall-clock second (1: real time, as the station runs)
     /// [default: 1].
-    #[arg(long, requires = "station")]
+    #[arg(long, requires = "station", value_parser = flag::real(SPEED))]
     pub speed: Option<f64>,
     /// The station's name in its records and the results store [default: sim for the
     /// simulated station, this machine's host name for a station through its PLC].
@@ -161,19 +168,30 @@ fn address(addr: &str, allow_remote: bool, missing: &[&str]) -> Result<SocketAdd
 /// The serving options of the flags: TLS and the token read from their files.
 fn serve_options(a: &Args) -> Result<gonio_web::ServeOptions> {
     let mut o = gonio_web::ServeOptions::default();
+    let permissions = if a.allow_insecure_permissions {
+        Permissions::AllowInsecure
+    } else {
+        Permissions::Strict
+    };
+    let secret = |p: &PathBuf, flag: &str| -> Result<Vec<u8>> {
+        let s = secret::read(p, permissions).with_context(|| flag.to_string())?;
+        if let Some(w) = s.warning {
+            gonio_cli::note!("warning: {flag} {w}");
+        }
+        Ok(s.bytes)
+    };
     if let (Some(c), Some(k)) = (&a.tls_cert, &a.tls_key) {
-        let read = |p: &PathBuf, flag: &str| {
-            std::fs::read(p).with_context(|| format!("{flag} {}", p.display()))
-        };
-        let (cert, key) = (read(c, "--tls-cert")?, read(k, "--tls-key")?);
+        let cert = std::fs::read(c).with_context(|| format!("--tls-cert {}", c.display()))?;
+        let key = secret(k, "--tls-key")?;
         o.tls =
             Some(gonio_web::Tls::from_pem(&cert, &key).with_context(|| {
                 format!("--tls-cert {} --tls-key {}", c.display(), k.display())
             })?);
     }
     if let Some(f) = &a.token_file {
-        let text =
-            std::fs::read_to_string(f).with_context(|| format!("--token-file {}", f.display()))?;
+        let bytes = secret(f, "--token-file")?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| anyhow::anyhow!("--token-file {}: not UTF-8 text", f.display()))?;
         o.token = Some(
             gonio_web::BearerToken::new(&text)
                 .with_context(|| format!("--token-file {}", f.display()))?,
@@ -195,9 +213,7 @@ fn serve_options(a: &Args) -> Result<gonio_web::ServeOptions> {
 
 /// Slowest and fastest pace of the simulated station under the dashboard (simulated seconds
 /// per wall-clock second): slower would wait for ages between frames, faster is `mount --sim`.
-const MIN_SPEED: f64 = 1e-3;
-/// See [`MIN_SPEED`].
-const MAX_SPEED: f64 = 1e6;
+const SPEED: Bound = Bound::new(1e-3, 1e6, "simulated s per s");
 
 impl Args {
     /// `--speed`, 1 (real time) when not given.
@@ -252,13 +268,6 @@ fn check_station_flags(a: &Args) -> Result<()> {
 /// Runs `gonio serve`.
 pub fn run(a: Args) -> Result<()> {
     check_station_flags(&a)?;
-    let speed = a.speed();
-    if !(MIN_SPEED..=MAX_SPEED).contains(&speed) {
-        bail!("--speed {speed}: expected {MIN_SPEED} to {MAX_SPEED} simulated seconds per second");
-    }
-    if !(1..=station::MAX_PARTS).contains(&a.parts) {
-        bail!("--parts {}: expected 1 to {}", a.parts, station::MAX_PARTS);
-    }
     let recipe = match &a.recipe {
         Some(p) => load_recipe(&gonio_io::input::Inputs::new(), p)?,
         None => Recipe::default(),

@@ -4,7 +4,9 @@ use crate::db;
 use anyhow::Result;
 use gonio_calib::certificate::Certificate;
 use gonio_calib::shift_angle::Method;
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
+use gonio_core::bound::Bound;
 use gonio_io::formats::source::{Document, Table};
 use gonio_io::results::shift_angle::{Request, evaluate};
 use std::path::PathBuf;
@@ -32,13 +34,13 @@ pub struct Args {
     pub method: Method,
     /// Standard deviation of one reading, arcsec, if known: scales the uncertainties and is
     /// checked against the residuals (χ²). Default: estimated from the residuals.
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::SIGMA_ARCSEC))]
     pub sigma: Option<f64>,
     /// Polygon faces N. Default: the largest face or step number in the file.
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<usize>(flag::FACES))]
     pub faces: Option<usize>,
-    /// Harmonic order of the setup-error check (Hsieh et al., 2022, §3.1 uses 2).
-    #[arg(long, default_value_t = 2)]
+    /// Harmonic order of the setup-error check (Hsieh et al., 2022, §3.1 uses 2), 1 to 1000.
+    #[arg(long, default_value_t = 2, value_parser = flag::whole::<u32>(CHECK_ORDER))]
     pub check_order: u32,
     // `--json` and `--db`, shared with the other calibration commands.
     #[command(flatten)]
@@ -53,13 +55,16 @@ pub struct Args {
     #[arg(long)]
     pub instrument: Option<PathBuf>,
     /// Coverage probability of U (default: the instrument file's, else 0.95).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(gonio_uncertainty::COVERAGE))]
     pub coverage: Option<f64>,
     /// Write the compensation table `angle_deg,correction_arcsec` (correction = −α, to add to
     /// the encoder's reading).
     #[arg(long)]
     pub compensation: Option<PathBuf>,
 }
+
+/// `--check-order`: any order a polygon can have faces for.
+const CHECK_ORDER: Bound = Bound::new(1.0, gonio_calib::shift_angle::MAX_FACES as f64, "");
 
 /// Runs `gonio shift-angle`.
 pub fn run(args: Args) -> Result<()> {
@@ -164,7 +169,7 @@ pub fn print_summary(c: &Certificate) -> Result<()> {
         umax,
         c.max_expanded_arcsec().map_or(String::new(), |u| format!(
             ", largest U {u:.4}″ (p = {})",
-            c.uncertainty.coverage
+            gonio_core::bound::Num(c.uncertainty.coverage)
         ))
     );
     let _ = writeln!(out, "  pitch deviations β (face: value ± u, arcsec)");

@@ -148,9 +148,30 @@ impl Evaluation {
 /// Outside (0, 1), or not a number.
 pub fn check_coverage(coverage: Option<f64>) -> Result<()> {
     if let Some(p) = coverage
-        && !(p > 0.0 && p < 1.0)
+        && let Err(e) = gonio_uncertainty::COVERAGE.check(p)
     {
-        bail!("--coverage: expected a probability strictly between 0 and 1 (e.g. 0.95), found {p}");
+        bail!(
+            "--coverage {}: a probability {e} (e.g. 0.95)",
+            gonio_core::bound::Num(p)
+        );
+    }
+    Ok(())
+}
+
+/// Checks a Monte Carlo request's digits and trials against their bounds
+/// ([`gonio_uncertainty::montecarlo::NDIG`], [`gonio_uncertainty::montecarlo::TRIALS`]).
+///
+/// # Errors
+/// The first one out of its bound, named as the command's flag.
+pub fn check_monte_carlo(mc: &McRequest) -> Result<()> {
+    use gonio_uncertainty::montecarlo::{NDIG, TRIALS};
+    if let Err(e) = NDIG.check_int(mc.ndig) {
+        bail!("--ndig {}: {e}", mc.ndig);
+    }
+    if let Some(n) = mc.trials
+        && let Err(e) = TRIALS.check_int(n as u64)
+    {
+        bail!("--trials {n}: {e}");
     }
     Ok(())
 }
@@ -168,6 +189,9 @@ pub fn evaluate(
     mut progress: impl FnMut(Progress),
 ) -> Result<Evaluation> {
     check_coverage(req.coverage)?;
+    if let Some(mc) = &req.monte_carlo {
+        check_monte_carlo(mc)?;
+    }
     let parsed = BudgetFile::parse_bytes(bytes).map_err(|e| anyhow!("{file}:{e}"))?;
     // An error found after parsing, at its line and column when it concerns the file.
     let located = |e: UncertaintyError| match parsed.locate(&e) {

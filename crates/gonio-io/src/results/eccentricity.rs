@@ -22,9 +22,11 @@
 
 use crate::formats::samples::Samples;
 use anyhow::{Result, anyhow};
+use gonio_core::bound::Num;
 use gonio_station::Recipe;
 use gonio_station::fit::{FitMethod, FitOptions, fit_judged};
 use gonio_station::quality::QualityMetrics;
+use gonio_station::recipe::{FRAMES_PER_TURN, THRESHOLD_UM, UM_PER_PX};
 use serde::Serialize;
 
 /// The JSON output.
@@ -81,22 +83,20 @@ impl Settings {
     /// The recipe's pixel scale and threshold unless given.
     ///
     /// # Errors
-    /// A scale or threshold that is not a finite number > 0.
+    /// A scale or threshold outside its bound ([`UM_PER_PX`], [`THRESHOLD_UM`]).
     pub fn new(
         recipe: Recipe,
         um_per_px: Option<f64>,
         threshold_um: Option<f64>,
     ) -> Result<Settings> {
         let um = um_per_px.unwrap_or(recipe.um_per_px);
-        if !(um.is_finite() && um > 0.0) {
-            return Err(anyhow!("--um-per-px {um}: expected a finite number > 0"));
-        }
+        UM_PER_PX
+            .check(um)
+            .map_err(|e| anyhow!("--um-per-px {}: {e}", Num(um)))?;
         let threshold = threshold_um.unwrap_or(recipe.threshold_um);
-        if !(threshold.is_finite() && threshold > 0.0) {
-            return Err(anyhow!(
-                "--threshold-um {threshold}: expected a finite number > 0"
-            ));
-        }
+        THRESHOLD_UM
+            .check(threshold)
+            .map_err(|e| anyhow!("--threshold-um {}: {e}", Num(threshold)))?;
         Ok(Settings {
             recipe,
             um_per_px: um,
@@ -109,7 +109,7 @@ impl Settings {
 /// frames of the turn, valid or not.
 ///
 /// # Errors
-/// Fewer frames taken than samples, a fit that fails, a result that is not finite; naming the
+/// Fewer frames taken than samples or more than [`FRAMES_PER_TURN`], a fit that fails, a result that is not finite; naming the
 /// samples' file.
 pub fn evaluate(
     read: &Samples,
@@ -121,6 +121,9 @@ pub fn evaluate(
     let t = &read.table;
     let um = s.um_per_px;
     let frames_taken = frames_taken.unwrap_or(samples.len());
+    FRAMES_PER_TURN
+        .check_int(frames_taken)
+        .map_err(|e| anyhow!("--frames-taken {frames_taken}: {e}"))?;
     if frames_taken < samples.len() {
         return Err(anyhow!(
             "--frames-taken {frames_taken}: expected at least the {} rows of {}",

@@ -65,6 +65,7 @@ pub use scene::{
 pub use source::{RenderedFrames, SceneChoice, Turn, frame_seed};
 
 use crate::SimError;
+use gonio_core::bound::{Bound, Num};
 use gonio_vision::{Optics, Params};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -95,8 +96,9 @@ pub struct FrameTruth {
     /// Width of the drawn ring, px.
     pub ring_width_px: f64,
     /// The ring's visible contrast: the smallest difference between background and ring grey
-    /// levels over the rows where the ring is drawn, after illumination, vignetting, exposure
-    /// and clipping at 255, grey levels (0 without a ring).
+    /// levels over the rows where the ring is drawn, after illumination, vignetting, exposure,
+    /// the blur (a blur wider than the ring leaves less of its depth; a frame blurred flat has
+    /// none) and clipping at 255, grey levels (0 without a ring).
     pub ring_contrast_grey: f64,
     /// Rows where the ring is missing (ring gaps), of the window's.
     pub ring_gap_rows: u32,
@@ -203,30 +205,42 @@ fn check_range(name: &str, r: [f64; 2], lo: f64) -> Result<(), SimError> {
     }
 }
 
+/// Vignetting: a relative loss, below all of the light.
+const VIGNETTING: Bound = Bound::new(0.0, 1.0, "").hi_excluded();
+
 /// Most features of one kind in a scene (dust specks per frame, scratches, tracks, …).
 pub const MAX_FEATURES: usize = 10_000;
 
 /// Checks every value of a scene (names as in the scene TOML).
 fn validate(scene: &GratingScene) -> Result<(), SimError> {
     let sc = scene;
-    check_positive("psf_sigma_um", sc.psf_sigma_um)?;
-    check_positive("exposure", sc.exposure)?;
-    for (name, v) in [
-        ("read_noise_grey", sc.read_noise_grey),
-        ("electrons_per_grey", sc.electrons_per_grey),
-        ("numerical_aperture", sc.numerical_aperture),
-        ("background_grey", sc.background_grey),
-        ("ring_grey", sc.ring_grey),
-        ("bar_grey", sc.bar_grey),
-        ("vignetting", sc.vignetting),
+    for (name, v, bound) in [
+        ("psf_sigma_um", sc.psf_sigma_um, scene::PSF_SIGMA_UM),
+        ("exposure", sc.exposure, scene::EXPOSURE),
+        (
+            "read_noise_grey",
+            sc.read_noise_grey,
+            scene::READ_NOISE_GREY,
+        ),
+        (
+            "electrons_per_grey",
+            sc.electrons_per_grey,
+            scene::ELECTRONS_PER_GREY,
+        ),
+        (
+            "numerical_aperture",
+            sc.numerical_aperture,
+            scene::NUMERICAL_APERTURE,
+        ),
+        ("background_grey", sc.background_grey, scene::GREY),
+        ("ring_grey", sc.ring_grey, scene::GREY),
+        ("bar_grey", sc.bar_grey, scene::GREY),
+        ("vignetting", sc.vignetting, VIGNETTING),
+        ("best_focus_um", sc.best_focus_um, scene::FOCUS_UM),
     ] {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(SimError::parameter(name, v, "a finite number ≥ 0"));
+        if let Err(e) = bound.check(v) {
+            return Err(SimError::parameter(name, Num(v), &e.to_string()));
         }
-    }
-    check_finite("best_focus_um", sc.best_focus_um)?;
-    if sc.vignetting >= 1.0 {
-        return Err(SimError::parameter("vignetting", sc.vignetting, "0 … < 1"));
     }
     if !sc.illumination_gradient.is_finite() || sc.illumination_gradient.abs() >= 1.0 {
         return Err(SimError::parameter(
@@ -611,6 +625,9 @@ impl GratingRenderer {
         let mut inside = sc.ring_present;
         let d_half_px = half_w / s;
         let mut contrast = f64::INFINITY;
+        // The blur keeps this share of the ring's depth at its centre line: a band of width 2h
+        // blurred by σ dips by erf(h / (σ√2)) of its depth.
+        let kept = 2.0 * norm_cdf(half_w / sigma) - 1.0;
         let mut gap_rows = 0u32;
         for (v, rx) in ring_xs.iter().enumerate() {
             match *rx {
@@ -625,7 +642,8 @@ impl GratingRenderer {
                     } else if sc.ring_present {
                         let u = (c.round().max(0.0) as usize).min(w - 1);
                         let k = illum(u, v) * gain;
-                        let vis = (bg * k).min(255.0) - (sc.ring_grey * k).clamp(0.0, 255.0);
+                        let dip = (bg - sc.ring_grey) * k * kept;
+                        let vis = (bg * k).min(255.0) - (bg * k - dip).clamp(0.0, 255.0);
                         contrast = contrast.min(vis);
                     }
                 }

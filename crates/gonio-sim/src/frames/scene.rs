@@ -14,6 +14,7 @@
 //! assert_eq!(back, s);
 //! ```
 
+use gonio_core::bound::Bound;
 use serde::{Deserialize, Serialize};
 
 /// One roundness harmonic of the ring: `amplitude_um·cos(order·φ + phase_rad)`.
@@ -159,6 +160,22 @@ pub struct GratingScene {
     /// In-focus blur σ₀ (lens PSF), µm.
     pub psf_sigma_um: f64,
 }
+
+/// The lens's in-focus blur σ₀ ([`GratingScene::psf_sigma_um`]): up to a millimetre, the size
+/// of the whole window (a blur that wide leaves a flat frame, `ring_contrast_grey` 0).
+pub const PSF_SIGMA_UM: Bound = Bound::new(0.0, 1000.0, "µm").lo_excluded();
+/// The exposure factor ([`GratingScene::exposure`]): above ≈ 1.3 the background saturates.
+pub const EXPOSURE: Bound = Bound::new(0.0, 100.0, "").lo_excluded();
+/// Read noise ([`GratingScene::read_noise_grey`]), grey levels RMS.
+pub const READ_NOISE_GREY: Bound = Bound::new(0.0, 1000.0, "grey levels");
+/// A grey level of the scene (background, ring, bars), before exposure.
+pub const GREY: Bound = Bound::new(0.0, 10_000.0, "grey levels");
+/// Electrons per grey level for shot noise ([`GratingScene::electrons_per_grey`]).
+pub const ELECTRONS_PER_GREY: Bound = Bound::new(0.0, 1e6, "e⁻ per grey level");
+/// The lens's numerical aperture ([`GratingScene::numerical_aperture`]).
+pub const NUMERICAL_APERTURE: Bound = Bound::new(0.0, 1.5, "");
+/// A focus position ([`GratingScene::best_focus_um`], the frame's focus), µm.
+pub const FOCUS_UM: Bound = Bound::new(-1e6, 1e6, "µm");
 
 /// Wide code bars outside the ring (the renderer's basic scene): 160–440 px out, 80 px period.
 const BASIC_BARS: RadialTrack = RadialTrack {

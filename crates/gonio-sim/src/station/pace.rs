@@ -130,7 +130,10 @@ impl Pace {
 
     fn due(&mut self, sim_s: f64) -> Instant {
         let (t0, s0) = *self.anchor.get_or_insert((Instant::now(), sim_s));
-        t0 + Duration::from_secs_f64(((sim_s - s0) / self.speed_up).max(0.0))
+        let wait = gonio_core::bound::saturating_duration_s((sim_s - s0) / self.speed_up);
+        // Beyond what an Instant holds (a speed-up near 0): a year, as good as never.
+        t0.checked_add(wait)
+            .unwrap_or_else(|| t0 + Duration::from_secs(365 * 86_400))
     }
 
     /// Waits until the wall clock reaches simulated time `sim_s`.

@@ -4,14 +4,15 @@
 //! Glue only: the instrument and the pseudo-terminal are `gonio_lab::simulator`'s.
 
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_cli::{note, say};
+use gonio_core::bound::{Bound, duration_s};
 use gonio_io::formats::encoder as encoder_file;
 use gonio_io::input::Inputs;
 use gonio_lab::plan::Plan;
 use gonio_lab::simulator::{Position, Pty, SimConfig, SimulatedAutocollimator};
 use gonio_sim::EncoderModel;
-use std::io::BufRead;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -42,28 +43,28 @@ pub struct Args {
     #[arg(long)]
     pub encoder: Option<PathBuf>,
     /// Polygon faces N.
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = 24, value_parser = flag::whole::<usize>(flag::SIM_FACES))]
     pub faces: usize,
     /// Seed of the encoder, polygon, setup errors, noise and flagged answers.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Noise of one answer (standard deviation), arcsec.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub sigma: f64,
-    /// Resolution, arcsec (the answers' decimals follow it).
-    #[arg(long, default_value_t = 0.001)]
+    /// Resolution, arcsec (the answers' decimals follow it; 0.000001 to 3600).
+    #[arg(long, default_value_t = 0.001, value_parser = flag::real(RESOLUTION_ARCSEC))]
     pub resolution: f64,
     /// Standard deviation of the polygon's pitch deviations, arcsec.
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = 0.3, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub pitch_sigma: f64,
     /// Standard deviation of each run's setup error, arcsec.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub setup_sigma: f64,
     /// Drift of the reading per answer, arcsec.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = flag::real(DRIFT_ARCSEC))]
     pub drift_arcsec_per_reading: f64,
     /// Fraction of answers flagged with a bad status (013 / 113).
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.02, value_parser = flag::real(flag::FRACTION))]
     pub flagged: f64,
     /// Write the true α at the shifts of --plan here (JSON, as truth.json of `gonio simulate
     /// shift-angle`).
@@ -74,9 +75,17 @@ pub struct Args {
     pub plan: Option<PathBuf>,
     /// Stop after this many seconds (default: run until quit, the end of a killed session or
     /// Ctrl-C).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::DURATION_S))]
     pub duration_s: Option<f64>,
 }
+
+/// The longest control line read (`NEXT shift_deg=… start_face=… step=… repeat=…`).
+const MAX_CONTROL_LINE_BYTES: usize = 4096;
+
+/// `--resolution`: the answers carry at most six decimals.
+const RESOLUTION_ARCSEC: Bound = Bound::new(1e-6, 3600.0, "″");
+/// `--drift-arcsec-per-reading`.
+const DRIFT_ARCSEC: Bound = Bound::new(-3600.0, 3600.0, "″");
 
 /// `shift_deg=S start_face=F step=I` out of a control line.
 fn parse_position(line: &str) -> Option<Position> {
@@ -114,11 +123,6 @@ pub fn run(args: Args) -> Result<()> {
         flagged_fraction: args.flagged,
     };
     let sim = SimulatedAutocollimator::new(model, cfg)?;
-    if let Some(d) = args.duration_s
-        && !(d.is_finite() && d > 0.0)
-    {
-        bail!("--duration-s {d}: expected a positive number of seconds");
-    }
     if let (Some(truth), Some(plan_path)) = (&args.truth, &args.plan) {
         let plan = Plan::parse(plan_path, &inputs.read_text(plan_path)?)?;
         if plan.faces != args.faces {
@@ -158,8 +162,23 @@ pub fn run(args: Args) -> Result<()> {
         // where it is.
         std::thread::spawn(move || {
             let stdin = std::io::stdin();
-            for line in stdin.lock().lines() {
-                let Ok(line) = line else { break };
+            let mut stdin = stdin.lock();
+            let mut bytes = Vec::new();
+            loop {
+                match gonio_core::text::read_line_bounded(
+                    &mut stdin,
+                    MAX_CONTROL_LINE_BYTES,
+                    &mut bytes,
+                ) {
+                    Ok(true) => {}
+                    Ok(false) => break,
+                    Err(e) => {
+                        // The bench stays where it is; the instrument goes on answering.
+                        note!("standard input: {e}: control lines are no longer read");
+                        break;
+                    }
+                }
+                let line = String::from_utf8_lossy(&bytes);
                 let line = line.trim();
                 if line == "quit" {
                     stop.store(true, Ordering::Relaxed);
@@ -187,7 +206,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(d) = args.duration_s {
         let stop = Arc::clone(&stop);
-        let end = Instant::now() + Duration::from_secs_f64(d.min(1e6));
+        let end = Instant::now() + duration_s(d, &flag::DURATION_S)?;
         std::thread::spawn(move || {
             while Instant::now() < end && !stop.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(100));

@@ -3,6 +3,8 @@
 
 use super::frames::SceneArg;
 use anyhow::{Result, bail};
+use gonio_cli::flag;
+use gonio_core::bound::{Bound, Num};
 use std::path::PathBuf;
 
 /// Arguments of `gonio simulate camera`.
@@ -37,19 +39,19 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "realistic")]
     pub scene: SceneArg,
     /// Eccentricity of the grating on the shaft, µm.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = flag::real(flag::ECCENTRICITY_UM))]
     pub eccentricity_um: f64,
     /// Eccentricity angle in the grating's frame, degrees.
-    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true, value_parser = flag::real(flag::ANGLE_DEG))]
     pub ecc_angle_deg: f64,
     /// Table speed, degrees per second.
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, default_value_t = 180.0, value_parser = flag::real(SPEED_DEG_S))]
     pub speed_deg_s: f64,
-    /// Frame rate, frames per second.
-    #[arg(long, default_value_t = 100.0)]
+    /// Frame rate, frames per second (at most 10000).
+    #[arg(long, default_value_t = 100.0, value_parser = flag::real(FPS))]
     pub fps: f64,
     /// θ of the first frame served, degrees.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = flag::real(flag::ANGLE_DEG))]
     pub start_deg: f64,
     /// Optics TOML (as for `gonio detect --optics`).
     #[arg(long, value_name = "OPTICS.toml")]
@@ -58,12 +60,17 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Stop after this many seconds (default: until Ctrl-C).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(flag::DURATION_S))]
     pub duration_s: Option<f64>,
     /// Drop this fraction of the stream's packets (0 … 1), as a bad link would.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = flag::real(flag::FRACTION))]
     pub lost_ratio: f64,
 }
+
+/// `--speed-deg-s`: one way round (the turn is pre-rendered).
+const SPEED_DEG_S: Bound = Bound::new(0.0, 1e6, "°/s").lo_excluded();
+/// `--fps`: what one process can render and serve.
+const FPS: Bound = Bound::new(0.0, 10_000.0, "frames/s").lo_excluded();
 
 /// Most bytes of one pre-rendered turn.
 #[cfg(feature = "genicam")]
@@ -71,36 +78,14 @@ const MAX_TURN_BYTES: f64 = 1.5e9;
 
 /// Runs `gonio simulate camera`.
 pub fn run(a: Args) -> Result<()> {
-    for (flag, v) in [
-        ("--eccentricity-um", a.eccentricity_um),
-        ("--ecc-angle-deg", a.ecc_angle_deg),
-        ("--start-deg", a.start_deg),
-    ] {
-        if !v.is_finite() || v.abs() > 1e6 {
-            bail!("{flag} {v}: expected a finite number of at most 1e6 in magnitude");
-        }
-    }
-    if !(a.fps.is_finite() && a.fps > 0.0 && a.fps <= 10_000.0) {
-        bail!("--fps {}: expected 0 < fps ≤ 10000", a.fps);
-    }
-    if !(a.speed_deg_s.is_finite() && a.speed_deg_s > 0.0) {
-        bail!("--speed-deg-s {}: expected a speed > 0", a.speed_deg_s);
-    }
     let per_turn = 360.0 * a.fps / a.speed_deg_s;
     if (per_turn - per_turn.round()).abs() > 1e-6 || per_turn.round() < 1.0 {
         bail!(
-            "--fps {} --speed-deg-s {}: a turn must be a whole number of frames (360·fps/speed = {per_turn})",
-            a.fps,
-            a.speed_deg_s
+            "--fps {} --speed-deg-s {}: a turn must be a whole number of frames (360·fps/speed = {})",
+            Num(a.fps),
+            Num(a.speed_deg_s),
+            Num(per_turn)
         );
-    }
-    if let Some(d) = a.duration_s
-        && !(d.is_finite() && d > 0.0)
-    {
-        bail!("--duration-s {d}: expected a duration > 0");
-    }
-    if !(0.0..=1.0).contains(&a.lost_ratio) {
-        bail!("--lost-ratio {}: expected 0 … 1", a.lost_ratio);
     }
     serve(a, per_turn.round() as u64)
 }

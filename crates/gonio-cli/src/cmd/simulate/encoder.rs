@@ -1,7 +1,9 @@
 //! `gonio simulate encoder`: write an encoder error model file.
 
 use anyhow::{Context, Result, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
+use gonio_core::bound::Bound;
 use gonio_sim::encoder::HarmonicArcsec;
 use gonio_sim::{EncoderModel, Graduation};
 use std::path::PathBuf;
@@ -30,12 +32,15 @@ pub struct Args {
     #[arg(long, conflicts_with = "harmonics")]
     pub no_harmonics: bool,
     /// Standard deviation of one graduation line's error, arcsec (0 for none).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub graduation_sigma: f64,
-    /// Graduation lines on the circle.
-    #[arg(long, default_value_t = 36_000)]
+    /// Graduation lines on the circle (1 to 100000000).
+    #[arg(long, default_value_t = 36_000, value_parser = flag::whole::<u32>(LINES))]
     pub lines: u32,
 }
+
+/// `--lines`: graduation lines on the circle.
+const LINES: Bound = Bound::new(1.0, 1e8, "");
 
 /// Parses `K:A:PHI`.
 pub fn parse_harmonic(s: &str) -> Result<HarmonicArcsec> {

@@ -1,13 +1,16 @@
 //! `gonio simulate frames`: rendered camera frames of a rotating, eccentric grating, with truth.
 
 use anyhow::{Result, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
+use gonio_core::bound::Bound;
 use gonio_io::formats::frames::{load_optics, load_scene};
 use gonio_io::input::Inputs;
 use gonio_sim::frames::{
     FrameTruth, GratingScene, RenderedFrames, SceneChoice, SceneDraw, SceneFamily, ScenePreset,
     Turn,
 };
+use gonio_sim::frames::{MAX_FEATURES, scene};
 use gonio_vision::FrameSource;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -51,8 +54,8 @@ Examples:
   gonio simulate frames --count 5 --no-ring --seed 5 --out empty
   gonio simulate frames --scene dense --count 400 --seed 1 --raw --out dense")]
 pub struct Args {
-    /// Number of frames.
-    #[arg(long)]
+    /// Number of frames (1 to 1000000).
+    #[arg(long, value_parser = flag::whole::<usize>(COUNT))]
     pub count: usize,
     /// The scene.
     #[arg(
@@ -66,25 +69,25 @@ pub struct Args {
     #[arg(long, value_name = "SCENE.toml")]
     pub scene_file: Option<PathBuf>,
     /// Eccentricity of the grating on the shaft, µm.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true, value_parser = flag::real(flag::ECCENTRICITY_UM))]
     pub eccentricity_um: f64,
     /// Eccentricity angle in the grating's frame, degrees.
-    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true, value_parser = flag::real(flag::ANGLE_DEG))]
     pub ecc_angle_deg: f64,
     /// Read noise, grey levels RMS (default: the scene's; shot noise is added on top).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(scene::READ_NOISE_GREY))]
     pub noise: Option<f64>,
     /// No shot noise.
     #[arg(long)]
     pub no_shot_noise: bool,
     /// Dust specks per frame (default: the scene's).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::whole::<usize>(DUST))]
     pub dust: Option<usize>,
     /// Focus position relative to best focus, µm (blur σ = √(σ₀² + (NA·Δz/2)²)).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = flag::real(scene::FOCUS_UM))]
     pub defocus: f64,
     /// Exposure factor (above ≈ 1.3 the background saturates; default: the scene's).
-    #[arg(long)]
+    #[arg(long, value_parser = flag::real(scene::EXPOSURE))]
     pub exposure: Option<f64>,
     /// No alignment ring (a frame the detector must call ring-less).
     #[arg(long)]
@@ -93,13 +96,13 @@ pub struct Args {
     #[arg(long)]
     pub no_tracks: bool,
     /// Table speed, degrees per second.
-    #[arg(long, default_value_t = 180.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 180.0, allow_hyphen_values = true, value_parser = flag::real(flag::SPEED_DEG_S))]
     pub speed_deg_s: f64,
     /// Frame rate, frames per second.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, value_parser = flag::real(flag::FPS))]
     pub fps: f64,
     /// θ of frame 0, degrees.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = flag::real(flag::ANGLE_DEG))]
     pub start_deg: f64,
     /// Optics TOML (as for `gonio detect --optics`).
     #[arg(long, value_name = "OPTICS.toml")]
@@ -177,31 +180,13 @@ impl Args {
     }
 }
 
-/// Most frames in one run.
-const MAX_FRAMES: usize = 1_000_000;
+/// `--count`: frames in one run.
+const COUNT: Bound = Bound::new(1.0, 1e6, "frames");
+/// `--dust`: specks per frame.
+const DUST: Bound = Bound::new(0.0, MAX_FEATURES as f64, "");
 
 /// Runs `gonio simulate frames`.
 pub fn run(a: Args) -> Result<()> {
-    if !(1..=MAX_FRAMES).contains(&a.count) {
-        bail!("--count {}: expected 1 to {MAX_FRAMES} frames", a.count);
-    }
-    for (flag, v) in [
-        ("--eccentricity-um", a.eccentricity_um),
-        ("--ecc-angle-deg", a.ecc_angle_deg),
-        ("--defocus", a.defocus),
-        ("--start-deg", a.start_deg),
-    ] {
-        if !v.is_finite() || v.abs() > 1e6 {
-            bail!("{flag} {v}: expected a finite number of at most 1e6 in magnitude");
-        }
-    }
-    if !a.fps.is_finite() || a.fps <= 0.0 || !a.speed_deg_s.is_finite() {
-        bail!(
-            "--speed-deg-s {} --fps {}: expected a finite speed and fps > 0",
-            a.speed_deg_s,
-            a.fps
-        );
-    }
     let inputs = Inputs::new();
     let optics = load_optics(&inputs, a.optics.as_deref())?;
     let choice = a.scene(&inputs)?;

@@ -1,7 +1,9 @@
 //! `gonio simulate selfcal`: multi-head readings of one encoder scale, with ground truth.
 
 use anyhow::{Result, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
+use gonio_core::bound::Bound;
 use gonio_io::formats::heads;
 use gonio_sim::selfcal::{SelfcalSimConfig, simulate};
 use std::fmt::Write as _;
@@ -29,22 +31,22 @@ pub struct Args {
     #[arg(long, default_value = "selfa12")]
     pub heads: String,
     /// Rotation positions per turn NS (equally spaced).
-    #[arg(long, default_value_t = 36_000)]
+    #[arg(long, default_value_t = 36_000, value_parser = flag::whole::<usize>(POSITIONS))]
     pub positions: usize,
     /// First rotation position, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = flag::real(flag::ANGLE_DEG))]
     pub start: f64,
     /// Noise per head reading (standard deviation), arcsec.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub sigma: f64,
     /// Head resolution (quantisation of each reading), arcsec; 0 for none.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = flag::real(flag::RESOLUTION_ARCSEC))]
     pub resolution: f64,
     /// Standard deviation of the heads' mounting offsets when the heads file gives none, arcsec.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub offset_sigma: f64,
     /// Repeated turns.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = flag::whole::<usize>(TURNS))]
     pub turns: usize,
     /// Write raw head readings in degrees instead of differences to head 1.
     #[arg(long)]
@@ -59,6 +61,11 @@ pub struct Args {
     #[arg(long)]
     pub force: bool,
 }
+
+/// `--positions`: rotation positions per turn.
+const POSITIONS: Bound = Bound::new(8.0, 1e7, "");
+/// `--turns`: repeated turns (their readings together are bounded by the simulator).
+const TURNS: Bound = Bound::new(1.0, 1e6, "");
 
 /// Runs `gonio simulate selfcal`.
 pub fn run(args: Args) -> Result<()> {

@@ -1,7 +1,9 @@
 //! `gonio simulate shift-angle`: polygon + autocollimator readings with ground truth.
 
 use anyhow::{Context, Result, bail};
+use gonio_cli::flag;
 use gonio_cli::output::Outputs;
+use gonio_core::bound::Bound;
 use gonio_io::formats::readings;
 use gonio_lab::log::{self as elcomat, Mode};
 use gonio_lab::plan::{Level, ModeRule, Plan, ShiftPlan};
@@ -26,7 +28,7 @@ pub struct Args {
     #[arg(long)]
     pub encoder: Option<PathBuf>,
     /// Polygon faces N (≥ 3).
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = 24, value_parser = flag::whole::<usize>(flag::SIM_FACES))]
     pub faces: usize,
     /// Shift angles in degrees: a list `0,5,10` or a range `START:STEP:END` (`0:1:14`).
     #[arg(long, default_value = "0,5,10")]
@@ -36,22 +38,22 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t, hide_possible_values = true)]
     pub rows: Rows,
     /// Autocollimator noise per reading (standard deviation), arcsec.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub sigma: f64,
     /// Autocollimator resolution, arcsec (0: no quantisation).
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, default_value_t = 0.001, value_parser = flag::real(flag::RESOLUTION_ARCSEC))]
     pub resolution: f64,
     /// Standard deviation of the polygon's pitch deviations, arcsec.
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = 0.3, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub pitch_sigma: f64,
     /// Standard deviation of each run's setup error, arcsec.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = flag::real(flag::SIM_SIGMA_ARCSEC))]
     pub setup_sigma: f64,
     /// Readings of every (shift, face, step).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = flag::whole::<u32>(REPEATS))]
     pub repeats: u32,
-    /// Fraction of readings dropped at random.
-    #[arg(long, default_value_t = 0.0)]
+    /// Fraction of readings dropped at random (0 to below 1).
+    #[arg(long, default_value_t = 0.0, value_parser = flag::real(DROP))]
     pub drop: f64,
     /// Seed.
     #[arg(long, default_value_t = 0)]
@@ -77,6 +79,11 @@ pub struct Args {
     )]
     pub elcomat_mode: Mode,
 }
+
+/// `--repeats`: readings of each (shift, face, step).
+const REPEATS: Bound = Bound::new(1.0, 1e6, "");
+/// `--drop`: a fraction of the readings, never all of them.
+const DROP: Bound = Bound::new(0.0, 1.0, "").hi_excluded();
 
 /// Parses `0,5,10` or `0:1:14` (inclusive end); a shift given twice is refused (its readings
 /// would conflict in the readings file).
@@ -105,6 +112,17 @@ pub fn parse_shifts(s: &str) -> Result<Vec<f64>> {
             })
             .collect::<Result<_>>()?
     };
+    if let Some((x, e)) = v.iter().find_map(|&x| {
+        gonio_calib::shift_angle::SHIFT_DEG
+            .check(x)
+            .err()
+            .map(|e| (x, e))
+    }) {
+        bail!(
+            "--shifts {shown:?}: {}°: a shift of {e}",
+            gonio_core::bound::Num(x)
+        );
+    }
     if v.len() > readings::MAX_SHIFTS {
         bail!(
             "--shifts: {} shifts, at most {}",
