@@ -1,0 +1,169 @@
+//! `gonio simulate axis`: the readings of an ISO 230-2 test of a simulated rotary axis with a
+//! known systematic error, backlash and repeatability, and its true parameters.
+
+use anyhow::{Context, Result, bail};
+use gonio_calib::axis::{Direction, MAX_RUNS, MAX_TARGET_DEG, TargetKey};
+use gonio_cli::output::Outputs;
+use gonio_sim::axis::{AxisModel, AxisTest, simulate};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `gonio simulate axis`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Writes DIR/readings.csv (target_deg,direction,run,deviation_arcsec, in the order of the standard's
+test cycle: run 1 up through every target, back down, then run 2 …) and DIR/truth.json (the axis
+model and its own ISO 230-2 parameters: the standard's definitions applied to x̄↑ = e + b/2,
+x̄↓ = e − b/2, s = σ). The axis: e(P) = 3″·sin(P + 0.7) + 1.2″·sin(2P − 1.9) + 0.5″·sin(3P + 2.4)
++ 0.3″·sin(8P + 0.1) + the scale error per turn; each approach scattered with σ from the seed.
+
+Examples:
+  gonio simulate axis --seed 1 --out ax
+  gonio simulate axis --targets 0:30:360 --runs 5 --backlash-arcsec 4 --repeatability-arcsec 0.5 --out ax
+  gonio simulate axis --directions + --out unidirectional
+  gonio axis ax/readings.csv --json axis.json")]
+pub struct Args {
+    /// Targets, degrees: a range `START:STEP:END` (end included) or a list `0,90,180`.
+    #[arg(long, default_value = "0:45:360")]
+    pub targets: String,
+    /// Runs in each direction (the standard's cycle has 5).
+    #[arg(long, default_value_t = 5)]
+    pub runs: u32,
+    /// `both` (default), `+` (positive approaches only) or `-`: a unidirectional test.
+    #[arg(long, default_value = "both")]
+    pub directions: String,
+    /// The backlash b = x̄↑ − x̄↓ at every target, arcsec.
+    #[arg(long, default_value_t = 1.5)]
+    pub backlash_arcsec: f64,
+    /// The repeatability σ of one approach, arcsec (R↑ = 4σ).
+    #[arg(long, default_value_t = 0.3)]
+    pub repeatability_arcsec: f64,
+    /// The scale error: the systematic error grows by this much per turn, arcsec.
+    #[arg(long, default_value_t = 2.0)]
+    pub scale_arcsec_per_turn: f64,
+    /// The reference's noise on each reading, arcsec.
+    #[arg(long, default_value_t = 0.02)]
+    pub reference_sigma_arcsec: f64,
+    /// The reference's resolution, arcsec.
+    #[arg(long, default_value_t = 0.001)]
+    pub resolution_arcsec: f64,
+    /// Seed of the approaches' scatter and the reference's noise.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output directory (new or empty; see --force).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write into a non-empty output directory, replacing the files of an earlier run.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Targets `START:STEP:END` or `A,B,C` in degrees, ascending, each once, within ±36 000°.
+pub fn parse_targets(flag: &str, s: &str) -> Result<Vec<f64>> {
+    let shown = gonio_core::text::short(s);
+    let mut v: Vec<f64> = if s.contains(':') {
+        gonio_calib::shift_angle::shift_range(s).with_context(|| {
+            format!(
+                "{flag} {shown:?}: expected START:STEP:END with STEP > 0, END ≥ START and at most {} targets, e.g. 0:45:360",
+                gonio_calib::shift_angle::MAX_SHIFTS
+            )
+        })?
+    } else {
+        s.split(',')
+            .map(|p| {
+                p.trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .with_context(|| {
+                        format!(
+                            "{flag} {shown:?}: {:?} is not a number of degrees",
+                            gonio_core::text::short(p)
+                        )
+                    })
+            })
+            .collect::<Result<_>>()?
+    };
+    if let Some(t) = v.iter().find(|t| t.abs() > MAX_TARGET_DEG) {
+        bail!(
+            "{flag} {shown:?}: {t}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees"
+        );
+    }
+    v.sort_by(f64::total_cmp);
+    if let Some(w) = v
+        .windows(2)
+        .find(|w| TargetKey::of(w[0]) == TargetKey::of(w[1]))
+    {
+        bail!(
+            "{flag} {shown:?}: {}° is given twice: expected each target once",
+            w[0]
+        );
+    }
+    if v.len() < 2 {
+        bail!("{flag} {shown:?}: expected at least 2 targets");
+    }
+    Ok(v)
+}
+
+/// Runs `gonio simulate axis`.
+pub fn run(args: Args) -> Result<()> {
+    let targets = parse_targets("--targets", &args.targets)?;
+    if !(2..=MAX_RUNS).contains(&args.runs) {
+        bail!("--runs {}: expected 2 to {MAX_RUNS}", args.runs);
+    }
+    let directions = match args.directions.as_str() {
+        "both" => Direction::BOTH.to_vec(),
+        d => vec![Direction::parse(d).with_context(|| {
+            format!(
+                "--directions {:?}: expected both, + or -",
+                gonio_core::text::short(d)
+            )
+        })?],
+    };
+    let model = AxisModel {
+        backlash_arcsec: args.backlash_arcsec,
+        repeatability_arcsec: args.repeatability_arcsec,
+        scale_arcsec_per_turn: args.scale_arcsec_per_turn,
+        ..AxisModel::default_with_seed(args.seed)
+    };
+    let test = AxisTest {
+        targets_deg: targets.clone(),
+        runs: args.runs,
+        directions,
+        reference_sigma_arcsec: args.reference_sigma_arcsec,
+        resolution_arcsec: args.resolution_arcsec,
+    };
+    let readings = simulate(&model, &test).map_err(|e| anyhow::anyhow!("{e} (see --help)"))?;
+    let mut out = Outputs::new();
+    out.dir("--out", &args.out, args.force)?;
+    let csv_id = out.file("--out", &args.out.join("readings.csv"))?;
+    let truth_id = out.file("--out", &args.out.join("truth.json"))?;
+    let decimals = (-args.resolution_arcsec.log10()).ceil().clamp(0.0, 6.0) as usize;
+    let mut csv = format!(
+        "# gonio simulate axis --seed {} ({} targets, {} runs, backlash {}″, repeatability σ {}″)\ntarget_deg,direction,run,deviation_arcsec\n",
+        args.seed,
+        targets.len(),
+        args.runs,
+        args.backlash_arcsec,
+        args.repeatability_arcsec
+    );
+    for r in &readings {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.decimals$}",
+            r.target_deg,
+            r.direction.sign(),
+            r.run,
+            r.deviation_arcsec
+        );
+    }
+    out.write(csv_id, csv.as_bytes())?;
+    out.json(truth_id, &model.truth(&targets))?;
+    out.commit()?;
+    gonio_cli::note!(
+        "wrote {} readings and the axis's true parameters to {}",
+        readings.len(),
+        args.out.display()
+    );
+    Ok(())
+}
