@@ -58,7 +58,7 @@ type Result<T> = std::result::Result<T, PlanError>;
 
 /// A parser's message cut to at most 500 characters (its beginning and end), as the CLI cuts
 /// every error line.
-fn cap(s: &str) -> String {
+pub(crate) fn cap(s: &str) -> String {
     let n = s.chars().count();
     if n <= 500 {
         return s.to_string();
@@ -110,6 +110,18 @@ pub enum ModeRule {
     Absolute,
     /// Relative readings only.
     Relative,
+}
+
+impl ModeRule {
+    /// `any`, `absolute` or `relative`, as a plan writes it.
+    pub fn parse(s: &str) -> Option<ModeRule> {
+        match s {
+            "any" => Some(ModeRule::Any),
+            "absolute" => Some(ModeRule::Absolute),
+            "relative" => Some(ModeRule::Relative),
+            _ => None,
+        }
+    }
 }
 
 /// The runs at one shift.
@@ -410,17 +422,15 @@ impl Plan {
         };
         let mode = match &raw.mode {
             None => ModeRule::Any,
-            Some(v) => match v.get_ref().as_str() {
-                "any" => ModeRule::Any,
-                "absolute" => ModeRule::Absolute,
-                "relative" => ModeRule::Relative,
-                m => {
-                    return Err(at(
-                        v.span(),
-                        format!("mode = {m:?}: expected \"absolute\", \"relative\" or \"any\""),
-                    ));
-                }
-            },
+            Some(v) => ModeRule::parse(v.get_ref()).ok_or_else(|| {
+                at(
+                    v.span(),
+                    format!(
+                        "mode = {:?}: expected \"absolute\", \"relative\" or \"any\"",
+                        v.get_ref()
+                    ),
+                )
+            })?,
         };
         let closure = u64::from(raw.closure.unwrap_or(false));
         let total: u64 = shifts

@@ -32,15 +32,9 @@ pub struct Args {
     /// `both` (default), `+` (positive approaches only) or `-`: a unidirectional test.
     #[arg(long, default_value = "both")]
     pub directions: String,
-    /// The backlash b = x̄↑ − x̄↓ at every target, arcsec.
-    #[arg(long, default_value_t = 1.5)]
-    pub backlash_arcsec: f64,
-    /// The repeatability σ of one approach, arcsec (R↑ = 4σ).
-    #[arg(long, default_value_t = 0.3)]
-    pub repeatability_arcsec: f64,
-    /// The scale error: the systematic error grows by this much per turn, arcsec.
-    #[arg(long, default_value_t = 2.0)]
-    pub scale_arcsec_per_turn: f64,
+    // The axis: backlash, repeatability, scale error.
+    #[command(flatten)]
+    pub axis: AxisFlags,
     /// The reference's noise on each reading, arcsec.
     #[arg(long, default_value_t = 0.02)]
     pub reference_sigma_arcsec: f64,
@@ -56,6 +50,46 @@ pub struct Args {
     /// Write into a non-empty output directory, replacing the files of an earlier run.
     #[arg(long)]
     pub force: bool,
+}
+
+/// The simulated axis's flags, shared with `gonio simulate autocollimator --axis`.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct AxisFlags {
+    /// The axis's backlash b = x̄↑ − x̄↓ at every target, arcsec [default: 1.5].
+    #[arg(long)]
+    pub backlash_arcsec: Option<f64>,
+    /// The axis's repeatability σ of one approach, arcsec (R↑ = 4σ) [default: 0.3].
+    #[arg(long)]
+    pub repeatability_arcsec: Option<f64>,
+    /// The axis's scale error: its systematic error grows by this much per turn, arcsec
+    /// [default: 2].
+    #[arg(long)]
+    pub scale_arcsec_per_turn: Option<f64>,
+}
+
+impl AxisFlags {
+    /// Whether any flag was given.
+    pub fn any(&self) -> bool {
+        self.backlash_arcsec.is_some()
+            || self.repeatability_arcsec.is_some()
+            || self.scale_arcsec_per_turn.is_some()
+    }
+
+    /// The default axis of `seed` with these flags, checked.
+    pub fn model(&self, seed: u64) -> Result<AxisModel> {
+        let d = AxisModel::default_with_seed(seed);
+        let m = AxisModel {
+            backlash_arcsec: self.backlash_arcsec.unwrap_or(d.backlash_arcsec),
+            repeatability_arcsec: self.repeatability_arcsec.unwrap_or(d.repeatability_arcsec),
+            scale_arcsec_per_turn: self
+                .scale_arcsec_per_turn
+                .unwrap_or(d.scale_arcsec_per_turn),
+            ..d
+        };
+        m.validate()
+            .map_err(|e| anyhow::anyhow!("the simulated axis: {e}"))?;
+        Ok(m)
+    }
 }
 
 /// Targets `START:STEP:END` or `A,B,C` in degrees, ascending, each once, within ±36 000°.
@@ -120,12 +154,7 @@ pub fn run(args: Args) -> Result<()> {
             )
         })?],
     };
-    let model = AxisModel {
-        backlash_arcsec: args.backlash_arcsec,
-        repeatability_arcsec: args.repeatability_arcsec,
-        scale_arcsec_per_turn: args.scale_arcsec_per_turn,
-        ..AxisModel::default_with_seed(args.seed)
-    };
+    let model = args.axis.model(args.seed)?;
     let test = AxisTest {
         targets_deg: targets.clone(),
         runs: args.runs,
@@ -144,8 +173,8 @@ pub fn run(args: Args) -> Result<()> {
         args.seed,
         targets.len(),
         args.runs,
-        args.backlash_arcsec,
-        args.repeatability_arcsec
+        model.backlash_arcsec,
+        model.repeatability_arcsec
     );
     for r in &readings {
         let _ = writeln!(
