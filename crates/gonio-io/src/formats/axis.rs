@@ -299,6 +299,19 @@ mod tests {
     }
 
     #[test]
+    fn the_worked_example_of_the_docs() {
+        let text = include_str!("../../../../examples/axis-example.csv");
+        let doc = parse("axis-example.csv", text, None)
+            .unwrap()
+            .analyse(&Instrument::default())
+            .unwrap();
+        // docs/iso230-2.md: E = 5, M = 3.5, A = 5 + 1.6·√2.5.
+        let p = doc.parameters;
+        assert_eq!((p.e, p.m, p.b), (Some(5.0), Some(3.5), Some(2.5)));
+        assert!((p.a.unwrap() - (5.0 + 1.6 * 2.5f64.sqrt())).abs() < 1e-12);
+    }
+
+    #[test]
     fn readings_need_their_faces() {
         let p = Polygon::new(&[0.1, -0.1, 0.0, 0.0], &[0.01; 4], 10.0, "p.json").unwrap();
         let text =
