@@ -4,7 +4,7 @@
 use anyhow::{Context, Result, bail};
 use gonio_calib::axis::{Direction, MAX_RUNS, MAX_TARGET_DEG, TargetKey};
 use gonio_cli::output::Outputs;
-use gonio_sim::axis::{AxisModel, AxisTest, simulate};
+use gonio_sim::axis::{AxisModel, AxisTest, MAX_AXIS_ARCSEC, simulate};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -56,14 +56,14 @@ pub struct Args {
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct AxisFlags {
     /// The axis's backlash b = x̄↑ − x̄↓ at every target, arcsec [default: 1.5].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub backlash_arcsec: Option<f64>,
     /// The axis's repeatability σ of one approach, arcsec (R↑ = 4σ) [default: 0.3].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub repeatability_arcsec: Option<f64>,
     /// The axis's scale error: its systematic error grows by this much per turn, arcsec
     /// [default: 2].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub scale_arcsec_per_turn: Option<f64>,
 }
 
@@ -75,8 +75,24 @@ impl AxisFlags {
             || self.scale_arcsec_per_turn.is_some()
     }
 
-    /// The default axis of `seed` with these flags, checked.
+    /// The default axis of `seed` with these flags, each within its bound (σ ≥ 0, |·| ≤
+    /// [`MAX_AXIS_ARCSEC`]).
     pub fn model(&self, seed: u64) -> Result<AxisModel> {
+        for (flag, v, low) in [
+            ("--backlash-arcsec", self.backlash_arcsec, -MAX_AXIS_ARCSEC),
+            ("--repeatability-arcsec", self.repeatability_arcsec, 0.0),
+            (
+                "--scale-arcsec-per-turn",
+                self.scale_arcsec_per_turn,
+                -MAX_AXIS_ARCSEC,
+            ),
+        ] {
+            if let Some(v) = v
+                && !(low..=MAX_AXIS_ARCSEC).contains(&v)
+            {
+                bail!("{flag} {v}: expected {low} to {MAX_AXIS_ARCSEC} arcsec");
+            }
+        }
         let d = AxisModel::default_with_seed(seed);
         let m = AxisModel {
             backlash_arcsec: self.backlash_arcsec.unwrap_or(d.backlash_arcsec),
@@ -162,7 +178,14 @@ pub fn run(args: Args) -> Result<()> {
         reference_sigma_arcsec: args.reference_sigma_arcsec,
         resolution_arcsec: args.resolution_arcsec,
     };
-    let readings = simulate(&model, &test).map_err(|e| anyhow::anyhow!("{e} (see --help)"))?;
+    let (sigma, res) = (args.reference_sigma_arcsec, args.resolution_arcsec);
+    if !(0.0..=MAX_AXIS_ARCSEC).contains(&sigma) {
+        bail!("--reference-sigma-arcsec {sigma}: expected 0 to {MAX_AXIS_ARCSEC} arcsec");
+    }
+    if !(1e-6..=1.0).contains(&res) {
+        bail!("--resolution-arcsec {res}: expected 0.000001 to 1 arcsec");
+    }
+    let readings = simulate(&model, &test)?;
     let mut out = Outputs::new();
     out.dir("--out", &args.out, args.force)?;
     let csv_id = out.file("--out", &args.out.join("readings.csv"))?;
