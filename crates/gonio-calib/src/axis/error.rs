@@ -102,6 +102,24 @@ pub enum AxisError {
         /// Its pitch, degrees.
         pitch_deg: f64,
     },
+    /// A face that does not follow the polygon's pitch from the faces before it.
+    #[error(
+        "reading {index}: face {face} at target {target_deg}°, where reading {first}'s face puts face {expected}: the polygon's faces advance by one every {pitch_deg}° (is the certificate for the polygon on the axis?)"
+    )]
+    FaceOffTarget {
+        /// The reading.
+        index: usize,
+        /// The face given.
+        face: usize,
+        /// Its target, degrees.
+        target_deg: f64,
+        /// The face the first reading's implies.
+        expected: usize,
+        /// The first reading with a face.
+        first: usize,
+        /// The pitch, degrees.
+        pitch_deg: f64,
+    },
     /// A face number outside the polygon.
     #[error("reading {index}: face {face} is out of range: expected 1..={faces}")]
     FaceOutOfRange {

@@ -129,12 +129,15 @@ impl Polygon {
 
     /// The face at the autocollimator at `target_deg` with face 1 at 0°; `None` off the faces.
     pub fn face_at(&self, target_deg: f64) -> Option<usize> {
+        self.steps_at(target_deg)
+            .map(|k| k.rem_euclid(self.faces() as i64) as usize + 1)
+    }
+
+    /// Pitches from 0° to `target_deg`; `None` off the faces.
+    fn steps_at(&self, target_deg: f64) -> Option<i64> {
         let k = target_deg / self.pitch_deg();
         let r = k.round();
-        if ((k - r) * self.pitch_deg()).abs() > AT_FACE_DEG {
-            return None;
-        }
-        Some((r as i64).rem_euclid(self.faces() as i64) as usize + 1)
+        (((k - r) * self.pitch_deg()).abs() <= AT_FACE_DEG).then_some(r as i64)
     }
 
     /// The term K(f) of face `face` (1-based) and its standard uncertainty, arcsec.
@@ -146,30 +149,53 @@ impl Polygon {
     }
 
     /// The deviations of autocollimator readings: each reading less its face's term, with the
-    /// face.
+    /// face. Faces given with the readings must advance by one a pitch, as the polygon's do
+    /// (the face at 0° is then any face).
     ///
     /// # Errors
-    /// [`AxisError::FaceOutOfRange`], [`AxisError::NotAtFace`] (no face given and the target is
-    /// not a multiple of the pitch).
+    /// [`AxisError::FaceOutOfRange`]; [`AxisError::NotAtFace`] (a target that is not a multiple
+    /// of the pitch); [`AxisError::FaceOffTarget`] (a face that does not follow the pitch from the
+    /// first reading's: a certificate of another polygon, or a wrong face).
     pub fn correct(&self, rows: &[FaceReading]) -> Result<Vec<(AxisReading, usize)>, AxisError> {
+        let n = self.faces() as i64;
+        // The face at 0° (0-based) that the first reading with a face implies.
+        let mut zero: Option<(i64, usize)> = None;
         rows.iter()
             .enumerate()
             .map(|(index, r)| {
+                let steps = self.steps_at(r.target_deg).ok_or(AxisError::NotAtFace {
+                    index,
+                    target_deg: r.target_deg,
+                    faces: self.faces(),
+                    pitch_deg: self.pitch_deg(),
+                })?;
                 let face = match r.face {
-                    Some(f) if f < 1 || f > self.faces() as i64 => {
+                    Some(f) if f < 1 || f > n => {
                         return Err(AxisError::FaceOutOfRange {
                             index,
                             face: f,
                             faces: self.faces(),
                         });
                     }
-                    Some(f) => f as usize,
-                    None => self.face_at(r.target_deg).ok_or(AxisError::NotAtFace {
-                        index,
-                        target_deg: r.target_deg,
-                        faces: self.faces(),
-                        pitch_deg: self.pitch_deg(),
-                    })?,
+                    Some(f) => {
+                        let z = (f - 1 - steps).rem_euclid(n);
+                        match zero {
+                            None => zero = Some((z, index)),
+                            Some((z0, first)) if z0 != z => {
+                                return Err(AxisError::FaceOffTarget {
+                                    index,
+                                    face: f as usize,
+                                    target_deg: r.target_deg,
+                                    expected: (z0 + steps).rem_euclid(n) as usize + 1,
+                                    first,
+                                    pitch_deg: self.pitch_deg(),
+                                });
+                            }
+                            Some(_) => {}
+                        }
+                        f as usize
+                    }
+                    None => steps.rem_euclid(n) as usize + 1,
                 };
                 Ok((
                     AxisReading {

@@ -255,6 +255,19 @@ impl AxisFile {
                 line(*index),
                 self.columns.1.unwrap_or(1)
             ),
+            AxisError::FaceOffTarget {
+                index,
+                face,
+                target_deg,
+                expected,
+                first,
+                pitch_deg,
+            } => anyhow!(
+                "{name}:{}:{}: face {face} at target {target_deg}°, where line {}'s face puts face {expected}: the polygon's faces advance by one every {pitch_deg}° (is the certificate for the polygon on the axis?)",
+                line(*index),
+                self.columns.1.unwrap_or(1),
+                line(*first)
+            ),
             AxisError::OutOfRange { index, .. } => anyhow!("{name}:{}: {e}", line(*index)),
             _ => anyhow!("{name}: {e}"),
         }
@@ -326,7 +339,20 @@ mod tests {
             "{e}"
         );
         let text = "target_deg,direction,run,reading_arcsec,face\n0,+,1,1,1\n0,+,2,1,5\n";
-        let e = parse("a.csv", text, Some(p)).unwrap_err().to_string();
+        let e = parse("a.csv", text, Some(p.clone()))
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("a.csv:3:5: column 'face'"), "{e}");
+        // Face 2 at 0° is fine (a polygon mounted so); then 90° must be face 3, not 4.
+        let text = "target_deg,direction,run,reading_arcsec,face\n0,+,1,1,2\n90,+,1,1,4\n";
+        let e = parse("a.csv", text, Some(p))
+            .unwrap()
+            .analyse(&Instrument::default())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "a.csv:3:5: face 4 at target 90°, where line 2's face puts face 3: the polygon's faces advance by one every 90° (is the certificate for the polygon on the axis?)"
+        );
     }
 }
