@@ -392,24 +392,17 @@ impl Sequence for AxisPlan {
     }
 
     fn fingerprint(&self) -> u64 {
-        // FNV-1a, 64 bits: stable across builds and platforms.
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |bytes: &[u8]| {
-            for &b in bytes {
-                h ^= u64::from(b);
-                h = h.wrapping_mul(0x0000_0100_0000_01b3);
-            }
-        };
-        eat(b"axis");
-        eat(&(self.faces as u64).to_le_bytes());
-        eat(&self.x_sign.to_bits().to_le_bytes());
+        let mut f = crate::journal::Fingerprint::new();
+        f.eat(b"axis");
+        f.eat(&(self.faces as u64).to_le_bytes());
+        f.eat(&self.x_sign.to_bits().to_le_bytes());
         for p in self.positions() {
-            eat(&p.target_deg.to_bits().to_le_bytes());
-            eat(p.direction.sign().as_bytes());
-            eat(&u64::from(p.run).to_le_bytes());
-            eat(&(p.face as u64).to_le_bytes());
+            f.eat(&p.target_deg.to_bits().to_le_bytes());
+            f.eat(p.direction.sign().as_bytes());
+            f.eat(&u64::from(p.run).to_le_bytes());
+            f.eat(&(p.face as u64).to_le_bytes());
         }
-        h
+        f.finish()
     }
 
     fn x_sign(&self) -> f64 {

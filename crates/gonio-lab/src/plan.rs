@@ -516,24 +516,17 @@ impl Plan {
     /// A fingerprint of what the plan asks for (faces, X sign, every planned reading in order):
     /// a journal written for one plan is refused for another.
     pub fn fingerprint(&self) -> u64 {
-        // FNV-1a, 64 bits: stable across builds and platforms.
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |bytes: &[u8]| {
-            for &b in bytes {
-                h ^= u64::from(b);
-                h = h.wrapping_mul(0x0000_0100_0000_01b3);
-            }
-        };
-        eat(&(self.faces as u64).to_le_bytes());
-        eat(&self.x_sign.to_bits().to_le_bytes());
+        let mut f = crate::journal::Fingerprint::new();
+        f.eat(&(self.faces as u64).to_le_bytes());
+        f.eat(&self.x_sign.to_bits().to_le_bytes());
         for r in self.readings() {
-            eat(&r.shift_deg.to_bits().to_le_bytes());
-            eat(&(r.start_face as u64).to_le_bytes());
-            eat(&(r.step as u64).to_le_bytes());
-            eat(&u64::from(r.repeat).to_le_bytes());
-            eat(&[u8::from(r.closure)]);
+            f.eat(&r.shift_deg.to_bits().to_le_bytes());
+            f.eat(&(r.start_face as u64).to_le_bytes());
+            f.eat(&(r.step as u64).to_le_bytes());
+            f.eat(&u64::from(r.repeat).to_le_bytes());
+            f.eat(&[u8::from(r.closure)]);
         }
-        h
+        f.finish()
     }
 
     /// The plan as TOML (the simulator writes the plan its log follows).
