@@ -210,3 +210,37 @@ pub fn elcomat(data: &[u8]) {
         }
     }
 }
+
+/// A rotary axis: byte 0 selects readings CSV (even; bit 1: `reading_arcsec` corrected by an
+/// 8-face polygon) or an axis's measuring plan (odd). Readings: parse and evaluate to ISO
+/// 230-2, the result's JSON finite; a plan: list its cycle and checks.
+pub fn axis(data: &[u8]) {
+    let Some((&sel, rest)) = data.split_first() else {
+        return;
+    };
+    let Some(t) = text(rest) else { return };
+    if sel & 1 == 0 {
+        let polygon = (sel & 2 == 2).then(|| {
+            gonio_calib::axis::Polygon::new(
+                &[0.3, -0.1, 0.2, 0.0, -0.4, 0.1, 0.2, -0.3],
+                &[0.02; 8],
+                50.0,
+                "p",
+            )
+            .expect("a valid polygon")
+        });
+        if let Some(file) = run(rest, formats::axis::parse(NAME, &t, polygon))
+            && let Some(doc) = run(rest, file.analyse(&Default::default()))
+        {
+            gonio_io::json::to_bytes(&doc).expect("finite");
+        }
+    } else if let Some(p) = run(
+        rest,
+        gonio_lab::axis::AxisPlan::parse_text(NAME, &t).map_err(anyhow::Error::from),
+    ) {
+        use gonio_lab::sequence::Sequence;
+        let v = p.positions();
+        assert!(v.len() as u64 <= gonio_lab::plan::MAX_PLANNED_READINGS);
+        assert_eq!(p.partners(&v).len(), v.len());
+    }
+}

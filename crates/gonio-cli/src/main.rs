@@ -36,6 +36,8 @@ enum Command {
     Selfcal(cmd::selfcal::Args),
     /// Calibrate an encoder from polygon readings and read-head readings in one least squares.
     Joint(cmd::joint::Args),
+    /// Test a rotary axis's accuracy and repeatability of positioning to ISO 230-2 (A, B, E, M, R).
+    Axis(cmd::axis::Args),
     /// Read an instrument through a measuring plan, guiding the operator (autocollimator on a serial line).
     #[command(subcommand)]
     Acquire(cmd::acquire::Acquire),
@@ -90,6 +92,7 @@ fn main() {
         Command::ShiftAngle(a) => cmd::shift_angle::run(a),
         Command::Selfcal(a) => cmd::selfcal::run(a),
         Command::Joint(a) => cmd::joint::run(a),
+        Command::Axis(a) => cmd::axis::run(a),
         Command::Acquire(a) => cmd::acquire::run(a),
         Command::Import(i) => cmd::import::run(i),
         Command::Compare(a) => cmd::compare::run(a),

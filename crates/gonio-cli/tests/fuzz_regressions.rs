@@ -30,3 +30,4 @@ target!(angles_csv);
 target!(json_files);
 target!(frames);
 target!(elcomat);
+target!(axis);

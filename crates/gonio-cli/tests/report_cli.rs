@@ -322,3 +322,98 @@ fn report_renders_in_headless_chromium() {
         }
     }
 }
+
+#[test]
+fn an_axis_report_draws_the_standards_plot_and_table() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |name: &str| s(&d.path().join(name));
+    ok(&["simulate", "axis", "--seed", "4", "--out", &p("ax")]);
+    ok(&["axis", &p("ax/readings.csv"), "--json", &p("axis.json")]);
+    ok(&[
+        "simulate",
+        "axis",
+        "--seed",
+        "4",
+        "--directions",
+        "+",
+        "--out",
+        &p("up"),
+    ]);
+    ok(&["axis", &p("up/readings.csv"), "--json", &p("up.json")]);
+    let out = ok(&[
+        "report",
+        &p("axis.json"),
+        &p("up.json"),
+        "--out",
+        &p("axis.html"),
+        "--plots",
+        &p("plots"),
+    ]);
+    assert!(out.contains("2 plots"), "{out}");
+    let html = std::fs::read_to_string(d.path().join("axis.html")).unwrap();
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("axis.json")).unwrap())
+            .unwrap();
+    // The table: the twelve parameters with their values and U, as the JSON has them; the
+    // unidirectional test's bidirectional ones undefined.
+    let tables: Vec<&str> = html
+        .split("<table class=\"grid\" id=\"axis-parameters\">")
+        .skip(1)
+        .map(|t| &t[..t.find("</table>").unwrap()])
+        .collect();
+    assert_eq!(tables.len(), 2);
+    assert_eq!(tables[0].matches("<tr>").count(), 1 + 12);
+    let row = |t: &str, sym: &str| {
+        let at = t.find(&format!("<td>{sym}</td>")).unwrap();
+        t[at..t[at..].find("</tr>").unwrap() + at].to_string()
+    };
+    let a = row(tables[0], "A");
+    assert!(
+        a.contains(&format!(
+            "<td>{:.3}</td>",
+            doc["A_arcsec"].as_f64().unwrap()
+        )) && a.contains(&format!(
+            "<td>{:.3}</td>",
+            doc["uncertainty"]["parameters"]["A_arcsec"]
+                .as_f64()
+                .unwrap()
+        )),
+        "{a}"
+    );
+    assert!(row(tables[1], "A").contains("<td>–</td><td>–</td>"));
+    assert!(!row(tables[1], "A↑").contains('–'));
+    assert!(html.contains("ISO 230-2:2014") && html.contains("unidirectional (positive)"));
+    // Rendered in Chromium: no console error; each plot, on its own, has ink and both
+    // directions' colours (a unidirectional test's one).
+    let page = d.path().join("axis.png");
+    let log = screenshot(
+        d.path(),
+        &format!("file://{}", p("axis.html")),
+        &page,
+        1000,
+        3000,
+        &[],
+    );
+    assert!(page_errors(&log).is_empty(), "{:?}", page_errors(&log));
+    let mut svgs: Vec<PathBuf> = std::fs::read_dir(d.path().join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    svgs.sort();
+    for (svg, colours) in svgs.iter().zip([&["#0072B2", "#D55E00"][..], &["#0072B2"]]) {
+        let text = std::fs::read_to_string(svg).unwrap();
+        for c in colours {
+            assert!(text.matches(c).count() >= 9, "{}: {c}", svg.display());
+        }
+        let png = svg.with_extension("png");
+        let log = screenshot(d.path(), &format!("file://{}", s(svg)), &png, 860, 400, &[]);
+        assert!(page_errors(&log).is_empty(), "{:?}", page_errors(&log));
+        let img = image::open(&png).unwrap().to_rgba8();
+        let (frac, coloured) = ink(&img, 0, 0, img.width(), img.height());
+        assert!(
+            frac > 0.02 && coloured >= 500,
+            "{}: ink {frac:.3}, {coloured} coloured px",
+            svg.display()
+        );
+    }
+}

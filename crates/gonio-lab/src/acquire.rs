@@ -1,5 +1,6 @@
-//! The acquisition: the measuring plan walked position by position, each position read from
-//! the autocollimator as the mean of K samples, checked, and journalled before the next.
+//! The acquisition: a measuring plan (any [`Sequence`]: the shift-angle plan, an axis's test
+//! cycle) walked position by position, each position read from the autocollimator as the mean
+//! of K samples, checked, and journalled before the next.
 //!
 //! For every planned position [`Acquisition::measure`] asks the instrument for K samples
 //! ([`Settings::samples`]). An answer that is no reading (another status code: the instrument
@@ -12,10 +13,11 @@
 //! (K > 1; with K = 1 as sent). [`Acquisition::commit`] appends it to the journal and syncs
 //! before the caller asks for the next position.
 //!
-//! Checks as the readings come in ([`Acquisition::checks`]): the closure of a run (its closure
-//! reading against its step 1) and the drift between repeats (a repeat against repeat 1 of the
-//! same shift, start face and step), each with the limit 3·√2·σ/√K from the autocollimator's σ
-//! per sample ([`Settings::sigma_arcsec`]).
+//! Checks as the readings come in ([`Acquisition::checks`]), against the earlier position the
+//! plan names ([`Sequence::partners`]): the closure of a run (its closure reading against its
+//! step 1) and the drift between repeats (a repeat against repeat 1 of the same shift, start
+//! face and step), each with the limit 3·√2·σ/√K from the autocollimator's σ per sample
+//! ([`Settings::sigma_arcsec`]), which a plan may widen ([`Sequence::check_limit_arcsec`]).
 //!
 //! ```
 //! use gonio_lab::acquire::{Acquisition, Settings};
@@ -34,9 +36,9 @@ use crate::journal::{self, ExchangeKind, Header, Journal, JournalError, Outcome,
 use crate::log::{Mode, Reply};
 use crate::plan::{Plan, PlannedReading};
 use crate::readings::Row;
-use gonio_calib::shift_angle::ShiftKey;
+pub use crate::sequence::CheckKind;
+use crate::sequence::Sequence;
 use gonio_core::bound::{Bound, Num, OutOfBound};
-use std::collections::HashMap;
 use std::path::Path;
 
 /// How positions are read and checked.
@@ -167,40 +169,33 @@ pub enum Attempt {
     },
 }
 
-/// Which check.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CheckKind {
-    /// A run's closure reading against its step 1.
-    Closure,
-    /// A repeat against repeat 1.
-    Drift,
-}
-
-/// A check of a reading against an earlier one.
+/// A check of a reading against an earlier one (`P` the plan's position).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Check {
+pub struct Check<P = PlannedReading> {
     /// Closure or drift.
     pub kind: CheckKind,
     /// This reading minus the earlier, arcsec.
     pub value_arcsec: f64,
-    /// The limit, arcsec (3·√2·σ/√K).
+    /// The limit, arcsec (3·√2·σ/√K, or the plan's).
     pub limit_arcsec: f64,
     /// The reading checked.
-    pub reading: PlannedReading,
+    pub reading: P,
 }
 
-impl Check {
+impl<P> Check<P> {
     /// Whether the difference is within the limit.
     pub fn ok(&self) -> bool {
         self.value_arcsec.abs() <= self.limit_arcsec
     }
 }
 
-/// A plan being acquired.
+/// A plan being acquired (a shift-angle plan by default).
 #[derive(Debug)]
-pub struct Acquisition {
-    plan: Plan,
-    planned: Vec<PlannedReading>,
+pub struct Acquisition<S: Sequence = Plan> {
+    plan: S,
+    planned: Vec<S::Position>,
+    /// Per position: the earlier position it is checked against.
+    partners: Vec<Option<(CheckKind, usize)>>,
     settings: Settings,
     journal: Journal,
     /// Every record in the order committed (re-reads included).
@@ -209,7 +204,6 @@ pub struct Acquisition {
     current: Vec<Option<usize>>,
     next: usize,
     last: Option<usize>,
-    lookup: HashMap<(ShiftKey, usize, usize, u32, bool), usize>,
 }
 
 /// Decimals of a number as written (`+1.2350` → 4).
@@ -217,7 +211,7 @@ fn decimals_of(s: &str) -> usize {
     s.split_once('.').map_or(0, |(_, d)| d.len())
 }
 
-impl Acquisition {
+impl<S: Sequence> Acquisition<S> {
     /// Starts acquiring `plan` with a new journal at `journal_path`, or continues the journal
     /// there (`resume`; a new one when there is none).
     ///
@@ -225,13 +219,13 @@ impl Acquisition {
     /// [`AcquireError::Setting`] for a setting out of its bound; [`JournalError`]: a journal is
     /// there without `resume`, or is for another plan or mode.
     pub fn start(
-        plan: Plan,
+        plan: S,
         settings: Settings,
         journal_path: &Path,
         resume: bool,
-    ) -> Result<Acquisition, AcquireError> {
+    ) -> Result<Acquisition<S>, AcquireError> {
         settings.validate()?;
-        let planned = plan.readings();
+        let planned = plan.positions();
         let header = Header {
             plan: plan.fingerprint(),
             readings: planned.len(),
@@ -242,24 +236,10 @@ impl Acquisition {
         } else {
             (Journal::create(journal_path, &header)?, Vec::new())
         };
-        let lookup = planned
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                (
-                    (
-                        ShiftKey::of(p.shift_deg),
-                        p.start_face,
-                        p.step,
-                        p.repeat,
-                        p.closure,
-                    ),
-                    i,
-                )
-            })
-            .collect();
+        let partners = plan.partners(&planned);
         let mut a = Acquisition {
             current: vec![None; planned.len()],
+            partners,
             plan,
             planned,
             settings,
@@ -267,7 +247,6 @@ impl Acquisition {
             history: Vec::new(),
             next: 0,
             last: None,
-            lookup,
         };
         for r in records {
             a.note(r);
@@ -284,7 +263,7 @@ impl Acquisition {
     }
 
     /// The plan.
-    pub fn plan(&self) -> &Plan {
+    pub fn plan(&self) -> &S {
         &self.plan
     }
 
@@ -294,7 +273,7 @@ impl Acquisition {
     }
 
     /// Every planned reading, in measuring order.
-    pub fn planned(&self) -> &[PlannedReading] {
+    pub fn planned(&self) -> &[S::Position] {
         &self.planned
     }
 
@@ -339,7 +318,7 @@ impl Acquisition {
     /// The reading of a position as it goes into the CSV (x_sign applied), arcsec.
     pub fn value(&self, index: usize) -> Option<f64> {
         match &self.record(index)?.outcome {
-            Outcome::Read { x, .. } => x.parse::<f64>().ok().map(|v| self.plan.x_sign * v),
+            Outcome::Read { x, .. } => x.parse::<f64>().ok().map(|v| self.plan.x_sign() * v),
             Outcome::Skipped => None,
         }
     }
@@ -489,39 +468,23 @@ impl Acquisition {
         })
     }
 
-    /// The checks of position `index` against earlier readings: its run's closure, or its
-    /// drift from repeat 1.
-    pub fn checks(&self, index: usize) -> Vec<Check> {
+    /// The checks of position `index` against the earlier reading the plan names: its run's
+    /// closure, or its drift from the first repeat.
+    pub fn checks(&self, index: usize) -> Vec<Check<S::Position>> {
         let Some(p) = self.planned.get(index) else {
             return Vec::new();
         };
         let Some(v) = self.value(index) else {
             return Vec::new();
         };
-        let key = ShiftKey::of(p.shift_deg);
-        let against = if p.closure {
-            let repeats = self
-                .plan
-                .shifts
-                .iter()
-                .find(|s| ShiftKey::of(s.shift_deg) == key)
-                .map_or(1, |s| s.repeats);
-            self.lookup
-                .get(&(key, p.start_face, 1, p.repeat - repeats, false))
-                .map(|&i| (CheckKind::Closure, i))
-        } else if p.repeat > 1 {
-            self.lookup
-                .get(&(key, p.start_face, p.step, 1, false))
-                .map(|&i| (CheckKind::Drift, i))
-        } else {
-            None
-        };
-        against
+        self.partners[index]
             .and_then(|(kind, i)| {
                 self.value(i).map(|w| Check {
                     kind,
                     value_arcsec: v - w,
-                    limit_arcsec: self.settings.check_limit_arcsec(),
+                    limit_arcsec: self
+                        .plan
+                        .check_limit_arcsec(self.settings.check_limit_arcsec()),
                     reading: *p,
                 })
             })
@@ -530,12 +493,12 @@ impl Acquisition {
     }
 
     /// The readings so far, in measuring order (skipped positions left out).
-    pub fn rows(&self) -> Vec<Row> {
+    pub fn rows(&self) -> Vec<Row<S::Position>> {
         (0..self.planned.len())
             .filter_map(|i| match &self.record(i)?.outcome {
                 Outcome::Read { x, .. } => Some(Row {
                     planned: self.planned[i],
-                    value_arcsec: self.plan.x_sign * x.parse::<f64>().ok()?,
+                    value_arcsec: self.plan.x_sign() * x.parse::<f64>().ok()?,
                     decimals: decimals_of(x),
                 }),
                 Outcome::Skipped => None,
@@ -561,7 +524,7 @@ impl Acquisition {
             let latest = self.current[r.index] == Some(h);
             s.push_str(&format!(
                 "# {}{}\r\n",
-                crate::readings::describe(&self.plan, p),
+                self.plan.describe(p),
                 match (&r.outcome, latest) {
                     (Outcome::Skipped, _) => ": skipped",
                     (_, false) => ": replaced by a later re-read",

@@ -38,6 +38,43 @@ use std::path::{Path, PathBuf};
 
 const MAGIC: &str = "gonio-acquire-journal 1";
 
+/// A plan's fingerprint as it is built ([`Header::plan`]): FNV-1a, 64 bits, stable across builds
+/// and platforms.
+///
+/// ```
+/// let mut f = gonio_lab::journal::Fingerprint::new();
+/// f.eat(b"a");
+/// assert_eq!(f.finish(), 0xaf63_dc4c_8601_ec8c);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Fingerprint(u64);
+
+impl Default for Fingerprint {
+    fn default() -> Self {
+        Fingerprint(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fingerprint {
+    /// An empty fingerprint.
+    pub fn new() -> Fingerprint {
+        Fingerprint::default()
+    }
+
+    /// Adds bytes.
+    pub fn eat(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    /// The fingerprint.
+    pub fn finish(self) -> u64 {
+        self.0
+    }
+}
+
 /// What the journal is for: a journal is resumed only for the same plan and mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Header {

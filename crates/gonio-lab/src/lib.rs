@@ -2,11 +2,13 @@
 //! turns the polygon through a shift-angle measuring plan, and nothing acquired is lost.
 //!
 //! - [`plan`]: the measuring plan (TOML): which reading comes when.
+//! - [`axis`]: a rotary axis's ISO 230-2 test cycle (TOML): targets, runs, overruns.
 //! - [`log`]: the autocollimator's line format (`4 003 X Y`, `2 103 X Y`, arcsec) and its logs.
 //! - [`import`]: a log and its plan → the readings of the shift-angle CSV.
 //! - [`readings`]: that CSV as the lab writes it.
 //! - [`instrument`]: the serial driver (request `a`/`r` + CR LF, one answer line ended by CR).
 //! - [`journal`]: every accepted reading appended and synced before the next is asked for.
+//! - [`sequence`]: what an acquisition walks (the shift-angle plan, an axis's test cycle).
 //! - [`acquire`]: the plan walked position by position: K samples averaged, spread checked,
 //!   flagged answers rejected, closure and drift checked.
 //! - [`simulator`]: a simulated autocollimator and polygon on a pseudo-terminal.
@@ -24,10 +26,12 @@
 #![deny(missing_docs)]
 
 pub mod acquire;
+pub mod axis;
 pub mod import;
 pub mod instrument;
 pub mod journal;
 pub mod log;
 pub mod plan;
 pub mod readings;
+pub mod sequence;
 pub mod simulator;

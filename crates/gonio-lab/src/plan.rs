@@ -59,7 +59,7 @@ type Result<T> = std::result::Result<T, PlanError>;
 
 /// A parser's message cut to at most 500 characters (its beginning and end), as the CLI cuts
 /// every error line.
-fn cap(s: &str) -> String {
+pub(crate) fn cap(s: &str) -> String {
     let n = s.chars().count();
     if n <= 500 {
         return s.to_string();
@@ -111,6 +111,18 @@ pub enum ModeRule {
     Absolute,
     /// Relative readings only.
     Relative,
+}
+
+impl ModeRule {
+    /// `any`, `absolute` or `relative`, as a plan writes it.
+    pub fn parse(s: &str) -> Option<ModeRule> {
+        match s {
+            "any" => Some(ModeRule::Any),
+            "absolute" => Some(ModeRule::Absolute),
+            "relative" => Some(ModeRule::Relative),
+            _ => None,
+        }
+    }
 }
 
 /// The runs at one shift.
@@ -420,17 +432,15 @@ impl Plan {
         };
         let mode = match &raw.mode {
             None => ModeRule::Any,
-            Some(v) => match v.get_ref().as_str() {
-                "any" => ModeRule::Any,
-                "absolute" => ModeRule::Absolute,
-                "relative" => ModeRule::Relative,
-                m => {
-                    return Err(at(
-                        v.span(),
-                        format!("mode = {m:?}: expected \"absolute\", \"relative\" or \"any\""),
-                    ));
-                }
-            },
+            Some(v) => ModeRule::parse(v.get_ref()).ok_or_else(|| {
+                at(
+                    v.span(),
+                    format!(
+                        "mode = {:?}: expected \"absolute\", \"relative\" or \"any\"",
+                        v.get_ref()
+                    ),
+                )
+            })?,
         };
         let closure = u64::from(raw.closure.unwrap_or(false));
         let total: u64 = shifts
@@ -516,24 +526,17 @@ impl Plan {
     /// A fingerprint of what the plan asks for (faces, X sign, every planned reading in order):
     /// a journal written for one plan is refused for another.
     pub fn fingerprint(&self) -> u64 {
-        // FNV-1a, 64 bits: stable across builds and platforms.
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |bytes: &[u8]| {
-            for &b in bytes {
-                h ^= u64::from(b);
-                h = h.wrapping_mul(0x0000_0100_0000_01b3);
-            }
-        };
-        eat(&(self.faces as u64).to_le_bytes());
-        eat(&self.x_sign.to_bits().to_le_bytes());
+        let mut f = crate::journal::Fingerprint::new();
+        f.eat(&(self.faces as u64).to_le_bytes());
+        f.eat(&self.x_sign.to_bits().to_le_bytes());
         for r in self.readings() {
-            eat(&r.shift_deg.to_bits().to_le_bytes());
-            eat(&(r.start_face as u64).to_le_bytes());
-            eat(&(r.step as u64).to_le_bytes());
-            eat(&u64::from(r.repeat).to_le_bytes());
-            eat(&[u8::from(r.closure)]);
+            f.eat(&r.shift_deg.to_bits().to_le_bytes());
+            f.eat(&(r.start_face as u64).to_le_bytes());
+            f.eat(&(r.step as u64).to_le_bytes());
+            f.eat(&u64::from(r.repeat).to_le_bytes());
+            f.eat(&[u8::from(r.closure)]);
         }
-        h
+        f.finish()
     }
 
     /// The plan as TOML (the simulator writes the plan its log follows).

@@ -14,11 +14,11 @@
 use crate::plan::{Plan, PlannedReading};
 use std::fmt::Write as _;
 
-/// One reading of the CSV.
+/// One reading of the CSV (of a shift-angle plan by default; `P` the plan's position).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Row {
+pub struct Row<P = PlannedReading> {
     /// Which reading of the plan it is.
-    pub planned: PlannedReading,
+    pub planned: P,
     /// The reading (the plan's `x_sign` applied), arcsec.
     pub value_arcsec: f64,
     /// Decimals to write it with.

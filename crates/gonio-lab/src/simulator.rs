@@ -10,7 +10,12 @@
 //!
 //! quantised to the resolution, arcsec: α from an [`EncoderModel`], β the polygon's pitch
 //! deviations (Σβ = 0), U a setup error per run, n the number of answers so far; the same
-//! model as `gonio_sim::shift_angle`. A fraction of answers is flagged with status `013` (`113`
+//! model as `gonio_sim::shift_angle`.
+//!
+//! With a rotary axis under the polygon ([`SimulatedAutocollimator::with_axis`]) the operator
+//! may instead move the axis to a target of an ISO 230-2 test ([`SimulatedAutocollimator::approach`]):
+//! X = x + Σ_{t≤f} β_t + U, with x where the axis stopped less the target
+//! ([`gonio_sim::axis::AxisModel`]) and f the face at the autocollimator. A fraction of answers is flagged with status `013` (`113`
 //! for relative readings) instead of `003` (`103`). Relative readings are the absolute ones less
 //! a fixed zero of 1000″. Everything random comes from the seed: the same seed and requests give
 //! the same bytes.
@@ -24,9 +29,11 @@
 //! assert!(answer.starts_with("4 0") && answer.ends_with('\r'));
 //! ```
 
+use gonio_calib::axis::Direction;
 use gonio_core::Degrees;
 use gonio_core::closure::{cyclic_sum, remove_mean};
 use gonio_sim::EncoderModel;
+use gonio_sim::axis::AxisModel;
 use gonio_sim::shift_angle::TrueAlpha;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -101,11 +108,27 @@ pub struct Position {
     pub step: usize,
 }
 
+/// Where the operator moved a rotary axis under test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Approach {
+    /// Target, degrees.
+    pub target_deg: f64,
+    /// The sense of the approach.
+    pub direction: Direction,
+    /// Run (1-based).
+    pub run: u32,
+    /// The polygon face at the autocollimator (1-based).
+    pub face: usize,
+}
+
 /// The simulated instrument.
 #[derive(Debug)]
 pub struct SimulatedAutocollimator {
     cfg: SimConfig,
     encoder: EncoderModel,
+    /// The rotary axis under the polygon, and where it stopped (x, arcsec) when the operator
+    /// last moved it.
+    axis: Option<(AxisModel, Option<f64>)>,
     beta: Vec<f64>,
     noise: ChaCha8Rng,
     flags: ChaCha8Rng,
@@ -169,6 +192,7 @@ impl SimulatedAutocollimator {
         Ok(SimulatedAutocollimator {
             cfg,
             encoder,
+            axis: None,
             beta,
             noise: stream(cfg.seed, 3),
             flags: stream(cfg.seed, 5),
@@ -185,6 +209,38 @@ impl SimulatedAutocollimator {
     /// j. A face or step out of range is taken modulo N.
     pub fn set(&mut self, p: Position) {
         self.position = p;
+        if let Some((_, x)) = &mut self.axis {
+            *x = None;
+        }
+    }
+
+    /// The bench with a rotary axis under the polygon (see the module's documentation).
+    ///
+    /// # Errors
+    /// [`SimConfigError`] for an invalid axis model.
+    pub fn with_axis(mut self, axis: AxisModel) -> Result<Self, SimConfigError> {
+        axis.validate().map_err(|_| SimConfigError {
+            name: "axis",
+            value: f64::NAN,
+            expected: "a valid axis model (finite, within ±3600″)",
+        })?;
+        self.axis = Some((axis, None));
+        Ok(self)
+    }
+
+    /// Moves the axis under test to a target from a direction, in a run, with `face` at the
+    /// autocollimator; `false` (nothing moved) without an axis.
+    pub fn approach(&mut self, a: Approach) -> bool {
+        let Some((model, x)) = &mut self.axis else {
+            return false;
+        };
+        *x = Some(model.deviation_arcsec(a.target_deg, a.direction, a.run));
+        self.position = Position {
+            shift_deg: 0.0,
+            start_face: 1,
+            step: a.face,
+        };
+        true
     }
 
     /// The bench's position.
@@ -211,8 +267,19 @@ impl SimulatedAutocollimator {
         let p = self.position;
         let i = (p.step + n - 1) % n + 1;
         let j = (p.start_face + n - 1) % n + 1;
-        let theta = Degrees((i - 1) as f64 * 360.0 / n as f64 + p.shift_deg);
-        self.encoder.error_at(theta).0 + cyclic_sum(&self.beta, j, i) + self.setup(p.shift_deg, j)
+        let table = match &self.axis {
+            Some((_, Some(x))) => *x,
+            _ => {
+                let theta = Degrees((i - 1) as f64 * 360.0 / n as f64 + p.shift_deg);
+                self.encoder.error_at(theta).0
+            }
+        };
+        table + cyclic_sum(&self.beta, j, i) + self.setup(p.shift_deg, j)
+    }
+
+    /// The polygon's pitch deviations β_1…β_N, arcsec.
+    pub fn pitch_deviations(&self) -> &[f64] {
+        &self.beta
     }
 
     /// The answer line (with its CR) to one request byte: `a` absolute, `r` relative; `None`
@@ -411,5 +478,33 @@ mod tests {
         assert!((a.exact_arcsec() - c).abs() < 1e-12);
         assert_eq!(a.answer(b'x'), None);
         assert!(a.answer(b'r').unwrap().starts_with("2 1"));
+    }
+
+    #[test]
+    fn an_axis_under_the_polygon_reads_its_deviation_plus_the_face() {
+        let axis = AxisModel::default_with_seed(2);
+        let mut a = sim(4, 0.0).with_axis(axis.clone()).unwrap();
+        let go = |face, run| Approach {
+            target_deg: 30.0 * (face - 1) as f64,
+            direction: Direction::Down,
+            run,
+            face,
+        };
+        assert!(a.approach(go(3, 1)));
+        let x3 = a.exact_arcsec();
+        a.approach(go(4, 1));
+        let x4 = a.exact_arcsec();
+        // One face on: the axis's deviation there and β_4 more.
+        let want = axis.deviation_arcsec(90.0, Direction::Down, 1)
+            - axis.deviation_arcsec(60.0, Direction::Down, 1)
+            + a.pitch_deviations()[3];
+        assert!((x4 - x3 - want).abs() < 1e-12, "{} vs {want}", x4 - x3);
+        // The same approach stops at the same place; another run elsewhere.
+        a.approach(go(3, 1));
+        assert_eq!(a.exact_arcsec(), x3);
+        a.approach(go(3, 2));
+        assert_ne!(a.exact_arcsec(), x3);
+        // Without an axis nothing moves.
+        assert!(!sim(4, 0.0).approach(go(3, 1)));
     }
 }

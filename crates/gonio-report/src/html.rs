@@ -3,12 +3,13 @@
 //!
 //! A report holds any number of sections, one per input: a calibration certificate (with its
 //! ISO/IEC 17025 §7.8 administrative data, or a DRAFT banner naming what is missing), a
-//! comparison of two certificates, or a mounting batch.
+//! comparison of two certificates, a rotary axis tested to ISO 230-2, or a mounting batch.
 
 use crate::ReportError;
 use crate::batch::BatchView;
 use crate::font;
 use crate::plot::{self, Figure};
+use gonio_calib::axis::AxisResult;
 use gonio_calib::certificate::{Certificate, CertificateMeta, Procedure};
 use gonio_calib::compare::Comparison;
 use gonio_station::published;
@@ -227,6 +228,19 @@ impl Report {
             esc(&c.note)
         );
         self.figure(plot::comparison(c)?);
+        self.body.push_str("</section>\n");
+        Ok(())
+    }
+
+    /// Adds a rotary axis tested to ISO 230-2: the standard's plot and its tables.
+    ///
+    /// # Errors
+    /// [`ReportError::Plot`] if the plot cannot be drawn.
+    pub fn add_axis(&mut self, doc: &AxisResult, source: &str) -> Result<(), ReportError> {
+        self.sections += 1;
+        crate::axis::header(&mut self.body, doc, source);
+        self.figure(crate::axis::figure(doc)?);
+        crate::axis::tables(&mut self.body, doc);
         self.body.push_str("</section>\n");
         Ok(())
     }

@@ -2,7 +2,8 @@
 //! backend with an embedded font, [`font`]), one self-contained offline HTML file ([`html`]), and
 //! the Digital Calibration Certificate of PTB (DCC v3.1.2 XML, [`dcc`]).
 //!
-//! Inputs are a calibration [`Certificate`](gonio_calib::certificate::Certificate), a
+//! Inputs are a calibration [`Certificate`](gonio_calib::certificate::Certificate), a rotary
+//! axis tested to ISO 230-2 ([`axis`], the document of `gonio axis`), a
 //! [`Comparison`](gonio_calib::compare::Comparison) of two certificates, or a mounting batch
 //! ([`batch::BatchView`]). Nothing here prints or touches the network; outputs are strings the
 //! caller writes.
@@ -14,6 +15,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod axis;
 pub mod batch;
 pub mod dcc;
 pub mod font;

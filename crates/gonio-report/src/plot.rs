@@ -48,8 +48,8 @@ impl Figure {
 }
 
 /// Width and height of a standard figure, px.
-const SIZE: (u32, u32) = (860, 400);
-const TICK: u32 = 17;
+pub(crate) const SIZE: (u32, u32) = (860, 400);
+pub(crate) const TICK: u32 = 17;
 const DESC: u32 = 19;
 
 /// Okabe–Ito colours.
@@ -59,18 +59,18 @@ pub(crate) const GREEN: RGBColor = RGBColor(0, 158, 115);
 pub(crate) const VERMILION: RGBColor = RGBColor(213, 94, 0);
 pub(crate) const SKY: RGBColor = RGBColor(86, 180, 233);
 pub(crate) const PURPLE: RGBColor = RGBColor(204, 121, 167);
-const GREY: RGBColor = RGBColor(110, 110, 110);
+pub(crate) const GREY: RGBColor = RGBColor(110, 110, 110);
 const GRID: RGBColor = RGBColor(232, 232, 232);
 const PALETTE: [RGBColor; 7] = [BLUE, VERMILION, GREEN, ORANGE, PURPLE, SKY, BLACK];
 
-fn err<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> ReportError + '_ {
+pub(crate) fn err<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> ReportError + '_ {
     move |e| ReportError::Plot {
         figure: what.to_string(),
         message: format!("{e:?}"),
     }
 }
 
-fn tick() -> TextStyle<'static> {
+pub(crate) fn tick() -> TextStyle<'static> {
     (FAMILY, TICK).into_font().into()
 }
 
@@ -87,7 +87,7 @@ fn bold(size: u32) -> TextStyle<'static> {
 }
 
 /// A range that includes every value with a margin, never empty.
-fn range(values: impl Iterator<Item = f64>, margin: f64) -> (f64, f64) {
+pub(crate) fn range(values: impl Iterator<Item = f64>, margin: f64) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
@@ -101,7 +101,7 @@ fn range(values: impl Iterator<Item = f64>, margin: f64) -> (f64, f64) {
 }
 
 /// Decimal places that show a step of `span/count` distinctly.
-fn decimals(span: f64, count: usize) -> usize {
+pub(crate) fn decimals(span: f64, count: usize) -> usize {
     let step = span / count.max(1) as f64;
     if step <= 0.0 || !step.is_finite() {
         return 2;
@@ -109,7 +109,7 @@ fn decimals(span: f64, count: usize) -> usize {
     (-(step.log10().floor()) as i32).clamp(0, 6) as usize
 }
 
-fn render(
+pub(crate) fn render(
     id: &str,
     size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), ReportError>,
@@ -127,10 +127,10 @@ fn render(
 
 /// Margins and label areas of one chart, px.
 #[derive(Debug, Clone, Copy)]
-struct Frame {
-    margin: u32,
+pub(crate) struct Frame {
+    pub(crate) margin: u32,
     margin_right: u32,
-    x_area: u32,
+    pub(crate) x_area: u32,
     y_area: u32,
 }
 
@@ -142,7 +142,7 @@ impl Frame {
 }
 
 /// The frame of a standard figure.
-const FRAME: Frame = Frame {
+pub(crate) const FRAME: Frame = Frame {
     margin: 14,
     margin_right: 24,
     x_area: 52,
@@ -157,7 +157,7 @@ type Chart<'a, DB, X, Y> = ChartContext<
 >;
 
 /// A Cartesian chart on `area` in `frame`, with an optional caption above it.
-fn cartesian<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
+pub(crate) fn cartesian<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
     area: &'a DrawingArea<DB, Shift>,
     id: &str,
     frame: Frame,
@@ -181,7 +181,7 @@ fn cartesian<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
 
 /// The house mesh of `chart`: axis descriptions (`y_desc` none for a labelled category
 /// axis), text styles and the grid; the caller adds the labels and draws it.
-fn mesh<'a, 'b, DB, X, Y, XT, YT>(
+pub(crate) fn mesh<'a, 'b, DB, X, Y, XT, YT>(
     chart: &'b mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     x_desc: &str,
     y_desc: Option<&str>,
@@ -234,7 +234,7 @@ fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
 }
 
 /// The legend box of `chart` at `position`, its text `size` px, drawn.
-fn legend_at<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+pub(crate) fn legend_at<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     id: &str,
     size: u32,
@@ -279,7 +279,7 @@ fn decimate(values: &[f64], max: usize) -> Vec<usize> {
 }
 
 /// `v` with `d` decimals, without a minus sign on zero.
-fn fixed(v: f64, d: usize) -> String {
+pub(crate) fn fixed(v: f64, d: usize) -> String {
     let s = format!("{v:.d$}");
     if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
         s[1..].to_string()

@@ -1,6 +1,8 @@
 //! The digital twin of gonio: simulated instruments that produce the same readings a lab's
 //! hardware would, with their ground truth, for every estimator to be tested against.
 //!
+//! - [`axis`]: a rotary axis under an ISO 230-2 test: systematic error, backlash and
+//!   repeatability, with its true parameters.
 //! - [`encoder`]: an encoder's angle error (harmonics + random graduation error with circle
 //!   closure), saved to and loaded from a JSON model file so every simulator calibrates the
 //!   same encoder.
@@ -13,6 +15,7 @@
 //! (ChaCha8 streams, no global state).
 #![deny(missing_docs)]
 
+pub mod axis;
 pub mod encoder;
 pub mod error;
 pub mod frames;

@@ -1,7 +1,8 @@
-//! `gonio acquire shift-angle`: read an ELCOMAT-type autocollimator over its serial line while
-//! the operator turns the polygon through the measuring plan.
+//! `gonio acquire shift-angle` and `gonio acquire axis`: read an ELCOMAT-type autocollimator
+//! over its serial line while the operator turns the polygon through the measuring plan, or
+//! moves a rotary axis through its ISO 230-2 test cycle.
 //!
-//! Glue only: the driver, the plan, the checks and the journal are `gonio_lab`'s. This module
+//! Glue only: the driver, the plans, the checks and the journal are `gonio_lab`'s. This module
 //! talks to the operator: a full-screen view when standard input is a terminal
 //! ([`crate::cmd::acquire::screen`]), else the line protocol (`NEXT …` / `READ …`).
 
@@ -14,11 +15,13 @@ use gonio_cli::{note, say};
 use gonio_core::bound::{Num, duration_s};
 use gonio_io::input;
 use gonio_lab::acquire::{self, AcquireError, Acquisition, Attempt, Check, CheckKind, Settings};
+use gonio_lab::axis::AxisPlan;
 use gonio_lab::instrument;
 use gonio_lab::instrument::{Autocollimator, Transport};
 use gonio_lab::journal::{self, Outcome};
 use gonio_lab::log::Mode;
-use gonio_lab::plan::{ModeRule, Plan, PlannedReading};
+use gonio_lab::plan::{ModeRule, Plan};
+use gonio_lab::sequence::Sequence;
 use std::io::{BufRead, IsTerminal};
 use std::path::PathBuf;
 
@@ -28,7 +31,34 @@ pub enum Acquire {
     /// A shift-angle measurement: polygon readings of an autocollimator at every position of
     /// a measuring plan → the readings CSV of `gonio shift-angle`.
     ShiftAngle(Args),
+    /// A rotary axis to ISO 230-2: the autocollimator reads the polygon on the axis at every
+    /// approach of the standard's test cycle → the readings CSV of `gonio axis`.
+    #[command(after_help = AXIS_HELP)]
+    Axis(Args),
 }
+
+const AXIS_HELP: &str = "\
+The plan (TOML, see docs/iso230-2.md) names the polygon's faces, the targets (every face by
+default, and 360°), the runs (5), the directions and the overrun. The cycle is the standard's:
+run 1 turns to the first target less the overrun, approaches every target upwards, turns beyond
+the last by the overrun, approaches every target downwards; then run 2 … Each approach is read
+as `gonio acquire shift-angle` reads a position: --samples answers averaged, the spread checked,
+a flagged answer never a reading, every reading synced to OUT.journal (--resume continues),
+every run checked against run 1 (drift) and 360° against 0° (closure). The CSV
+(target_deg,direction,run,face,reading_arcsec) is written when the cycle is complete; `gonio axis
+--polygon CERT.json` evaluates it.
+
+In a terminal: the full-screen view (Enter or r: read, e: read the last again, s: skip, p: pause,
+q: quit). Otherwise gonio prints
+  NEXT target_deg=T direction=D run=J face=F from_deg=A
+(move the axis to T coming from A: the approach in the direction D) and waits for a line: empty =
+read, `redo`, `skip`, `quit`; after a reading
+  READ target_deg=T direction=D run=J face=F from_deg=A x_arcsec=X spread_arcsec=S
+
+Examples:
+  gonio simulate autocollimator --pty --faces 12 --axis --seed 1 &     # prints the port
+  gonio acquire axis --plan axis.toml --port /dev/pts/4 --out readings.csv
+  gonio axis readings.csv --polygon cal.json --json axis.json";
 
 /// Arguments of `gonio acquire shift-angle`.
 #[derive(Debug, clap::Args)]
@@ -56,7 +86,7 @@ Examples:
   gonio acquire shift-angle --plan plan.toml --port /dev/ttyUSB0 --out readings.csv --resume
   gonio shift-angle readings.csv --json cal.json")]
 pub struct Args {
-    /// The measuring plan (TOML, see docs/measuring-plan.md).
+    /// The measuring plan (TOML, see docs/measuring-plan.md; an axis's: docs/iso230-2.md).
     #[arg(long)]
     pub plan: PathBuf,
     /// The autocollimator's serial port (`/dev/ttyUSB0`, `/dev/ttyS0`, a pseudo-terminal).
@@ -100,7 +130,16 @@ pub struct Args {
 /// Runs `gonio acquire …`.
 pub fn run(a: Acquire) -> Result<()> {
     match a {
-        Acquire::ShiftAngle(args) => shift_angle(args),
+        Acquire::ShiftAngle(args) => {
+            let inputs = input::Inputs::new();
+            let plan = Plan::parse(&args.plan, &inputs.read_text(&args.plan)?)?;
+            acquire(args, plan, inputs)
+        }
+        Acquire::Axis(args) => {
+            let inputs = input::Inputs::new();
+            let plan = AxisPlan::parse(&args.plan, &inputs.read_text(&args.plan)?)?;
+            acquire(args, plan, inputs)
+        }
     }
 }
 
@@ -112,15 +151,15 @@ pub(crate) enum End {
     Quit,
 }
 
-fn settings(args: &Args, plan: &Plan) -> Result<Settings> {
-    let mode = match (args.mode, plan.mode) {
+fn settings(args: &Args, plan: &impl Sequence) -> Result<Settings> {
+    let mode = match (args.mode, plan.mode()) {
         (None, ModeRule::Relative) => Mode::Relative,
         (None, _) => Mode::Absolute,
         (Some(m @ Mode::Absolute), ModeRule::Relative)
         | (Some(m @ Mode::Relative), ModeRule::Absolute) => bail!(
             "--mode {m}: the plan {} says mode = \"{}\"",
             args.plan.display(),
-            if plan.mode == ModeRule::Relative {
+            if plan.mode() == ModeRule::Relative {
                 "relative"
             } else {
                 "absolute"
@@ -139,13 +178,10 @@ fn settings(args: &Args, plan: &Plan) -> Result<Settings> {
     })
 }
 
-fn shift_angle(args: Args) -> Result<()> {
+fn acquire<S: Sequence>(args: Args, plan: S, inputs: input::Inputs) -> Result<()> {
     if args.out.as_os_str() == "-" {
         bail!("--out -: the readings need a file (the journal is kept beside it)");
     }
-    let inputs = input::Inputs::new();
-    let plan_text = inputs.read_text(&args.plan)?;
-    let plan = Plan::parse(&args.plan, &plan_text)?;
     let settings = settings(&args, &plan)?;
     // Claim the outputs first: a CSV that cannot be written is refused before the bench starts.
     let mut out = Outputs::with_inputs(inputs);
@@ -208,7 +244,7 @@ fn shift_angle(args: Args) -> Result<()> {
 }
 
 /// An error during the acquisition, with where the readings so far are.
-fn lost(e: anyhow::Error, acq: &Acquisition) -> anyhow::Error {
+fn lost<S: Sequence>(e: anyhow::Error, acq: &Acquisition<S>) -> anyhow::Error {
     match e.downcast_ref::<AcquireError>() {
         Some(AcquireError::Instrument(_)) => anyhow!(
             "{e}; the {} positions done are in {} (continue with --resume)",
@@ -219,28 +255,30 @@ fn lost(e: anyhow::Error, acq: &Acquisition) -> anyhow::Error {
     }
 }
 
-fn finish(
+fn finish<S: Sequence>(
     mut out: Outputs,
     csv_out: gonio_cli::output::OutId,
     log_out: Option<gonio_cli::output::OutId>,
-    acq: &Acquisition,
+    acq: &Acquisition<S>,
     args: &Args,
 ) -> Result<()> {
     let rows = acq.rows();
     let plan = acq.plan();
     let comment = format!(
-        "# gonio acquire shift-angle --plan {} ({} readings, {} missing)",
+        "# gonio acquire {} --plan {} ({} readings, {} missing)",
+        plan.command(),
         args.plan.display(),
         rows.len(),
         acq.missing()
     );
-    let csv = gonio_lab::readings::csv(&comment, plan.has_repeats(), &rows);
+    let csv = plan.csv(&comment, &rows);
     out.write(csv_out, csv.as_bytes())?;
     if let Some(id) = log_out {
         let header = format!(
-            "gonio acquire shift-angle --plan {} --port {}: what the autocollimator sent\n\
+            "gonio acquire {} --plan {} --port {}: what the autocollimator sent\n\
              `#>` a sample, `#-` a sample of a set read again, `#!` an answer that is no reading;\n\
              each position's reading (the mean of its samples) is the line without `#`",
+            plan.command(),
             args.plan.display(),
             args.port
         );
@@ -260,16 +298,8 @@ fn finish(
     Ok(())
 }
 
-/// `shift_deg=S start_face=F step=I repeat=R`.
-pub(crate) fn position(p: &PlannedReading) -> String {
-    format!(
-        "shift_deg={} start_face={} step={} repeat={}",
-        p.shift_deg, p.start_face, p.step, p.repeat
-    )
-}
-
 /// The READ line of a journalled position.
-pub(crate) fn read_line(acq: &Acquisition, index: usize) -> Option<String> {
+pub(crate) fn read_line<S: Sequence>(acq: &Acquisition<S>, index: usize) -> Option<String> {
     let r = acq.record(index)?;
     let Outcome::Read { x, spread, .. } = &r.outcome else {
         return None;
@@ -278,19 +308,19 @@ pub(crate) fn read_line(acq: &Acquisition, index: usize) -> Option<String> {
     let v = acq.value(index)?;
     Some(format!(
         "READ {} x_arcsec={v:.d$} spread_arcsec={spread}",
-        position(&acq.planned()[index])
+        acq.plan().fields(&acq.planned()[index])
     ))
 }
 
 /// A check as a line: `CHECK kind=closure … diff_arcsec=… limit_arcsec=… ok=true`.
-pub(crate) fn check_line(c: &Check) -> String {
+pub(crate) fn check_line<S: Sequence>(plan: &S, c: &Check<S::Position>) -> String {
     format!(
         "CHECK kind={} {} diff_arcsec={:+.4} limit_arcsec={:.4} ok={}",
         match c.kind {
             CheckKind::Closure => "closure",
             CheckKind::Drift => "drift",
         },
-        position(&c.reading),
+        plan.fields(&c.reading),
         c.value_arcsec,
         c.limit_arcsec,
         c.ok()
@@ -316,11 +346,14 @@ fn operator_line(stdin: &mut impl BufRead) -> Result<Option<String>> {
 }
 
 /// The line protocol (standard input not a terminal).
-fn lines<T: Transport>(acq: &mut Acquisition, port: &mut Autocollimator<T>) -> Result<End> {
+fn lines<S: Sequence, T: Transport>(
+    acq: &mut Acquisition<S>,
+    port: &mut Autocollimator<T>,
+) -> Result<End> {
     let stdin = std::io::stdin();
     let mut stdin = stdin.lock();
     while let Some(i) = acq.next() {
-        say!("NEXT {}", position(&acq.planned()[i]))?;
+        say!("NEXT {}", acq.plan().fields(&acq.planned()[i]))?;
         let Some(cmd) = operator_line(&mut stdin)? else {
             note!("end of standard input: quitting");
             return Ok(End::Quit);
@@ -336,7 +369,7 @@ fn lines<T: Transport>(acq: &mut Acquisition, port: &mut Autocollimator<T>) -> R
             },
             "skip" => {
                 acq.skip(i, Vec::new())?;
-                say!("SKIPPED {}", position(&acq.planned()[i]))?;
+                say!("SKIPPED {}", acq.plan().fields(&acq.planned()[i]))?;
                 continue;
             }
             "quit" => return Ok(End::Quit),
@@ -356,8 +389,8 @@ fn lines<T: Transport>(acq: &mut Acquisition, port: &mut Autocollimator<T>) -> R
 }
 
 /// Measures one position in the line protocol, asking the operator when the checks fail.
-fn measure_lines<T: Transport>(
-    acq: &mut Acquisition,
+fn measure_lines<S: Sequence, T: Transport>(
+    acq: &mut Acquisition<S>,
     port: &mut Autocollimator<T>,
     index: usize,
     stdin: &mut impl BufRead,
@@ -369,7 +402,7 @@ fn measure_lines<T: Transport>(
                 acq.commit(record)?;
                 say!("{}", read_line(acq, index).unwrap_or_default())?;
                 for c in acq.checks(index) {
-                    say!("{}", check_line(&c))?;
+                    say!("{}", check_line(acq.plan(), &c))?;
                 }
                 return Ok(None);
             }
@@ -407,7 +440,7 @@ fn measure_lines<T: Transport>(
             }
             "skip" => {
                 acq.skip(index, exchanges)?;
-                say!("SKIPPED {}", position(&acq.planned()[index]))?;
+                say!("SKIPPED {}", acq.plan().fields(&acq.planned()[index]))?;
                 return Ok(None);
             }
             "quit" => return Ok(Some(End::Quit)),

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod acquire;
+pub mod axis;
 pub mod budget;
 pub mod camera;
 pub mod certificate;

@@ -3,6 +3,7 @@
 //! (`fuzz/`); the `load`/`read` functions add the file reading.
 
 pub mod angles;
+pub mod axis;
 pub mod certificate;
 pub mod compensation;
 pub mod csv;

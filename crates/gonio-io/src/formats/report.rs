@@ -1,9 +1,10 @@
-//! Inputs of `gonio report`: certificates, comparisons and mounting batches, told apart by their
-//! `format` tag (a mounting batch from `gonio mount --json` has none: it is known by its `parts`
+//! Inputs of `gonio report`: certificates, comparisons, rotary axes tested to ISO 230-2 and
+//! mounting batches, told apart by their `format` tag (a mounting batch from `gonio mount --json` has none: it is known by its `parts`
 //! and `summary`).
 
 use super::json_error;
 use anyhow::{Result, anyhow};
+use gonio_calib::axis::{AXIS_FORMAT, AxisResult};
 use gonio_calib::certificate::{CERTIFICATE_FORMAT, Certificate};
 use gonio_calib::compare::{COMPARE_FORMAT, Comparison};
 use gonio_report::batch::BatchView;
@@ -19,6 +20,8 @@ pub enum ReportInput {
     Comparison(Box<Comparison>),
     /// A mounting batch (`gonio mount --json`).
     Batch(Box<BatchView>),
+    /// A rotary axis tested to ISO 230-2 (`gonio axis --json`).
+    Axis(Box<AxisResult>),
 }
 
 #[derive(Deserialize)]
@@ -45,7 +48,7 @@ pub fn load(inputs: &crate::input::Inputs, path: &Path) -> Result<ReportInput> {
 /// Not JSON, or none of the three kinds (located).
 pub fn parse(name: &str, text: &str) -> Result<ReportInput> {
     let path = name;
-    let expected = "expected a certificate (gonio shift-angle/selfcal --json), a comparison (gonio compare --json) or a mounting batch (gonio mount --json)";
+    let expected = "expected a certificate (gonio shift-angle/selfcal --json), a comparison (gonio compare --json), an axis (gonio axis --json) or a mounting batch (gonio mount --json)";
     let shape: Shape = serde_json::from_str(text).map_err(|e| json_error(path, &e, expected))?;
     match shape.format.as_deref() {
         Some(CERTIFICATE_FORMAT) => Ok(ReportInput::Certificate(Box::new(
@@ -53,6 +56,10 @@ pub fn parse(name: &str, text: &str) -> Result<ReportInput> {
         ))),
         Some(COMPARE_FORMAT) => Ok(ReportInput::Comparison(Box::new(
             serde_json::from_str(text).map_err(|e| json_error(path, &e, "a comparison"))?,
+        ))),
+        Some(AXIS_FORMAT) => Ok(ReportInput::Axis(Box::new(
+            serde_json::from_str(text)
+                .map_err(|e| json_error(path, &e, "an axis evaluated by gonio axis --json"))?,
         ))),
         None if shape.parts.is_some() && shape.summary.is_some() => {
             Ok(ReportInput::Batch(Box::new(
@@ -86,6 +93,7 @@ pub fn build(
             .unwrap_or_else(|| "Calibration certificate".into()),
         Some((_, ReportInput::Comparison(_))) => "Comparison of calibrations".into(),
         Some((_, ReportInput::Batch(_))) => "Mounting batch".into(),
+        Some((_, ReportInput::Axis(_))) => "Rotary axis to ISO 230-2".into(),
         None => anyhow::bail!("no input files"),
     };
     let mut report = gonio_report::html::Report::new(title.unwrap_or(&default_title));
@@ -100,6 +108,7 @@ pub fn build(
             }
             ReportInput::Comparison(c) => report.add_comparison(&c, &name),
             ReportInput::Batch(b) => report.add_batch(&b, &name),
+            ReportInput::Axis(a) => report.add_axis(&a, &name),
         }
         .with_context(|| format!("{name}: drawing the report"))?;
     }

@@ -1,12 +1,13 @@
 //! The operator's full-screen view (ratatui): where the plan stands, what to set next, the live
 //! X, the last reading's spread, the closure and drift checks, and the keys.
 
-use super::{Args, End, check_line, position, read_line};
+use super::{Args, End, check_line, read_line};
 use anyhow::Result;
 use gonio_lab::acquire::{AcquireError, Acquisition, Attempt, Check, CheckKind};
 use gonio_lab::instrument::{Autocollimator, Transport};
 use gonio_lab::journal::{ExchangeKind, Record};
 use gonio_lab::log::Reply;
+use gonio_lab::sequence::Sequence;
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout};
 use ratatui::style::{Color, Modifier, Style};
@@ -39,8 +40,9 @@ struct View {
     plan: String,
     live: Option<String>,
     last: Option<String>,
-    closure: Option<Check>,
-    drift: Option<Check>,
+    /// The last checks (what they are of is on the messages' lines).
+    closure: Option<Check<()>>,
+    drift: Option<Check<()>>,
     worst_drift: f64,
     messages: VecDeque<String>,
     paused: bool,
@@ -66,8 +68,8 @@ impl Drop for Restore {
 }
 
 /// Runs the view until the plan is complete or the operator quits.
-pub(super) fn run<T: Transport>(
-    acq: &mut Acquisition,
+pub(super) fn run<S: Sequence, T: Transport>(
+    acq: &mut Acquisition<S>,
     port: &mut Autocollimator<T>,
     args: &Args,
 ) -> Result<End> {
@@ -134,7 +136,10 @@ pub(super) fn run<T: Transport>(
                 },
                 KeyCode::Char('s') => {
                     acq.skip(next, Vec::new())?;
-                    v.say(format!("skipped {}", position(&acq.planned()[next])));
+                    v.say(format!(
+                        "skipped {}",
+                        acq.plan().fields(&acq.planned()[next])
+                    ));
                 }
                 _ => {}
             }
@@ -147,7 +152,7 @@ pub(super) fn run<T: Transport>(
                     x_decimals,
                     ..
                 } => {
-                    format!("{:+.d$}″", acq.plan().x_sign * x_arcsec, d = x_decimals)
+                    format!("{:+.d$}″", acq.plan().x_sign() * x_arcsec, d = x_decimals)
                 }
                 Reply::Flagged { code } => format!("flagged (status {code})"),
                 Reply::Garbage { .. } => "garbage on the line".into(),
@@ -157,8 +162,8 @@ pub(super) fn run<T: Transport>(
     }
 }
 
-fn measure<T: Transport>(
-    acq: &mut Acquisition,
+fn measure<S: Sequence, T: Transport>(
+    acq: &mut Acquisition<S>,
     port: &mut Autocollimator<T>,
     v: &mut View,
     index: usize,
@@ -193,14 +198,20 @@ fn measure<T: Transport>(
     }
 }
 
-fn accept(acq: &mut Acquisition, v: &mut View, record: Record) -> Result<()> {
+fn accept<S: Sequence>(acq: &mut Acquisition<S>, v: &mut View, record: Record) -> Result<()> {
     let index = record.index;
     acq.commit(record)?;
     v.last = read_line(acq, index);
     for c in acq.checks(index) {
         if !c.ok() {
-            v.say(check_line(&c));
+            v.say(check_line(acq.plan(), &c));
         }
+        let c = Check {
+            kind: c.kind,
+            value_arcsec: c.value_arcsec,
+            limit_arcsec: c.limit_arcsec,
+            reading: (),
+        };
         match c.kind {
             CheckKind::Closure => v.closure = Some(c),
             CheckKind::Drift => {
@@ -212,8 +223,8 @@ fn accept(acq: &mut Acquisition, v: &mut View, record: Record) -> Result<()> {
     Ok(())
 }
 
-fn answer<T: Transport>(
-    acq: &mut Acquisition,
+fn answer<S: Sequence, T: Transport>(
+    acq: &mut Acquisition<S>,
     port: &mut Autocollimator<T>,
     v: &mut View,
     ask: Ask,
@@ -230,12 +241,18 @@ fn answer<T: Transport>(
         }
         (KeyCode::Char('s'), Ask::Spread { record, .. }) => {
             acq.skip(index, record.exchanges)?;
-            v.say(format!("skipped {}", position(&acq.planned()[index])));
+            v.say(format!(
+                "skipped {}",
+                acq.plan().fields(&acq.planned()[index])
+            ));
             Ok(())
         }
         (KeyCode::Char('s'), Ask::Fault { exchanges, .. }) => {
             acq.skip(index, exchanges)?;
-            v.say(format!("skipped {}", position(&acq.planned()[index])));
+            v.say(format!(
+                "skipped {}",
+                acq.plan().fields(&acq.planned()[index])
+            ));
             Ok(())
         }
         (_, ask) => {
@@ -246,7 +263,7 @@ fn answer<T: Transport>(
     }
 }
 
-fn check_text(c: Option<&Check>) -> Span<'static> {
+fn check_text(c: Option<&Check<()>>) -> Span<'static> {
     match c {
         None => Span::raw("—"),
         Some(c) => Span::styled(
@@ -261,7 +278,7 @@ fn check_text(c: Option<&Check>) -> Span<'static> {
     }
 }
 
-fn draw(f: &mut ratatui::Frame<'_>, acq: &Acquisition, v: &View, next: usize) {
+fn draw<S: Sequence>(f: &mut ratatui::Frame<'_>, acq: &Acquisition<S>, v: &View, next: usize) {
     let plan = acq.plan();
     let p = acq.planned()[next];
     let total = acq.planned().len();
@@ -276,7 +293,8 @@ fn draw(f: &mut ratatui::Frame<'_>, acq: &Acquisition, v: &View, next: usize) {
     .areas(f.area());
     f.render_widget(
         Paragraph::new(format!(
-            "gonio acquire shift-angle — {} — {} — position {} of {total} ({} done, {} skipped)",
+            "gonio acquire {} — {} — {} — position {} of {total} ({} done, {} skipped)",
+            plan.command(),
             v.port,
             v.plan,
             next + 1,
@@ -292,22 +310,13 @@ fn draw(f: &mut ratatui::Frame<'_>, acq: &Acquisition, v: &View, next: usize) {
             .gauge_style(Style::default().fg(Color::Cyan)),
         gauge,
     );
-    let step_text = if p.closure {
-        format!("step {} (closure)", plan.faces + 1)
-    } else {
-        format!("step {}", p.step)
-    };
-    let face = plan.face_at(p.start_face, p.step);
     f.render_widget(
         Paragraph::new(vec![
             Line::from(Span::styled(
-                format!(
-                    "shift {}°, start face {}, {step_text}: turn the polygon to face {face}",
-                    p.shift_deg, p.start_face
-                ),
+                plan.instruction(&p),
                 Style::default().add_modifier(Modifier::BOLD),
             )),
-            Line::from(format!("repeat {}   ({})", p.repeat, position(&p))),
+            Line::from(format!("({})", plan.fields(&p))),
         ])
         .block(Block::default().borders(Borders::ALL).title(" Next ")),
         set,

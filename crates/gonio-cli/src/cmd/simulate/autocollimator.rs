@@ -1,17 +1,20 @@
 //! `gonio simulate autocollimator --pty`: a simulated ELCOMAT-type autocollimator and polygon
-//! on a simulated encoder, answering the serial protocol on a pseudo-terminal.
+//! on a simulated encoder (or, with `--axis`, also on a rotary axis under an ISO 230-2 test),
+//! answering the serial protocol on a pseudo-terminal.
 //!
 //! Glue only: the instrument and the pseudo-terminal are `gonio_lab::simulator`'s.
 
 use anyhow::{Result, anyhow, bail};
+use gonio_calib::axis::Direction;
 use gonio_cli::flag;
 use gonio_cli::output::Outputs;
 use gonio_cli::{note, say};
 use gonio_core::bound::{Bound, duration_s};
 use gonio_io::formats::encoder as encoder_file;
 use gonio_io::input::Inputs;
+use gonio_lab::axis::AxisPlan;
 use gonio_lab::plan::Plan;
-use gonio_lab::simulator::{Position, Pty, SimConfig, SimulatedAutocollimator};
+use gonio_lab::simulator::{Approach, Position, Pty, SimConfig, SimulatedAutocollimator};
 use gonio_sim::EncoderModel;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -31,8 +34,16 @@ step=I …` (as `gonio acquire` prints it) or `SET …` on standard input sets t
 answered `SET shift_deg=S start_face=F step=I`; `quit` ends. With --truth and --plan the true α
 at the plan's shifts is written as `gonio simulate shift-angle` writes it (truth.json).
 
+With --axis the polygon also sits on a rotary axis with a known error, backlash and repeatability
+(the axis of `gonio simulate axis`): a line `NEXT target_deg=T direction=D run=J face=F …` (as
+`gonio acquire axis` prints it) moves the axis there and is answered `SET target_deg=T
+direction=D run=J face=F`; the reading is where the axis stopped less T, plus the pitch sum to
+face F and the setup error. With --truth and --plan AXIS.toml the axis's own ISO 230-2
+parameters at the plan's targets are written (as truth.json of `gonio simulate axis`).
+
 Examples:
   gonio simulate autocollimator --pty --faces 12 --seed 1 --truth truth.json --plan plan.toml
+  gonio simulate autocollimator --pty --faces 12 --axis --backlash-arcsec 3 --truth t.json --plan axis.toml
   gonio simulate autocollimator --pty --flagged 0.05 --drift-arcsec-per-reading 0.001 --duration-s 600")]
 pub struct Args {
     /// Answer on a new pseudo-terminal (the only transport).
@@ -70,13 +81,56 @@ pub struct Args {
     /// shift-angle`).
     #[arg(long, requires = "plan")]
     pub truth: Option<PathBuf>,
-    /// The measuring plan whose shifts --truth covers.
+    /// The measuring plan whose shifts --truth covers (with --axis: the axis's plan, whose
+    /// targets it covers).
     #[arg(long)]
     pub plan: Option<PathBuf>,
     /// Stop after this many seconds (default: run until quit, the end of a killed session or
     /// Ctrl-C).
     #[arg(long, value_parser = flag::real(flag::DURATION_S))]
     pub duration_s: Option<f64>,
+    /// The polygon also sits on a rotary axis under test (`NEXT target_deg=…` lines move it).
+    #[arg(long)]
+    pub axis: bool,
+    // The axis (with --axis).
+    #[command(flatten)]
+    pub axis_flags: super::axis::AxisFlags,
+}
+
+/// Where a control line puts the bench.
+enum Control {
+    /// The table at a shift, the polygon at a step of a run.
+    Bench(Position),
+    /// The axis at a target.
+    Axis(Approach),
+}
+
+/// `target_deg=T direction=D run=J face=F` out of a control line.
+fn parse_approach(line: &str) -> Option<Approach> {
+    let (mut t, mut d, mut r, mut f) = (None, None, None, None);
+    for kv in line.split_whitespace().skip(1) {
+        match kv.split_once('=') {
+            Some(("target_deg", v)) => t = v.parse::<f64>().ok().filter(|x| x.is_finite()),
+            Some(("direction", v)) => d = Direction::parse(v),
+            Some(("run", v)) => r = v.parse::<u32>().ok().filter(|&x| x >= 1),
+            Some(("face", v)) => f = v.parse::<usize>().ok().filter(|&x| x >= 1),
+            _ => {}
+        }
+    }
+    Some(Approach {
+        target_deg: t?,
+        direction: d?,
+        run: r?,
+        face: f?,
+    })
+}
+
+fn parse_control(line: &str) -> Option<Control> {
+    if line.contains("target_deg=") {
+        parse_approach(line).map(Control::Axis)
+    } else {
+        parse_position(line).map(Control::Bench)
+    }
 }
 
 /// The longest control line read (`NEXT shift_deg=… start_face=… step=… repeat=…`).
@@ -122,8 +176,34 @@ pub fn run(args: Args) -> Result<()> {
         drift_arcsec_per_reading: args.drift_arcsec_per_reading,
         flagged_fraction: args.flagged,
     };
-    let sim = SimulatedAutocollimator::new(model, cfg)?;
-    if let (Some(truth), Some(plan_path)) = (&args.truth, &args.plan) {
+    if args.axis_flags.any() && !args.axis {
+        bail!(
+            "--backlash-arcsec, --repeatability-arcsec and --scale-arcsec-per-turn describe the axis of --axis"
+        );
+    }
+    let axis = args
+        .axis
+        .then(|| args.axis_flags.model(args.seed))
+        .transpose()?;
+    let mut sim = SimulatedAutocollimator::new(model, cfg)?;
+    if let Some(a) = &axis {
+        sim = sim.with_axis(a.clone())?;
+    }
+    if let (Some(truth), Some(plan_path), Some(axis)) = (&args.truth, &args.plan, &axis) {
+        let plan = AxisPlan::parse(plan_path, &inputs.read_text(plan_path)?)?;
+        if plan.faces != args.faces {
+            bail!(
+                "--plan {}: faces = {}, the simulated polygon has --faces {}",
+                plan_path.display(),
+                plan.faces,
+                args.faces
+            );
+        }
+        let mut out = Outputs::with_inputs(inputs);
+        let id = out.file("--truth", truth)?;
+        out.json(id, &axis.truth(&plan.targets_deg))?;
+        out.commit()?;
+    } else if let (Some(truth), Some(plan_path)) = (&args.truth, &args.plan) {
         let plan = Plan::parse(plan_path, &inputs.read_text(plan_path)?)?;
         if plan.faces != args.faces {
             bail!(
@@ -185,9 +265,10 @@ pub fn run(args: Args) -> Result<()> {
                     break;
                 }
                 if line.starts_with("NEXT ") || line.starts_with("SET ") {
-                    match parse_position(line) {
-                        Some(p) => {
-                            sim.lock().unwrap_or_else(|e| e.into_inner()).set(p);
+                    let mut sim = sim.lock().unwrap_or_else(|e| e.into_inner());
+                    match parse_control(line) {
+                        Some(Control::Bench(p)) => {
+                            sim.set(p);
                             let _ = say!(
                                 "SET shift_deg={} start_face={} step={}",
                                 p.shift_deg,
@@ -195,8 +276,23 @@ pub fn run(args: Args) -> Result<()> {
                                 p.step
                             );
                         }
+                        Some(Control::Axis(a)) if sim.approach(a) => {
+                            let _ = say!(
+                                "SET target_deg={} direction={} run={} face={}",
+                                a.target_deg,
+                                a.direction.sign(),
+                                a.run,
+                                a.face
+                            );
+                        }
+                        Some(Control::Axis(_)) => {
+                            note!(
+                                "{:?}: no axis under the polygon (--axis)",
+                                gonio_core::text::short(line)
+                            )
+                        }
                         None => note!(
-                            "{:?}: expected shift_deg=S start_face=F step=I",
+                            "{:?}: expected shift_deg=S start_face=F step=I, or target_deg=T direction=D run=J face=F",
                             gonio_core::text::short(line)
                         ),
                     }

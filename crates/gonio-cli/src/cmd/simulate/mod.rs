@@ -1,6 +1,7 @@
 //! `gonio simulate …`: the digital twin's instruments, writing readings and ground truth.
 
 pub mod autocollimator;
+pub mod axis;
 pub mod camera;
 pub mod encoder;
 pub mod frames;
@@ -30,6 +31,9 @@ pub enum Simulate {
     /// An ELCOMAT-type autocollimator and polygon answering the serial protocol on a
     /// pseudo-terminal (for `gonio acquire shift-angle`).
     Autocollimator(autocollimator::Args),
+    /// A rotary axis with a known error, backlash and repeatability: ISO 230-2 readings and
+    /// its true parameters.
+    Axis(axis::Args),
     /// The mounting station as its own process: a Modbus TCP PLC and the camera it triggers.
     Station(station::Args),
 }
@@ -44,6 +48,7 @@ pub fn run(s: Simulate) -> Result<()> {
         Simulate::Selfcal(a) => selfcal::run(a),
         Simulate::Autocollimator(a) => autocollimator::run(a),
         Simulate::Station(a) => station::run(a),
+        Simulate::Axis(a) => axis::run(a),
     }
 }
 
