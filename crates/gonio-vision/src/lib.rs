@@ -25,7 +25,9 @@
 //! and cuts the window out of a sensor frame; [`source`] brings frames in ([`FrameSource`]: files,
 //! raw standard input, the renderer, a camera) and [`SourceDetector`] runs them through the
 //! detector, the one path from a frame to its result ([`detect_in_order`]: the same path on
-//! several threads, results in the stream's order); [`reference`](mod@reference) holds the
+//! several threads, results in the stream's order); [`track`] measures frames that come in
+//! order in a band of columns around the ring's predicted column, with the whole frame as the
+//! fallback ([`SourceDetector::track_frames`]); [`reference`](mod@reference) holds the
 //! whole-frame implementations the streaming ones equal bit for bit; [`simd`] chooses the hot
 //! loops' code path (baseline, AVX2, AVX-512: the same bits).
 //!
@@ -58,6 +60,7 @@ pub mod segment;
 pub mod select;
 pub mod simd;
 pub mod source;
+pub mod track;
 
 pub use error::VisionError;
 pub use optics::{MAX_RING_WIDTH_PX, MAX_SENSOR_PX, MAX_WINDOW_PIXELS, Optics, Params, Polarity};
