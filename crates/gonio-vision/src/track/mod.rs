@@ -4,11 +4,13 @@
 //!
 //! Between two frames at 100 frames/s the ring moves a few pixels, so most of a frame's
 //! pixels tell nothing new. The tracker predicts the ring's edges from the last frames (the
-//! last column and its change per frame), and runs **the detector's own stages** over a band
-//! of columns: the predicted edges ± [`SEARCH_HALF_WIDTH_PX`], [`GUARD_PX`] more of exact
-//! columns for what the ring's refit reads beside an edge, and the stages' reach
-//! ([`stage_reach_px`]: 31 px for the station's 11 px ring) on either side — about 190 of the
-//! station's 1440 columns. What is the same by construction, and what is not:
+//! last column and its change per frame, the edges' extent from the last pair fit), and runs
+//! **the detector's own stages** over a band of columns: the predicted edges ±
+//! [`TRACK_HALF_WIDTH_PX`] ([`SEARCH_HALF_WIDTH_PX`] before the motion is known),
+//! [`GUARD_PX`] more of exact columns for what the ring's refit reads beside an edge, and the
+//! stages' reach ([`stage_reach_px`]: 31 px for the station's 11 px ring) on either side,
+//! rounded up to 64 columns — 128 of the station's 1440 for a ring at e ≤ 150 µm. What is the
+//! same by construction, and what is not:
 //!
 //! - **The edges** on the band's exact columns are the whole frame's bit for bit (every stage
 //!   up to the filling reads a fixed reach of columns, and treats the frame's side alike
@@ -43,9 +45,12 @@
 //! Validity is only ever reported from the band when the band finds the ring valid; every
 //! invalid frame is the whole-frame detector's.
 //!
-//! Cost on the station's window: the band's stages (≈ 13 % of the frame's), the selection
-//! among the band's few components and one pass of the raw statistics over the frame
-//! (BENCHMARKS.md). Written here because it is the detector's product, not a general tracker.
+//! Cost on the station's window: the band's stages, the selection among the band's few
+//! components and one pass of the raw statistics over the frame, about a quarter of the whole
+//! frame's time (BENCHMARKS.md). Written here because it is the detector's product, not a
+//! general tracker.
+//!
+//! Errors: [`VisionError::FrameSize`] for a frame of the wrong size, as the whole detector.
 //!
 //! ```
 //! use gonio_vision::{Detector, Optics, track::Tracker};
