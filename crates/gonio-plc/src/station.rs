@@ -98,10 +98,10 @@ impl<S: FrameSource> DetectorTriggered<S> {
     /// # Errors
     /// Invalid optics.
     pub fn new(source: S, optics: &Optics) -> Result<Self, VisionError> {
-        Ok(DetectorTriggered {
-            det: SourceDetector::new(source, optics)?,
-            tap: None,
-        })
+        let mut det = SourceDetector::new(source, optics)?;
+        // Triggered frames come in order: tracked (gonio_vision::track).
+        det.track_frames(true);
+        Ok(DetectorTriggered { det, tap: None })
     }
 
     /// Shows every frame detected from now on to `tap` (replacing any tap before).
