@@ -452,9 +452,11 @@ where
         bail!("--frame {}: only {} frames were read", a.frame, done.frames);
     }
     if a.timing {
+        // Frame by frame, before the quantiles sort them.
+        let per_frame = cpu_s.clone();
         report_timing(&mut cpu_s, &mut wall_s, det.splits_frames());
         if let Some(t) = det.tracker() {
-            report_modes(&cpu_s, &tracked, t);
+            report_modes(&per_frame, &tracked, t);
         }
     }
     Ok(done)
