@@ -333,7 +333,10 @@ fn threads_keep_frame_order_and_the_same_bytes() {
     }
     // `--timing` (one frame at a time on the main thread) writes the same bytes and reports the
     // detector's CPU time per frame: median ≤ 99th percentile ≤ max, all positive.
-    let o = gonio(&["detect", "--raw", "1440x540", "--timing"], Some(&raw));
+    let o = gonio(
+        &["detect", "--raw", "1440x540", "--timing", "--no-track"],
+        Some(&raw),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(o.stdout == run("1", false), "--timing changed the output");
     let err = String::from_utf8_lossy(&o.stderr);
@@ -365,12 +368,13 @@ fn threads_keep_frame_order_and_the_same_bytes() {
 }
 
 /// `gonio detect --raw 1440x540 --timing --frame-threads N`.
-fn timing_with_frame_threads(n: &str) -> [&str; 6] {
+fn timing_with_frame_threads(n: &str) -> [&str; 7] {
     [
         "detect",
         "--raw",
         "1440x540",
         "--timing",
+        "--no-track",
         "--frame-threads",
         n,
     ]
@@ -383,10 +387,17 @@ fn frame_threads_are_one_or_two_and_only_where_frames_go_one_at_a_time() {
         assert_eq!(o.status.code(), Some(2), "--frame-threads {n}");
         assert!(String::from_utf8_lossy(&o.stderr).contains("--frame-threads"));
     }
-    // Whole frames in parallel (--threads, the default for files and --raw): refused, not
-    // ignored.
+    // Whole frames in parallel (--threads, the default for files and for --raw --no-track):
+    // refused, not ignored.
     let o = gonio(
-        &["detect", "--raw", "1440x540", "--frame-threads", "2"],
+        &[
+            "detect",
+            "--raw",
+            "1440x540",
+            "--no-track",
+            "--frame-threads",
+            "2",
+        ],
         Some(&[]),
     );
     assert_error(&o, "--frame-threads");
@@ -400,4 +411,85 @@ fn zero_threads_are_refused() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--threads"));
+}
+
+#[test]
+fn frames_in_order_are_tracked_and_agree_with_whole_frames() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("turn");
+    let o = gonio(
+        &[
+            "simulate",
+            "frames",
+            "--count",
+            "30",
+            "--eccentricity-um",
+            "120",
+            "--seed",
+            "1",
+            "--raw",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let raw = std::fs::read(out.join("frames.raw")).unwrap();
+    let tracked = json_lines(&gonio(&["detect", "--raw", "1440x540"], Some(&raw)));
+    let whole = json_lines(&gonio(
+        &["detect", "--raw", "1440x540", "--no-track"],
+        Some(&raw),
+    ));
+    assert_eq!((tracked.len(), whole.len()), (30, 30));
+    for (k, (t, w)) in tracked.iter().zip(&whole).enumerate() {
+        assert_eq!(
+            t["tracked"],
+            k > 0,
+            "frame {k}: the first frame is measured whole"
+        );
+        assert_eq!(w["tracked"], false);
+        assert_eq!(
+            (&t["valid"], &w["valid"]),
+            (&true.into(), &true.into()),
+            "frame {k}"
+        );
+        let dc = t["c_px"].as_f64().unwrap() - w["c_px"].as_f64().unwrap();
+        assert!(dc.abs() <= 0.02, "frame {k}: Δc {dc}");
+        assert_eq!(t["focus"], w["focus"], "frame {k}: the whole frame's focus");
+    }
+    // Image files are measured whole unless --track takes their name order as the frames'.
+    let dir = out.to_str().unwrap();
+    let files = json_lines(&gonio(&["detect", dir], None));
+    assert!(files.iter().all(|l| l["tracked"] == false));
+    let files = json_lines(&gonio(&["detect", dir, "--track"], None));
+    assert_eq!(files.iter().filter(|l| l["tracked"] == true).count(), 29);
+    // --timing reports the two modes apart, and why frames were measured whole.
+    let o = gonio(&["detect", "--raw", "1440x540", "--timing"], Some(&raw));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    for want in [
+        "tracked (measured in the band) frames",
+        "whole frames",
+        "tracking: 29 frames in the band, 1 whole (no_track 1)",
+    ] {
+        assert!(err.contains(want), "{want:?} not in {err}");
+    }
+    // The one whole frame's time is its own (the band's frames are a few times faster).
+    let median = |mode: &str| -> f64 {
+        let l = err.lines().find(|l| l.starts_with(mode)).unwrap();
+        l.split_whitespace()
+            .find_map(|w| w.parse::<f64>().ok())
+            .unwrap()
+    };
+    assert!(
+        median("whole frames") > median("tracked (measured in the band)"),
+        "{err}"
+    );
+    // Whole frames in parallel cannot be tracked: refused, not ignored.
+    let o = gonio(
+        &["detect", "--raw", "1440x540", "--track", "--threads", "2"],
+        Some(&[]),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--track"));
 }

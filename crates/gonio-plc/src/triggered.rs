@@ -56,10 +56,10 @@ impl<S: FrameSource> DetectorTriggered<S> {
     /// # Errors
     /// Invalid optics.
     pub fn new(source: S, optics: &Optics) -> Result<Self, VisionError> {
-        Ok(DetectorTriggered {
-            det: SourceDetector::new(source, optics)?,
-            last: None,
-        })
+        let mut det = SourceDetector::new(source, optics)?;
+        // Triggered frames come in order: tracked (gonio_vision::track).
+        det.track_frames(true);
+        Ok(DetectorTriggered { det, last: None })
     }
 
     /// The source.

@@ -1,6 +1,7 @@
 //! Criterion benchmarks: the whole detector on rendered 1440×540 frames (the default scene and
-//! the dense one, one frame repeated and 32 new frames in turn), each stage alone on the dense
-//! frame (the per-stage split), and the renderer.
+//! the dense one, one frame repeated and 32 new frames in turn), the tracked detector beside the
+//! whole one on consecutive frames of a realistic turn, each stage alone on the dense frame (the
+//! per-stage split), and the renderer.
 //!
 //! `GONIO_BENCH_ON_CPU=1` measures the benchmark thread's on-CPU time instead of wall time
 //! (for a machine shared with other work; see `bench/criterion_on_cpu.rs`).
@@ -8,8 +9,8 @@
 #[path = "../../../bench/criterion_on_cpu.rs"]
 mod on_cpu;
 
-use criterion::Criterion;
 use criterion::measurement::{Measurement, WallTime};
+use criterion::{BatchSize, Criterion};
 use gonio_sim::frames::{GratingRenderer, GratingScene, ScenePreset};
 use gonio_vision::blur_sobel::BlurSobel;
 use gonio_vision::features::{RawStats, baseline_features};
@@ -21,7 +22,9 @@ use gonio_vision::morphology::{BlackTopHat, Disk, Opening};
 use gonio_vision::pipeline::EdgeRowsImage;
 use gonio_vision::rows::RowStage;
 use gonio_vision::segment::{EdgeRow, STRONG, SegmentParams, Segmenter, SparseEdgeRow};
+use gonio_vision::track::Tracker;
 use gonio_vision::{Detector, Optics};
+use std::cell::RefCell;
 use std::hint::black_box;
 
 fn render(optics: &Optics, scene: GratingScene) -> Vec<u8> {
@@ -37,6 +40,8 @@ fn render_at(r: &GratingRenderer, theta_deg: f64, seed: u64) -> Vec<u8> {
 
 /// Frames of the `dense` scene in turn ([`bench`]).
 const NEW_FRAMES: usize = 32;
+/// Consecutive frames of the realistic turn the tracked detector runs over ([`bench`]).
+const TURN_FRAMES: usize = 64;
 
 fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
     let optics = Optics::default();
@@ -80,6 +85,69 @@ fn bench<M: Measurement + 'static>(c: &mut Criterion<M>) {
             det.detect(black_box(&turn[next])).unwrap()
         })
     });
+
+    // The tracked detector (`gonio_vision::track`) over consecutive frames of a realistic turn
+    // (1.8° a frame, e = 150 µm), beside the whole detector on the same frames. Each frame is
+    // first copied into the detector's buffer, outside the timing, as a source writes it there
+    // (a camera's frame is copied out of the driver's buffer, a pipe's read into it): the
+    // frame is then in the cache, as it is on the one path from a source to a result. Every
+    // timed frame of the tracked benchmark is measured in the band: the tracker is primed on
+    // the turn's first two frames, outside the timing, whenever the turn starts over.
+    let renderer =
+        GratingRenderer::new(&optics, GratingScene::preset(ScenePreset::Realistic)).unwrap();
+    let realistic: Vec<Vec<u8>> = (0..TURN_FRAMES)
+        .map(|k| render_at(&renderer, 33.0 + 1.8 * k as f64, k as u64 + 1))
+        .collect();
+    let mut next = 0;
+    c.bench_function("detector 1440x540 realistic, new frames", |b| {
+        b.iter_batched_ref(
+            || {
+                next = (next + 1) % TURN_FRAMES;
+                realistic[next].clone()
+            },
+            |buf| det.detect(black_box(buf)).unwrap(),
+            BatchSize::PerIteration,
+        )
+    });
+    let buf = vec![0u8; realistic[0].len()];
+    let state = RefCell::new((
+        Tracker::new(&optics).unwrap(),
+        Detector::new(&optics).unwrap(),
+        TURN_FRAMES - 1,
+        0usize,
+        buf,
+    ));
+    c.bench_function("detector 1440x540 realistic, tracked", |b| {
+        b.iter_batched(
+            || {
+                let (tracker, det, next, _, buf) = &mut *state.borrow_mut();
+                *next += 1;
+                if *next == TURN_FRAMES {
+                    tracker.reset();
+                    for (k, f) in realistic.iter().enumerate().take(2) {
+                        tracker.detect(f, k as u64, det, None).unwrap();
+                    }
+                    *next = 2;
+                }
+                buf.copy_from_slice(&realistic[*next]);
+                *next
+            },
+            |k| {
+                let (tracker, det, _, whole, buf) = &mut *state.borrow_mut();
+                let r = tracker.detect(black_box(buf), k as u64, det, None).unwrap();
+                *whole += !r.tracked as usize;
+                r
+            },
+            BatchSize::PerIteration,
+        )
+    });
+    let (tracker, _, _, whole, _) = state.into_inner();
+    assert_eq!(whole, 0, "every timed frame measured in the band");
+    eprintln!(
+        "tracked: {} frames in the band, {} whole",
+        tracker.tracked_frames(),
+        tracker.whole_frames()
+    );
 
     // Stage inputs from a dump of the dense frame. Each stage runs alone, its input rows copied
     // in (in the detector a stage writes its rows straight into the next one's ring).

@@ -142,7 +142,9 @@ impl<E: std::error::Error + DeviceError + 'static> DeviceError for DetectorCamer
 }
 
 /// A frame source with the detector behind it: every [`Camera::capture`] takes the source's next
-/// frame, cuts the optics' window out of it and detects the ring. A valid frame gives c; any
+/// frame, cuts the optics' window out of it and detects the ring (tracked: in a band of columns
+/// around the ring's predicted column when the band can vouch for it, see
+/// [`gonio_vision::track`]). A valid frame gives c; any
 /// other gives `None` and the detector's reason — the fit never sees an ambiguous or invalid
 /// frame's column.
 #[derive(Debug)]
@@ -158,8 +160,11 @@ impl<S: FrameSource> DetectorCamera<S> {
     /// # Errors
     /// [`VisionError::Optics`] when the optics are invalid.
     pub fn new(source: S, optics: &Optics) -> Result<Self, VisionError> {
+        let mut det = SourceDetector::new(source, optics)?;
+        // A camera's frames come in order: tracked (gonio_vision::track).
+        det.track_frames(true);
         Ok(DetectorCamera {
-            det: SourceDetector::new(source, optics)?,
+            det,
             frames: 0,
             last: None,
         })

@@ -11,7 +11,7 @@
 use crate::label::{Component, EdgeList};
 use crate::optics::Params;
 pub use crate::result::{EdgeLine, FrameResult, InvalidReason, SaturatedRun};
-use crate::select::{curve, moments, select, window_mean};
+use crate::select::{Selection, curve, moments, select, window_mean};
 
 /// The fitted line and window-mean column of one component (`None` if it has no positioned
 /// pixel).
@@ -96,7 +96,13 @@ pub fn baseline_features(
     stats: RawStats,
     p: &Params,
 ) -> FrameResult {
-    let sel = select(cands, edges, saturated, p);
+    frame_result(select(cands, edges, saturated, p), components, stats, p)
+}
+
+/// The frame's result from the ring's selection ([`select`]), the frame's component count and
+/// its raw statistics: the second half of [`baseline_features`] (the tracked detector,
+/// [`crate::track`], selects on a band of columns and finishes here).
+pub fn frame_result(sel: Selection, components: usize, stats: RawStats, p: &Params) -> FrameResult {
     let h = p.height;
     let mut res = FrameResult {
         c_px: None,
@@ -112,6 +118,7 @@ pub fn baseline_features(
         margin: sel.margin,
         c_sigma_px: sel.best.as_ref().map(|b| b.fit.c_sigma_px),
         width_change_px: sel.best.as_ref().map(|b| b.fit.width_change_px),
+        tracked: false,
     };
     let Some(best) = sel.best else {
         // The longest edges, for the user to see what the frame holds.

@@ -127,7 +127,7 @@ where
                             }
                         }
                     };
-                    let result = detect_frame(optics, det, None, &hdr, &raw, &mut scratch);
+                    let result = detect_frame(optics, det, None, None, &hdr, &raw, &mut scratch);
                     let done = Done::Frame {
                         seq,
                         stamp: hdr.stamp,

@@ -26,7 +26,9 @@
 //! files, [`raw_frames`] on standard input, the renderer, a camera) and [`source`]'s
 //! [`SourceDetector`] runs them through the detector, the one path from a frame to its result
 //! ([`in_order`]'s [`detect_in_order`]: the same path on several threads, results in the
-//! stream's order); [`reference`](mod@reference) holds the
+//! stream's order); [`track`] measures frames that come in order in a band of columns around
+//! the ring's predicted column, with the whole frame as the fallback
+//! ([`SourceDetector::track_frames`]); [`reference`](mod@reference) holds the
 //! whole-frame implementations the streaming ones equal bit for bit; [`simd`] chooses the hot
 //! loops' code path (baseline, AVX2, AVX-512: the same bits).
 //!
@@ -64,6 +66,7 @@ pub mod simd;
 pub mod source;
 #[cfg(test)]
 mod test_frames;
+pub mod track;
 
 pub use error::VisionError;
 pub use frame_source::{FrameHeader, FrameSource, FrameStamp};

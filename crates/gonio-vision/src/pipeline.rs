@@ -30,7 +30,7 @@ use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, sa
 use crate::fill::EdgeFill;
 use crate::focus::{RowFocus, RowStats};
 use crate::gradient::GradRow;
-use crate::label::{Component, Labeller};
+use crate::label::{Component, EdgeList, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::{Optics, Params};
 use crate::rows::{LastSink, RowBuf, RowSink, StageObserver, Then};
@@ -167,7 +167,7 @@ pub struct Detector {
 /// A frame's raw statistics (saturation and focus sums), added up row by row: integer sums
 /// and runs in row order, so two threads' shares of a frame add up to one thread's.
 #[derive(Debug, Clone, Default)]
-struct RawSums {
+pub(crate) struct RawSums {
     saturated: u64,
     /// Runs of saturated pixels, row by row.
     sat_runs: Vec<SaturatedRun>,
@@ -201,6 +201,44 @@ impl RawSums {
         self.focus_sum += below.focus_sum;
         self.grad_sum += below.grad_sum;
     }
+
+    /// The sums of a whole frame of rows `w` wide, as the detector takes them row by row
+    /// (`focus` carries the focus sums' state from row to row).
+    pub(crate) fn of_frame(&mut self, focus: &mut RowFocus, frame: &[u8], w: usize) {
+        self.clear();
+        for (y, row) in frame.chunks_exact(w).enumerate() {
+            let s = crate::simd::dispatch(
+                #[inline(always)]
+                || focus.push(y, row, rows_above(frame, w, y)),
+            );
+            self.add(s, row, y);
+        }
+    }
+
+    /// The frame's statistics from its sums (a window `w` × `h`).
+    pub(crate) fn stats(&self, w: usize, h: usize) -> RawStats {
+        let interior = ((w - 2) * (h - 2)) as f64;
+        RawStats {
+            saturated_px: self.saturated,
+            focus: self.focus_sum as f64 / interior / 4.0,
+            mean_gradient: self.grad_sum as f64 / interior / 2.0,
+        }
+    }
+
+    /// The saturated runs, in row order.
+    pub(crate) fn saturated_runs(&self) -> &[SaturatedRun] {
+        &self.sat_runs
+    }
+}
+
+/// What a finished frame's result is computed from ([`Detector::finish_parts`]).
+pub(crate) struct FrameParts<'a> {
+    /// The candidate components.
+    pub cands: &'a [Component],
+    /// Every connected component.
+    pub components: usize,
+    /// The frame's edge pixels.
+    pub edges: &'a mut EdgeList,
 }
 
 /// Rows y − 2 and y − 1 of a whole frame of rows `w` wide (what the focus measure of row y
@@ -328,6 +366,23 @@ impl Detector {
         Ok(())
     }
 
+    /// Pushes the frame's next row (window width pixels) through the stages alone, without
+    /// the raw statistics (the frame's result then has none: the tracked detector's band
+    /// takes them from the whole frame). The first row of a frame starts it.
+    ///
+    /// # Errors
+    /// As [`Detector::push_row`].
+    pub(crate) fn push_stages(&mut self, row: &[u8]) -> Result<(), VisionError> {
+        if row.len() != self.p.width || self.rows >= self.p.height {
+            return self.push_row(row);
+        }
+        if self.rows == 0 {
+            self.begin_frame();
+        }
+        self.cascade_row(row);
+        Ok(())
+    }
+
     /// One checked row into the detector: its raw statistics (with rows y − 2 and y − 1 from
     /// `prev`, absent for the first two rows), then the cascade.
     #[inline(always)]
@@ -380,15 +435,32 @@ impl Detector {
         Ok(self.result())
     }
 
+    /// Ends the frame like [`Detector::finish_frame`], without computing its result: what
+    /// the result is computed from, but the raw statistics (stage dumps are not kept).
+    pub(crate) fn finish_parts(&mut self) -> Result<FrameParts<'_>, VisionError> {
+        if self.rows != self.p.height {
+            let found = self.rows;
+            self.rows = 0;
+            return Err(VisionError::FrameHeight {
+                expected: self.p.height,
+                found,
+            });
+        }
+        self.line.finish(&mut ());
+        self.rows = 0;
+        let label = self.line.last_sink();
+        let components = label.component_count();
+        let (cands, edges) = label.candidates_and_edges();
+        Ok(FrameParts {
+            cands,
+            components,
+            edges,
+        })
+    }
+
     /// The frame's result once every row has reached the labeller.
     fn result(&mut self) -> FrameResult {
-        let (w, h) = (self.p.width, self.p.height);
-        let interior = ((w - 2) * (h - 2)) as f64;
-        let stats = RawStats {
-            saturated_px: self.raw.saturated,
-            focus: self.raw.focus_sum as f64 / interior / 4.0,
-            mean_gradient: self.raw.grad_sum as f64 / interior / 2.0,
-        };
+        let stats = self.raw.stats(self.p.width, self.p.height);
         let label = self.line.last_sink();
         if let Some(d) = self.dump.as_deref_mut() {
             d.components = label.all().to_vec();

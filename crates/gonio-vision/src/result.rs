@@ -110,6 +110,9 @@ pub struct FrameResult {
     /// How much the ring's width changes over the window, px (see
     /// [`PairFit::width_change_px`](crate::select::PairFit::width_change_px)).
     pub width_change_px: Option<f64>,
+    /// True when the frame was measured in a band of columns around the ring's predicted
+    /// column ([`crate::track`]), false when over the whole frame.
+    pub tracked: bool,
 }
 
 /// A run of saturated pixels (value 255) in one row of the raw frame.

@@ -21,6 +21,7 @@
 //! ```
 
 use crate::pipeline::LowerHalf;
+use crate::track::Tracker;
 use crate::{Detector, FrameHeader, FrameResult, FrameSource, FrameStamp, Optics, VisionError};
 use thiserror::Error;
 
@@ -61,6 +62,8 @@ pub struct SourceDetector<S> {
     scratch: Vec<u8>,
     /// The second thread's share of each frame, when frames are split ([`Detector::detect_split`]).
     lower: Option<LowerHalf>,
+    /// The tracked detector's state, when frames are tracked ([`SourceDetector::track_frames`]).
+    tracker: Option<Tracker>,
     /// Where the window of the frame last detected is: `Some(true)` cut into `scratch`,
     /// `Some(false)` the whole of `raw`, `None` no frame detected since the last read.
     window_in_scratch: Option<bool>,
@@ -81,8 +84,21 @@ impl<S: FrameSource> SourceDetector<S> {
             raw: Vec::with_capacity(n),
             scratch: Vec::with_capacity(n),
             lower: None,
+            tracker: None,
             window_in_scratch: None,
         })
+    }
+
+    /// Measures each frame in a band of columns around the ring's predicted column when the
+    /// band can vouch for it, else whole ([`Tracker`]: for frames that come in order, as from a
+    /// camera), or, `false` (the default), every frame whole.
+    pub fn track_frames(&mut self, on: bool) {
+        self.tracker = on.then(|| Tracker::from_params(self.detector.params().clone()));
+    }
+
+    /// The tracked detector's state and counts, when frames are tracked.
+    pub fn tracker(&self) -> Option<&Tracker> {
+        self.tracker.as_ref()
     }
 
     /// Detects each frame on two threads ([`Detector::detect_split`]: the same results, in
@@ -133,6 +149,7 @@ impl<S: FrameSource> SourceDetector<S> {
             &self.optics,
             &mut self.detector,
             self.lower.as_mut(),
+            self.tracker.as_mut(),
             hdr,
             &self.raw,
             &mut self.scratch,
@@ -190,6 +207,7 @@ pub(crate) fn detect_frame<E: std::error::Error + 'static>(
     optics: &Optics,
     detector: &mut Detector,
     lower: Option<&mut LowerHalf>,
+    tracker: Option<&mut Tracker>,
     hdr: &FrameHeader,
     raw: &[u8],
     scratch: &mut Vec<u8>,
@@ -198,12 +216,14 @@ pub(crate) fn detect_frame<E: std::error::Error + 'static>(
     let frame = optics
         .crop_window(hdr.width, hdr.height, raw, scratch)
         .map_err(|error| SourceError::Frame { index, error })?;
-    match lower {
-        Some(lower) => detector.detect_split(frame, lower),
-        None => detector.detect(frame),
+    match (tracker, lower) {
+        (Some(tracker), lower) => tracker.detect(frame, index, detector, lower),
+        (None, Some(lower)) => detector.detect_split(frame, lower),
+        (None, None) => detector.detect(frame),
     }
     .map_err(|error| SourceError::Frame { index, error })
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;

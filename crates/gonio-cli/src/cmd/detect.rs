@@ -26,7 +26,8 @@ column, px; null when invalid), c_um, valid, reason (no_ring, one_edge, ring_out
 saturated, out_of_focus, inconsistent_edges, ambiguous), score (0–1, the best ring candidate's),
 margin (0–1, how far it is ahead of the runner-up; below the optics' min_margin the frame is
 ambiguous), c_sigma_px, width_change_px, focus (mean gradient energy, grey²/px²), mean_gradient,
-edges [{column_px, slope, pixels, strong, …}].
+edges [{column_px, slope, pixels, strong, …}], tracked (true: measured in a band of columns around
+the ring's predicted column; false: over the whole frame).
 
 The ring is chosen by its model (docs/detector.md): a rising and a falling edge a ring width
 apart, parallel, over shared rows, with nothing as strong between them; the frame is ambiguous
@@ -41,6 +42,17 @@ Examples:
   gonio detect --raw 1440x540 --timing < frames.raw > /dev/null
   gonio detect --raw 1440x540 --timing --frame-threads 2 < frames.raw > /dev/null
   gonio detect --camera Aravis-Fake-GONIO01 --frames 200 --speed-deg-s 180 --fps 100
+  gonio detect --raw 1440x540 --no-track --timing < frames.raw > /dev/null
+  gonio detect frames --track --json-lines c.jsonl
+
+Frames that come in order (--camera, --raw) are tracked by default (--track): after a frame
+measured whole, the next ones are measured in a band of columns around the ring's predicted
+column (the detector's own stages and ring model on those columns; about a tenth of the frame),
+and whole again whenever the band cannot vouch for the result: no ring or an invalid one, an edge
+at the band's border, a second candidate, a jump, a weaker or blurred ring, saturation, or every
+256 frames (docs/detector.md, § Tracked frames). A frame the band calls valid is valid for the
+whole-frame detector too, and its c agrees within 0.02 px. --no-track measures every frame whole.
+Image files are measured whole unless --track says they are one sequence in name order.
 
 With --camera ID (a build with --features genicam; docs/camera.md) the frames stream from a
 GenICam camera set up from the optics (the window as Width/Height/OffsetX/OffsetY centred on the
@@ -59,8 +71,10 @@ on. Ctrl-C stops acquisition: the lines so far are kept on standard output (a
 
 Frames are detected on --threads worker threads (default: all cores) while the main thread
 reads the next ones; the lines come out in frame order, the same bytes whatever the thread
-count. --dump-stages and --timing run one frame at a time (--timing with --frame-threads 2 splits
-each frame across two threads and also reports the wall time).")]
+count (whole frames only: --threads does not track). --dump-stages and --timing run one frame at a
+time (--timing with --frame-threads 2 splits each frame across two threads and also reports the
+wall time; with tracking, the times of the frames measured in the band and of those measured
+whole are reported apart).")]
 pub struct Args {
     /// Image files (PNG, TIFF) or directories of them (read in name order).
     #[arg(
@@ -159,6 +173,26 @@ pub struct Args {
     /// With --camera: give up when no frame comes for this long, ms (the camera gone).
     #[arg(long, default_value_t = 3000, value_parser = flag::whole::<u64>(FRAME_TIMEOUT_MS))]
     pub frame_timeout_ms: u64,
+    /// Measure frames in a band of columns around the ring's predicted column when the band can
+    /// vouch for the result, whole otherwise, one frame at a time (default with --camera and
+    /// --raw; for image files, their name order is taken as the frames' order).
+    #[arg(long, conflicts_with_all = ["no_track", "threads", "dump_stages"])]
+    pub track: bool,
+    /// Measure every frame whole (to compare with --track).
+    #[arg(long)]
+    pub no_track: bool,
+}
+
+impl Args {
+    /// Whether frames are tracked: `--track`, or by default when they come in order (a camera,
+    /// raw standard input) and are detected one at a time (no `--threads`, no `--dump-stages`).
+    fn tracks(&self) -> bool {
+        self.track
+            || (!self.no_track
+                && (self.raw.is_some() || self.camera.is_some())
+                && self.threads.is_none()
+                && self.dump_stages.is_none())
+    }
 }
 
 /// `--threads`: worker threads (each holds a detector, ≈ 20 bytes a window pixel).
@@ -407,11 +441,12 @@ where
             }
         }
     };
-    if a.dump_stages.is_none() && !a.timing {
+    let track = a.tracks();
+    if a.dump_stages.is_none() && !a.timing && !track {
         if a.frame_threads.is_some() {
             bail!(
-                "--frame-threads: only with --timing or --camera, where frames are detected one \
-                 at a time (--threads detects whole frames in parallel)"
+                "--frame-threads: only with --timing, --track or --camera, where frames are \
+                 detected one at a time (--threads detects whole frames in parallel)"
             );
         }
         let threads = a.threads.map_or_else(
@@ -429,13 +464,15 @@ where
         })?;
         return Ok(done);
     }
-    // One frame at a time: a frame's stages dumped, or the detector timed.
+    // One frame at a time: tracked, a frame's stages dumped, or the detector timed.
     let dump = a.dump_stages.as_deref();
     let mut det = SourceDetector::new(source, optics)?;
     let mut dumped = false;
     let mut cpu_s = Vec::new();
     let mut wall_s = Vec::new();
+    let mut tracked = Vec::new();
     det.split_frames(a.frame_threads == Some(2));
+    det.track_frames(track);
     loop {
         let want_dump = dump.is_some() && done.frames == a.frame;
         det.detector_mut().set_dump(want_dump);
@@ -461,13 +498,19 @@ where
             write_dump(&mut sink.out, dir, det.detector(), &d.result)?;
             dumped = true;
         }
+        tracked.push(d.result.tracked);
         line(det.source(), &d, &mut done, sink)?;
     }
     if dump.is_some() && done.stream_error.is_none() && !dumped {
         bail!("--frame {}: only {} frames were read", a.frame, done.frames);
     }
     if a.timing {
+        // Frame by frame, before the quantiles sort them.
+        let per_frame = cpu_s.clone();
         report_timing(&mut cpu_s, &mut wall_s, det.splits_frames());
+        if let Some(t) = det.tracker() {
+            report_modes(&per_frame, &tracked, t);
+        }
     }
     Ok(done)
 }
@@ -501,6 +544,45 @@ fn report_timing(cpu_s: &mut [f64], wall_s: &mut [f64], split: bool) {
         "detector alone, each frame on {} (crop + detect, wall time): median {median:.3} \
          ms/frame, 99th percentile {p99:.3} ms, max {max:.3} ms",
         if split { "two threads" } else { "one thread" }
+    );
+}
+
+/// `--timing` with tracking: the detector's CPU time per frame for the frames measured in the
+/// band and for those measured whole, apart, and why frames were measured whole.
+fn report_modes(cpu_s: &[f64], tracked: &[bool], t: &gonio_vision::track::Tracker) {
+    for (mode, in_band) in [("tracked (measured in the band)", true), ("whole", false)] {
+        let mut v: Vec<f64> = cpu_s
+            .iter()
+            .zip(tracked)
+            .filter(|&(_, &b)| b == in_band)
+            .map(|(&x, _)| x)
+            .collect();
+        if v.is_empty() {
+            gonio_cli::note!("{mode} frames: none");
+            continue;
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = (v[(n - 1) / 2] + v[n / 2]) / 2.0;
+        let p99 = v[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1];
+        gonio_cli::note!(
+            "{mode} frames (CPU time of the thread): median {:.3} ms/frame, 99th percentile \
+             {:.3} ms, max {:.3} ms over {n} frames",
+            median * 1e3,
+            p99 * 1e3,
+            v[n - 1] * 1e3
+        );
+    }
+    let why: Vec<String> = t
+        .fallbacks()
+        .filter(|&(_, n)| n > 0)
+        .map(|(f, n)| format!("{} {n}", f.name()))
+        .collect();
+    gonio_cli::note!(
+        "tracking: {} frames in the band, {} whole ({})",
+        t.tracked_frames(),
+        t.whole_frames(),
+        why.join(", ")
     );
 }
 
@@ -576,6 +658,7 @@ mod camera_run {
             "c_px": null,
             "valid": false,
             "reason": "missing_frame",
+            "tracked": false,
         }))
     }
 
@@ -680,6 +763,7 @@ mod camera_run {
             // --frame-threads 2).
             let mut det = SourceDetector::new(&mut src, optics)?;
             det.split_frames(a.frame_threads == Some(2));
+            det.track_frames(a.tracks());
             loop {
                 match det.detect_next() {
                     Ok(Some(d)) => handle(det.source(), Ok(d))?,

@@ -1,0 +1,334 @@
+//! The band: the detector's own stages run over a window of columns of a frame, their edges
+//! and components moved into the whole frame's columns, and the ring selected among them with
+//! the whole frame's parameters ([`Band::select`]).
+//!
+//! Every stage up to the edge filling reads a fixed number of columns on either side of the
+//! pixel it makes ([`stage_reach_px`]: the closing's two disks, the opening's two, the blur,
+//! Sobel, the non-maximum suppression, the filling), and treats the frame's side the same
+//! wherever it is. So on the band's columns farther than that reach from a side it cuts (its
+//! *exact* columns) the edge pixels are the whole frame's, bit for bit; where the band reaches
+//! the frame's own side nothing is cut. A component on the exact columns that does not touch
+//! a cut side's first exact column is the whole frame's component (its 8-neighbours are all
+//! exact); one that does may run on beyond the band, or have taken in pixels of the cut
+//! margin, so it is left out and reported when it reaches into the columns searched
+//! ([`BandFrame::cut_in_search`]). The kept components' column sums and the pixels' columns
+//! are moved by the band's first column in exact integer arithmetic ([`shifted`]): the
+//! selection sees the integers the whole frame's labeller would give it, and computes the same
+//! values from them.
+//!
+//! Units: columns and rows are the whole frame's pixels. Allocates a detector when the band's
+//! width changes and, per frame, the edge list handed to the selection.
+
+use crate::label::{Component, EdgeList, EdgePixel};
+use crate::optics::Params;
+use crate::pipeline::{Detector, RawSums};
+use crate::select::{Selection, select};
+
+/// Columns on either side of a pixel that the stages up to the edge filling read, px: the
+/// closing (dilation and erosion by the 2d + 1 disk), the opening (two ≈ d/2 disks), the 5×5
+/// blur, Sobel, the non-maximum suppression and the filling (one each).
+pub fn stage_reach_px(p: &Params) -> usize {
+    2 * p.close_radius_px + 2 * p.open_radius_px + 2 + 1 + 1 + 1
+}
+
+/// Where a band lies in the frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Placement {
+    /// The frame column of the band's first column.
+    pub x0: usize,
+    /// The band's width, px.
+    pub width: usize,
+    /// The first and last exact column (frame columns).
+    pub exact: (usize, usize),
+}
+
+impl Placement {
+    /// The band whose exact columns hold frame columns `first ..= last` (`first` may lie left
+    /// of the frame, `last` right of it): those plus the stages' reach on both sides, its width
+    /// rounded up to a multiple of 64 (the stages work in 64-byte steps) and moved inside the
+    /// frame; `None` when that is the whole frame's width or more.
+    pub(crate) fn of(first: f64, last: f64, p: &Params) -> Option<Placement> {
+        let reach = stage_reach_px(p);
+        let span = (last.ceil() - first.floor()).max(0.0) as usize + 1;
+        let width = (span + 2 * reach).div_ceil(64) * 64;
+        if width >= p.width || !(first.is_finite() && last.is_finite()) {
+            return None;
+        }
+        let w = p.width;
+        let x0 = (first.floor() as i64 - reach as i64).clamp(0, (w - width) as i64) as usize;
+        let e0 = if x0 > 0 { x0 + reach } else { 0 };
+        let e1 = if x0 + width < w {
+            x0 + width - 1 - reach
+        } else {
+            w - 1
+        };
+        Some(Placement {
+            x0,
+            width,
+            exact: (e0, e1),
+        })
+    }
+
+    /// True for a column on or beyond a cut side's first exact column.
+    fn at_cut(&self, col: usize, frame_width: usize) -> bool {
+        (self.x0 > 0 && col <= self.exact.0)
+            || (self.x0 + self.width < frame_width && col >= self.exact.1)
+    }
+
+    /// A band pixel's `first_index` (row · band width + column) in the frame's numbering.
+    fn frame_index(&self, band_index: u64, frame_width: usize) -> u64 {
+        let bw = self.width as u64;
+        (band_index / bw) * frame_width as u64 + band_index % bw + self.x0 as u64
+    }
+}
+
+/// The band's result for one frame, in the whole frame's columns.
+#[derive(Debug)]
+pub(crate) struct BandFrame {
+    /// The ring's selection among the band's components.
+    pub selection: Selection,
+    /// Where the band lay.
+    pub place: Placement,
+    /// Connected components in the band (cut ones included).
+    pub components: usize,
+    /// The band's positioned edge pixels.
+    pub pixels: usize,
+    /// A component left out because a cut side of the band touches it reaches into the
+    /// columns searched: the band cannot tell what it is in the whole frame.
+    pub cut_in_search: bool,
+}
+
+/// Detectors for bands of this many widths are kept (a band is wider before the ring's motion
+/// is known than after).
+const WIDTHS: usize = 3;
+
+/// The detector's stages over a window of columns (see the module documentation).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Band {
+    /// Detectors as wide as the bands lately used, the latest last.
+    dets: Vec<Detector>,
+    cands: Vec<Component>,
+    pixels: Vec<EdgePixel>,
+    /// The frame indices of the components a cut side touches, sorted.
+    cut: Vec<u32>,
+}
+
+impl Band {
+    /// Runs the stages over the band of `frame` (the whole window, `p`'s size) whose exact
+    /// columns hold the searched columns `search` widened by `guard` px on both sides, and
+    /// selects the ring among its components with the saturated runs of the whole frame
+    /// (`raw`). `None` when the band would be the whole frame or its edge pixels overflow the
+    /// whole frame's list.
+    pub(crate) fn select(
+        &mut self,
+        frame: &[u8],
+        search: (f64, f64),
+        guard: f64,
+        raw: &RawSums,
+        p: &Params,
+    ) -> Option<BandFrame> {
+        let (w, h) = (p.width, p.height);
+        let place = Placement::of(search.0 - guard, search.1 + guard, p)?;
+        // A detector as wide as the band.
+        match self
+            .dets
+            .iter()
+            .position(|d| d.params().width == place.width)
+        {
+            Some(k) => {
+                let d = self.dets.remove(k);
+                self.dets.push(d);
+            }
+            None => {
+                if self.dets.len() == WIDTHS {
+                    self.dets.remove(0);
+                }
+                self.dets.push(Detector::from_params(Params {
+                    width: place.width,
+                    ..p.clone()
+                }));
+            }
+        }
+        let det = self.dets.last_mut()?;
+        let (x0, bw) = (place.x0, place.width);
+        for row in frame.chunks_exact(w) {
+            det.push_stages(&row[x0..x0 + bw]).ok()?;
+        }
+        let parts = det.finish_parts().ok()?;
+        let (e0, e1) = place.exact;
+        let in_search = |lo: usize, hi: usize| hi as f64 >= search.0 && lo as f64 <= search.1;
+        let mut cut_in_search = false;
+        // Components a cut side touches: from their column ranges (candidates; a filled pixel
+        // has no entry in the pixel list, but is in the range) and from their pixels.
+        self.cut.clear();
+        self.cands.clear();
+        for c in parts.cands {
+            let (lo, hi) = (c.min_col as usize + x0, c.max_col as usize + x0);
+            if place.at_cut(lo, w) || place.at_cut(hi, w) {
+                self.cut.push(place.frame_index(c.first_index, w) as u32);
+                cut_in_search |= in_search(lo.max(e0), hi.min(e1));
+            } else {
+                self.cands.push(shifted(c, &place, w));
+            }
+        }
+        let pixels = parts.edges.pixels()?;
+        let n_pixels = pixels.len();
+        for e in pixels {
+            if place.at_cut(e.col as usize + x0, w) {
+                self.cut
+                    .push(place.frame_index(u64::from(e.comp), w) as u32);
+            }
+        }
+        self.cut.sort_unstable();
+        self.cut.dedup();
+        self.pixels.clear();
+        for e in pixels {
+            let col = e.col as usize + x0;
+            if col < e0 || col > e1 {
+                continue;
+            }
+            let comp = place.frame_index(u64::from(e.comp), w) as u32;
+            if !cut_in_search && in_search(col, col) && self.cut.binary_search(&comp).is_ok() {
+                cut_in_search = true;
+            }
+            self.pixels.push(EdgePixel {
+                col: col as u16,
+                comp,
+                ..*e
+            });
+        }
+        let components = parts.components;
+        let mut edges = EdgeList::from_resolved(
+            std::mem::take(&mut self.pixels),
+            h,
+            p.max_edge_pixels.max(n_pixels),
+        );
+        let selection = select(&self.cands, &mut edges, raw.saturated_runs(), p);
+        Some(BandFrame {
+            selection,
+            place,
+            components,
+            pixels: n_pixels,
+            cut_in_search,
+        })
+    }
+}
+
+/// Component `c` of a band placed at `place`, in the columns of a frame `w` wide: every column
+/// sum moved by the band's first column x0 (columns are in 1/32 px, c → c + 32·x0, so Σc,
+/// Σr·c, Σr²·c and Σc² follow from the counts and sums already there), the first pixel's index
+/// re-numbered. Exact integers: the sums the whole frame's labeller makes of the same pixels.
+fn shifted(c: &Component, place: &Placement, w: usize) -> Component {
+    let dx = 32 * place.x0 as i64;
+    let n = c.pos_n as i64;
+    Component {
+        sum_col32_sq: c.sum_col32_sq
+            + 2 * i128::from(dx) * i128::from(c.sum_col32)
+            + i128::from(dx) * i128::from(dx) * i128::from(n),
+        sum_col32: c.sum_col32 + dx * n,
+        sum_row_col32: c.sum_row_col32 + dx * c.sum_row,
+        sum_row2_col32: c.sum_row2_col32 + dx * c.sum_row2,
+        min_col: c.min_col + place.x0 as u32,
+        max_col: c.max_col + place.x0 as u32,
+        first_index: place.frame_index(c.first_index, w),
+        ..*c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Optics;
+    use crate::label::component_of;
+
+    #[test]
+    fn a_shifted_component_is_the_sums_of_the_shifted_pixels() {
+        let (w, x0) = (1440usize, 517usize);
+        let place = Placement {
+            x0,
+            width: 192,
+            exact: (0, 0),
+        };
+        let mut px: Vec<EdgePixel> = (0..40u16)
+            .map(|k| EdgePixel {
+                row: 3 + k * 7 % 31,
+                col: 20 + (k * 13) % 50,
+                class: 2,
+                dir: (k * 5) as u8,
+                sub: (k as i8 % 31) - 15,
+                mag: 100 + k,
+                comp: 0,
+            })
+            .collect();
+        px.sort_by_key(|e| (e.row, e.col));
+        px.dedup_by_key(|e| (e.row, e.col));
+        let moved: Vec<EdgePixel> = px
+            .iter()
+            .map(|e| EdgePixel {
+                col: e.col + x0 as u16,
+                ..*e
+            })
+            .collect();
+        assert_eq!(
+            shifted(&component_of(&px, place.width), &place, w),
+            component_of(&moved, w)
+        );
+    }
+
+    /// On the exact columns the band's edge pixels are the whole frame's, bit for bit: for a
+    /// band inside the frame and one at each of its sides.
+    #[test]
+    fn the_exact_columns_hold_the_whole_frames_edges() {
+        let optics = Optics {
+            window_width_px: 640,
+            window_height_px: 160,
+            ..Optics::default()
+        };
+        let p = optics.params().unwrap();
+        let (w, h) = (p.width, p.height);
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let frame: Vec<u8> = (0..w * h)
+            .map(|i| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let x = (i % w) as f64 + 0.05 * (i / w) as f64;
+                let dark = (x % 37.0) < 6.0 + (s % 3) as f64 || (x - 300.0).abs() < 5.5;
+                (if dark { 60 } else { 150 }) + (s >> 58) as u8
+            })
+            .collect();
+        let pixels_of = |det: &mut Detector, x0: usize, bw: usize| -> Vec<EdgePixel> {
+            for row in frame.chunks_exact(w) {
+                det.push_row(&row[x0..x0 + bw]).unwrap();
+            }
+            let parts = det.finish_parts().unwrap();
+            let px = parts.edges.pixels().unwrap();
+            px.iter()
+                .map(|e| EdgePixel {
+                    col: e.col + x0 as u16,
+                    comp: 0,
+                    ..*e
+                })
+                .collect()
+        };
+        let all = pixels_of(&mut Detector::from_params(p.clone()), 0, w);
+        let mut bands = vec![(3.0, 40.0), (600.0, 630.0)];
+        bands.extend((0..40).map(|k| (40.0 + 11.3 * k as f64, 80.0 + 11.3 * k as f64)));
+        for (first, last) in bands {
+            let place = Placement::of(first, last, &p).unwrap();
+            let (e0, e1) = place.exact;
+            assert!(e0 as f64 <= first.max(0.0) && e1 as f64 >= last.min(w as f64 - 1.0));
+            let mut det = Detector::from_params(Params {
+                width: place.width,
+                ..p.clone()
+            });
+            let band = pixels_of(&mut det, place.x0, place.width);
+            let on =
+                |lo: usize, hi: usize| move |e: &&EdgePixel| (lo..=hi).contains(&(e.col as usize));
+            let whole: Vec<_> = all.iter().filter(on(e0, e1)).collect();
+            assert!(whole.len() > 100, "{} edge pixels", whole.len());
+            let got: Vec<_> = band.iter().filter(on(e0, e1)).collect();
+            assert_eq!(got, whole, "band for columns {first} … {last}");
+        }
+    }
+}
