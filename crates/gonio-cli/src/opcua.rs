@@ -21,7 +21,7 @@ pub struct Args {
     pub opcua: Option<String>,
     /// The OPC UA server's PKI directory: its certificate, generated there once
     /// (own/cert.der, private/private.pem) unless --opcua-cert/--opcua-key are given, and the
-    /// client certificates it trusts (trusted/certs/; refused ones land in rejected/certs/).
+    /// client certificates it trusts (trusted/; refused ones land in rejected/).
     /// Needed for the encrypted endpoints.
     #[arg(long, value_name = "DIR", requires = "opcua")]
     pub opcua_pki: Option<PathBuf>,

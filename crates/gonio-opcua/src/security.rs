@@ -8,8 +8,11 @@
 //! - the encrypted endpoints need the server's certificate: from files (DER or PEM
 //!   certificate, PEM private key), or generated once into the PKI directory
 //!   (`own/cert.der`, `private/private.pem`: RSA 2048, self-signed, valid 5 years), which
-//!   also holds the client certificates the server trusts (`trusted/certs/`) and those it
-//!   has refused (`rejected/certs/`, to be moved to `trusted/certs/` by an administrator).
+//!   also holds the client certificates the server trusts (`trusted/`) and those it
+//!   has refused (`rejected/`, to be moved to `trusted/` by an administrator). The stack
+//!   finds a trusted certificate by a file name of its own (`CN=NAME [THUMBPRINT].der`, the
+//!   name it gives a refused one); a certificate put into `trusted/` under another name
+//!   (`.der` or `.pem`) is copied to that name when the server starts.
 //!
 //! ```
 //! use gonio_opcua::security::Security;
@@ -156,7 +159,46 @@ pub(crate) fn certificate(
         }
     };
     check_pair(&cert, &key)?;
+    adopt_trusted(&pki.join("trusted"))?;
     Ok(Some((cert, key)))
+}
+
+/// Copies each certificate in `trusted` (`.der` or `.pem`) that is not under the file name
+/// the stack looks it up by to that name, as DER.
+fn adopt_trusted(trusted: &Path) -> Result<(), OpcUaError> {
+    let bad = |path: &Path, message: String| OpcUaError::Certificate {
+        path: path.to_path_buf(),
+        message,
+    };
+    std::fs::create_dir_all(trusted).map_err(|e| bad(trusted, e.to_string()))?;
+    let entries = std::fs::read_dir(trusted).map_err(|e| bad(trusted, e.to_string()))?;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !path.is_file() || !matches!(ext, "der" | "pem") {
+            continue;
+        }
+        let bytes = std::fs::read(&path).map_err(|e| bad(&path, e.to_string()))?;
+        let cert = if ext == "der" {
+            X509::from_der(&bytes)
+        } else {
+            X509::from_pem(&bytes)
+        }
+        .map_err(|_| {
+            bad(
+                &path,
+                "a trusted client certificate that does not load".into(),
+            )
+        })?;
+        let named = trusted.join(CertificateStore::cert_file_name(&cert));
+        if named != path && !named.exists() {
+            let der = cert
+                .to_der()
+                .map_err(|e| bad(&path, format!("cannot convert to DER: {e}")))?;
+            std::fs::write(&named, der).map_err(|e| bad(&named, e.to_string()))?;
+        }
+    }
+    Ok(())
 }
 
 /// Generates a self-signed application instance certificate and its key.

@@ -21,6 +21,8 @@ use tokio_util::sync::CancellationToken;
 
 /// Sessions at once (each a client; 50 MES clients and room to spare).
 const MAX_SESSIONS: usize = 200;
+/// Longest notification queue of a monitored item.
+const MAX_QUEUE: usize = 100;
 /// How long a stop waits for the clients' connections to close.
 const STOP_WAIT: Duration = Duration::from_secs(5);
 
@@ -140,10 +142,13 @@ pub fn start(
     let failed = Arc::new(Mutex::new(None::<String>));
     let auth = Arc::new(Auth::new(config.security.users.clone()));
 
-    let limits = Limits {
+    let mut limits = Limits {
         max_sessions: MAX_SESSIONS,
         ..Limits::default()
     };
+    // The stack gives an item that asks for no queue a queue of one: an MES asks for a queue
+    // of events (up to this many) to keep every result while it is busy.
+    limits.subscriptions.max_monitored_item_queue_size = MAX_QUEUE;
     let mut builder = ServerBuilder::new()
         .application_name(app_name)
         .application_uri(app_uri)

@@ -14,6 +14,17 @@ pub(crate) struct Stores {
     idle: Mutex<Vec<Box<dyn Store>>>,
 }
 
+impl Drop for Stores {
+    /// Closes the idle connections on a thread of their own: a PostgreSQL connection closes
+    /// through a runtime of its own, which cannot run on the server's.
+    fn drop(&mut self) {
+        let idle = self.idle.get_mut().map(std::mem::take).unwrap_or_default();
+        if !idle.is_empty() {
+            let _ = std::thread::spawn(move || drop(idle)).join();
+        }
+    }
+}
+
 impl Stores {
     /// Opens the store at `location` once (it must exist) and keeps the connection.
     pub(crate) fn open(location: &str) -> Result<Arc<Stores>, StoreError> {
