@@ -10,8 +10,13 @@ use common::{gonio, repo, stderr};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The test's virtualenv with asyncua and argon2-cffi.
+/// The test's virtualenv with asyncua and argon2-cffi (made once for all the tests).
 fn venv_python() -> PathBuf {
+    static VENV: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    VENV.get_or_init(make_venv).clone()
+}
+
+fn make_venv() -> PathBuf {
     let dir = PathBuf::from(repo("target/opcua-venv"));
     let py = dir.join("bin/python");
     let has = |py: &PathBuf| {
