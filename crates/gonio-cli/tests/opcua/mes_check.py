@@ -52,8 +52,10 @@ class Serve:
     """`gonio serve` in the background; the OPC UA URL from its 'OPC UA on' line."""
 
     def __init__(self, args, host="127.0.0.1"):
+        # At the normal priority, whatever this script's own (the load mode lowers it).
         self.p = subprocess.Popen(
             [GONIO, "serve", "--addr", f"{host}:0", *args],
+            preexec_fn=lambda: os.setpriority(os.PRIO_PROCESS, 0, 0) if os.geteuid() == 0 else None,
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
@@ -607,6 +609,18 @@ asyncio.run(main())
     print(f"robust: {n_parts} parts with 50 clients, garbage bytes and a killed client; store intact")
 
 
+def thread_cpu(pid):
+    """CPU seconds (user + system) of a process's threads, summed by thread name."""
+    tick = os.sysconf("SC_CLK_TCK")
+    out = {}
+    for t in Path(f"/proc/{pid}/task").iterdir():
+        stat = (t / "stat").read_text()
+        name = stat[stat.index("(") + 1 : stat.rindex(")")]
+        fields = stat[stat.rindex(")") + 2 :].split()
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return out
+
+
 async def load():
     """The station's batch time with 50 subscribed clients against none (BENCHMARKS.md).
 
@@ -619,6 +633,8 @@ async def load():
     mounts the same parts."""
     from datetime import datetime
 
+    # The clients take only what the station leaves: on a line the MES runs elsewhere.
+    os.nice(19)
     n_parts = int(os.environ.get("GONIO_OPCUA_PARTS", "5"))
     rounds = int(os.environ.get("GONIO_OPCUA_ROUNDS", "2"))
     ts = lambda s: datetime.fromisoformat(s.replace("Z", "+00:00")).timestamp()
@@ -635,8 +651,9 @@ async def load():
                 subs = await asyncio.gather(*(subscribe(c, "sim", 100) for c in clients))
                 t_subscribed = time.time()
                 await serve.wait_for(f"batch done: {n_parts} parts", 3600)
+                cpu = thread_cpu(serve.p.pid)
                 for h, _ in subs:
-                    check(len(h.events) >= n_parts - 1, f"events {len(h.events)}")
+                    await wait_events(h, n_parts - 1, serve, 120)
                 await asyncio.gather(*(c.disconnect() for c in clients))
             finally:
                 serve.stop()
@@ -646,7 +663,10 @@ async def load():
                   "the clients subscribed before the second part started")
             span = ts(parts[-1]["ended_at"]) - ts(parts[1]["started_at"])
             spans[n].append(span)
-            print(f"round {r}: {n:2} clients: parts 2-{n_parts}: {span:.3f} s", flush=True)
+            opcua = sum(v for k, v in cpu.items() if k == "gonio-opcua")
+            total = sum(cpu.values())
+            print(f"round {r}: {n:2} clients: parts 2-{n_parts}: {span:.3f} s; CPU of the "
+                  f"process {total:.2f} s, of the OPC UA server's threads {opcua:.2f} s", flush=True)
     import statistics
     m0, m50 = statistics.median(spans[0]), statistics.median(spans[50])
     print(f"median without clients {m0:.3f} s, with 50 clients {m50:.3f} s: "
