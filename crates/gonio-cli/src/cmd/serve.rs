@@ -74,7 +74,7 @@ Examples:
   gonio serve --db results.sqlite --station sim --parts 100 --seed 7 --speed 4 --addr 127.0.0.1:9000
   gonio serve --db results.sqlite --station plc --plc modbus://station-plc:502 --camera Basler-1234 --parts 50
   gonio serve --db results.sqlite --station sim --parts 3 --seed 1 --opcua 127.0.0.1:4840 --opcua-anonymous
-  gonio serve --db results.sqlite --station-name line-3 --opcua 0.0.0.0:4840 --opcua-pki opcua-pki \
+  gonio serve --db results.sqlite --station-name line-3 --opcua 0.0.0.0:4840 --opcua-pki opcua-pki \\
       --opcua-users mes-users.txt
   gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8443 --allow-remote \\
       --tls-cert station.crt --tls-key station.key --token-file dashboard.token --host-name station.lab
