@@ -5,6 +5,7 @@
 
 mod cmd;
 mod db;
+mod opcua;
 mod plc;
 mod station;
 mod table;

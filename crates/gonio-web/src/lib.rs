@@ -80,7 +80,14 @@ pub async fn serve(
     hub: Arc<live::Hub>,
     options: ServeOptions,
 ) -> Result<(), WebError> {
-    let app = router(store_location, hub)?;
+    // Opening the store blocks (PostgreSQL's client runs a runtime of its own, which may not
+    // be started from this one's tasks): on a blocking thread.
+    let location = store_location.to_string();
+    let app = tokio::task::spawn_blocking(move || router(&location, hub))
+        .await
+        .map_err(|e| WebError::Serve {
+            message: e.to_string(),
+        })??;
     server::run(listener, app, options, shutdown()).await
 }
 

@@ -47,6 +47,17 @@ impl Pool {
     }
 }
 
+impl Drop for Pool {
+    /// Closes the idle connections on a thread of their own: a PostgreSQL connection closes
+    /// through a runtime of its own, which cannot run on the server's.
+    fn drop(&mut self) {
+        let idle = self.idle.get_mut().map(std::mem::take).unwrap_or_default();
+        if !idle.is_empty() {
+            let _ = std::thread::spawn(move || drop(idle)).join();
+        }
+    }
+}
+
 /// What every handler shares: the store's connections, the live view's hub, and the permits
 /// of the part arrays streamed at once.
 #[derive(Clone)]

@@ -6,6 +6,7 @@ use crate::station::{self, FidelityArg, StrategyArg, load_recipe};
 use anyhow::{Context, Result, bail};
 use gonio_cli::flag;
 use gonio_core::bound::Bound;
+use gonio_opcua::feed::Feed;
 use gonio_plc::batch::LinkFigures;
 use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone};
 use gonio_station::observe::{LiveFrame, Observer, Phase};
@@ -55,6 +56,14 @@ With --station sim, the simulated station mounts --parts parts (seed --seed) in 
 wall clock (--speed times real time), committing each part to --db as it finishes, exactly as
 `gonio mount --sim --db` does; the dashboard stays up after the batch until Ctrl-C.
 
+With --opcua HOST:PORT the same process serves the station to the line's MES over OPC UA
+(OPC 40001-1 Machinery, OPC 40001-101 Result Transfer; docs/opcua.md): Objects/Machines/NAME
+with Identification, Monitoring (live), ResultManagement (results from --db, an event per
+part). Read-only; SecurityPolicy None only on loopback and only with --opcua-anonymous, users
+(--opcua-users) only over Basic256Sha256 or Aes Sign & Encrypt with --opcua-pki. It prints
+`OPC UA on opc.tcp://HOST:PORT/` when it listens. Without --station it serves the results of
+--station-name.
+
 With --station plc, --parts parts are mounted through the station's PLC (--plc
 modbus://HOST:PORT, register map --plc-map, docs/plc-interface.md) and its GenICam camera
 (--camera ID), at the station's own pace: the same controller, records and store as
@@ -67,9 +76,13 @@ Examples:
   gonio serve --db results.sqlite --station sim --parts 25 --seed 7
   gonio serve --db results.sqlite --station sim --parts 100 --seed 7 --speed 4 --addr 127.0.0.1:9000
   gonio serve --db results.sqlite --station plc --plc modbus://station-plc:502 --camera Basler-1234 --parts 50
+  gonio serve --db results.sqlite --station sim --parts 3 --seed 1 --opcua 127.0.0.1:4840 --opcua-anonymous
+  gonio serve --db results.sqlite --station-name line-3 --opcua 0.0.0.0:4840 --opcua-pki opcua-pki \\
+      --opcua-users mes-users.txt
   gonio serve --db postgres://gonio@/results?host=/run/postgresql --addr 0.0.0.0:8443 --allow-remote \\
       --tls-cert station.crt --tls-key station.key --token-file dashboard.token --host-name station.lab
   curl --cacert station.crt -H \"Authorization: Bearer $(cat dashboard.token)\" https://station.lab:8443/api/stats")]
+#[command(group(clap::ArgGroup::new("serving").args(["station", "opcua"]).multiple(true)))]
 pub struct Args {
     /// The results store: a SQLite file (it must exist, unless --station runs and fills it)
     /// or a postgres:// URL.
@@ -134,13 +147,17 @@ pub struct Args {
     /// [default: 1].
     #[arg(long, requires = "station", value_parser = flag::real(SPEED))]
     pub speed: Option<f64>,
-    /// The station's name in its records and the results store [default: sim for the
-    /// simulated station, this machine's host name for a station through its PLC].
-    #[arg(long, value_name = "NAME", requires = "station")]
+    /// The station's name in its records and the results store, and its OPC UA machine's (with
+    /// --opcua and no --station, the station whose results are served) [default: sim for the
+    /// simulated station, this machine's host name otherwise].
+    #[arg(long, value_name = "NAME", requires = "serving")]
     pub station_name: Option<String>,
     /// Continue the station's interrupted batch with these settings (as `gonio mount --resume`).
     #[arg(long, requires = "station")]
     pub resume: bool,
+    /// The OPC UA server.
+    #[command(flatten)]
+    pub opcua: crate::opcua::Args,
 }
 
 /// The address to listen on: loopback, or another address only with `allow_remote` and TLS
@@ -295,6 +312,16 @@ pub fn run(a: Args) -> Result<()> {
         TcpListener::bind(sa).with_context(|| format!("--addr {addr}: cannot listen"))?;
     let bound = listener.local_addr()?;
     let hub = Hub::new(a.station.is_some());
+    let mode = match a.station {
+        Some(StationArg::Sim) => gonio_opcua::StationMode::Sim,
+        Some(StationArg::Plc) => gonio_opcua::StationMode::Plc,
+        None => gonio_opcua::StationMode::None,
+    };
+    let station_name = station::station_name(
+        a.station_name.as_deref(),
+        matches!(a.station, Some(StationArg::Sim)),
+    );
+    let (feed, opcua) = crate::opcua::start(&a.opcua, &a.db, &station_name, mode, &hub)?;
     let station = match a.station {
         Some(StationArg::Sim) => {
             let cfg = BatchConfig {
@@ -310,10 +337,10 @@ pub fn run(a: Args) -> Result<()> {
                 &station::Target {
                     db: Some(&a.db),
                     resume: a.resume,
-                    station: &station::station_name(a.station_name.as_deref(), true),
+                    station: &station_name,
                 },
             )?;
-            Some(spawn_station(prepared, cfg, &a, hub.clone()))
+            Some(spawn_station(prepared, cfg, &a, hub.clone(), feed))
         }
         Some(StationArg::Plc) => Some(spawn_plc(
             crate::plc::Request {
@@ -324,9 +351,10 @@ pub fn run(a: Args) -> Result<()> {
                 strategy: a.strategy,
                 parts: a.parts,
                 db: Some(a.db.clone()),
-                station_name: station::station_name(a.station_name.as_deref(), false),
+                station_name: station_name.clone(),
             },
             hub.clone(),
+            feed,
         )?),
         None => None,
     };
@@ -354,6 +382,7 @@ pub fn run(a: Args) -> Result<()> {
         }
     );
     let served = gonio_web::serve_blocking(listener, &a.db, hub, options);
+    drop(opcua);
     drop(station);
     served.map_err(|e| anyhow::anyhow!("dashboard: {e}"))
 }
@@ -364,6 +393,7 @@ fn spawn_station(
     cfg: BatchConfig,
     a: &Args,
     hub: Arc<Hub>,
+    feed: Arc<Feed>,
 ) -> std::thread::JoinHandle<()> {
     let timing = FrameTiming::shared();
     {
@@ -389,7 +419,7 @@ fn spawn_station(
         if let Some(note) = &p.note {
             gonio_cli::note!("{note}");
         }
-        let mut live = LiveObserver::new(hub.clone());
+        let mut live = (LiveObserver::new(hub.clone()), feed.observer());
         let h = hub.clone();
         // The live thumbnail: a rendered frame (full fidelity only).
         let mut thumbnails = Thumbnails::new(hub.clone());
@@ -409,6 +439,7 @@ fn spawn_station(
             &mut |d: &PartDone, id| {
                 if let Some(id) = id {
                     h.part_stored(id, &d.part.record.serial, d.part.record.result.name());
+                    feed.part_stored();
                 }
             },
         );
@@ -513,7 +544,11 @@ impl<F: Fn() -> LinkFigures> Observer for LinkWatch<F> {
 /// link's figures for `/api/status`) and committing every part to the store as `gonio mount
 /// --plc --db` does. Returns once the station is open: its setup's error (no PLC, no camera, a
 /// bad map or store) is this function's.
-fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread::JoinHandle<()>> {
+fn spawn_plc(
+    request: crate::plc::Request,
+    hub: Arc<Hub>,
+    feed: Arc<Feed>,
+) -> Result<std::thread::JoinHandle<()>> {
     let (opened, is_open) = std::sync::mpsc::channel::<Result<()>>();
     let snapshot = Arc::new(Mutex::new(Value::Null));
     {
@@ -545,10 +580,14 @@ fn spawn_plc(request: crate::plc::Request, hub: Arc<Hub>) -> Result<std::thread:
             last: None,
         };
         watch.refresh(true);
-        let mut live = (LiveObserver::new(hub.clone()), &mut watch);
+        let mut live = (
+            (LiveObserver::new(hub.clone()), feed.observer()),
+            &mut watch,
+        );
         let report = batch.run(&mut live, &mut |d, id| {
             if let Some(id) = id {
                 hub.part_stored(id, &d.record.serial, d.record.result.name());
+                feed.part_stored();
             }
         });
         // The batch's last requests (the station left safe) included.
