@@ -258,7 +258,7 @@ mod plc_camera {
             frame_timeout_ms: u64,
             tap: Option<FrameTap>,
         ) -> Result<Camera> {
-            let optics = Optics::default();
+            let optics = recipe.optics();
             let sim = id == "Aravis-Fake-GONIOSTATION";
             let config = CameraConfig {
                 window_size: (optics.window_width_px, optics.window_height_px),

@@ -244,6 +244,7 @@ fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
             focus_s: r.real(20),
             measure_s: r.real(21),
             push_s: r.real(22),
+            ..PhaseTimes::default()
         },
         device_error,
         turns: Vec::new(),

@@ -375,8 +375,9 @@ impl SimRenderer {
     }
 
     /// Fills `pixels` (`width × height`, row-major Mono8) with the next triggered exposure;
-    /// blocks until the PLC triggers. A frame of another size, or after the station stopped,
-    /// is left mid-grey with trigger count 0.
+    /// blocks until the PLC triggers. The window follows `width × height` (centred on the
+    /// sensor); a size the optics refuse, or a frame after the station stopped, is left
+    /// mid-grey with trigger count 0.
     pub fn fill(&mut self, width: usize, height: usize, pixels: &mut [u8]) {
         let x = loop {
             match self.rx.recv_timeout(Duration::from_millis(200)) {
@@ -393,6 +394,20 @@ impl SimRenderer {
                 Err(mpsc::RecvTimeoutError::Disconnected) => break None,
             }
         };
+        // The camera renders the window its client asks for (a real camera's ROI), where the
+        // optics allow it.
+        if self.renderer.size() != (width, height) {
+            let optics = gonio_vision::Optics {
+                window_width_px: u32::try_from(width).unwrap_or(u32::MAX),
+                window_height_px: u32::try_from(height).unwrap_or(u32::MAX),
+                ..gonio_vision::Optics::default()
+            };
+            if let Ok(r) =
+                gonio_sim::frames::GratingRenderer::new(&optics, self.renderer.scene().clone())
+            {
+                self.renderer = r;
+            }
+        }
         let (w, h) = self.renderer.size();
         let n = (width * height).min(pixels.len());
         let px = &mut pixels[..n];

@@ -59,6 +59,7 @@ pub struct Prepared {
     /// 0-based index of the first part to mount.
     pub first_part: usize,
     learned: Learned,
+    carried_focus_um: Option<f64>,
     /// What `--resume` found (a line for the terminal).
     pub note: Option<String>,
 }
@@ -91,6 +92,7 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
             location: String::new(),
             first_part: 0,
             learned: Learned::default(),
+            carried_focus_um: None,
             note: None,
         })));
     };
@@ -103,6 +105,7 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
         location: loc.clone(),
         first_part: 0,
         learned: Learned::default(),
+        carried_focus_um: None,
         note: None,
     };
     if t.resume {
@@ -133,6 +136,18 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
         ));
         p.first_part = info.next_index();
         p.learned = info.learned.unwrap_or_default();
+        // The focus the last stored part found: where the next part's focus check starts.
+        if info.parts_stored > 0 {
+            p.carried_focus_um = st
+                .parts(&gonio_store::PartQuery {
+                    batch: Some(info.batch),
+                    limit: Some(1),
+                    ..gonio_store::PartQuery::default()
+                })
+                .map_err(|e| anyhow!("{loc}: {e}"))?
+                .last()
+                .and_then(|p| p.focus_um);
+        }
         p.batch = Some(info.batch);
     } else {
         p.batch = Some(
@@ -234,6 +249,7 @@ pub fn run(
         location,
         first_part,
         learned,
+        carried_focus_um,
         ..
     } = p;
     let started = Rc::new(RefCell::new(gonio_store::time::now_utc()));
@@ -255,6 +271,7 @@ pub fn run(
     let opts = RunOptions {
         first_part,
         learned,
+        carried_focus_um,
         observer: Some(&mut both),
         pace: run.pace,
         // A shorter lifetime for the tap, as for the observers (a trait object's lifetime

@@ -27,6 +27,7 @@ fn turn(e: f64) -> TurnRecord {
         outliers: 1,
         focus_um: Some(-3.5),
         quality: None,
+        carried_roundness: None,
     }
 }
 
