@@ -19,11 +19,18 @@ pub struct Migration {
 }
 
 /// Every migration this software knows, oldest first.
-pub const MIGRATIONS: &[Migration] = &[Migration {
-    version: 1,
-    name: "parts_and_calibrations",
-    sql: include_str!("../migrations/0001_parts_and_calibrations.sql"),
-}];
+pub const MIGRATIONS: &[Migration] = &[
+    Migration {
+        version: 1,
+        name: "parts_and_calibrations",
+        sql: include_str!("../migrations/0001_parts_and_calibrations.sql"),
+    },
+    Migration {
+        version: 2,
+        name: "push_phase_times",
+        sql: include_str!("../migrations/0002_push_phase_times.sql"),
+    },
+];
 
 /// The schema version this software writes.
 pub fn latest_version() -> u32 {

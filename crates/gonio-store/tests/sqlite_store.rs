@@ -18,28 +18,28 @@ fn migrations_apply_once_in_order_and_a_newer_database_is_refused() {
     let d = tempfile::tempdir().unwrap();
     let path = d.path().join("m.sqlite");
     let loc = path.to_str().unwrap();
-    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), 1);
+    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), 2);
     // Opening again applies nothing (the tables exist: a second apply would fail).
-    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), 1);
+    assert_eq!(gonio_store::open(loc).unwrap().schema_version(), 2);
     // A later version: only it is applied, on the existing data.
-    let mut v2: Vec<Migration> = MIGRATIONS.to_vec();
-    v2.push(Migration {
-        version: 2,
+    let mut v3: Vec<Migration> = MIGRATIONS.to_vec();
+    v3.push(Migration {
+        version: 3,
         name: "operator",
         sql: "ALTER TABLE parts ADD COLUMN operator TEXT;",
     });
     assert_eq!(
-        gonio_store::open_with(loc, &v2).unwrap().schema_version(),
-        2
+        gonio_store::open_with(loc, &v3).unwrap().schema_version(),
+        3
     );
-    // This software (version 1) refuses the newer database rather than misreading it.
+    // This software (version 2) refuses the newer database rather than misreading it.
     let e = gonio_store::open(loc).err().expect("refused");
     assert!(
         matches!(
             e,
             StoreError::SchemaTooNew {
-                expected: 1,
-                found: 2
+                expected: 2,
+                found: 3
             }
         ),
         "{e}"
