@@ -339,7 +339,7 @@ fn phase_line<'a>(parts: impl Iterator<Item = &'a gonio_station::PartRecord>) ->
     }
     let m = sum.map(|s| s / n as f64);
     Some(format!(
-        "phases, mean a part: focus {:.2} s ({checks} checks of the carried focus, {sweeps} sweeps), measure {:.2} s, push {:.2} s (align {:.2}, approach {:.2}, stroke {:.2}, retract {:.2})",
+        "phases, mean a part: focus {:.2} s (carried focus checked {checks} times, swept {sweeps}), measure {:.2} s, push {:.2} s (align {:.2}, approach {:.2}, stroke {:.2}, retract {:.2})",
         m[0], m[1], m[2], m[3], m[4], m[5], m[6]
     ))
 }
