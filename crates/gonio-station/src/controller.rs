@@ -16,7 +16,8 @@
 //! The sequence saves time where the measurement allows it (`docs/station-timing.md`): the
 //! focus carried from the last part is checked with a few frames instead of swept
 //! (`focus.carry_from_last_part`, a full sweep when the check finds no peak); a turn's frames
-//! start with the servo's ramp (`measure.frames_from_rest`); a verify turn covers
+//! start with the servo's ramp (`measure.frames_from_rest`) and end when they span the turn's
+//! arc (a camera that misses triggers gives fewer frames, not a longer turn); a verify turn covers
 //! `measure.verify_turn_deg` with the ring's roundness carried from the part's full turn
 //! ([`crate::ring`]); and the servo goes from a turn straight to the push angle
 //! (`push.align_during_stop`).
@@ -686,10 +687,16 @@ impl Controller {
         }
         .map_err(dev("servo"))?;
         let n = self.recipe.frames_for_arc(arc);
+        // The turn ends when its frames span the arc: after `n` frames from a camera that
+        // delivers every trigger, or at the n-th frame's time (to half a frame) from one that
+        // misses some. The quality gate judges the coverage and gaps of what it delivered.
+        let span_s = (n as f64 - 1.5) / ms.fps;
+        let mut first_s = None;
         let mut frames: Vec<CameraFrame> = Vec::with_capacity(n);
         for index in 0..n {
             let f = d.camera.capture().map_err(dev("camera"))?;
             let t_s = f.start_s + 0.5 * f.exposure_s - t_start;
+            let spanned = t_s - *first_s.get_or_insert(t_s) >= span_s;
             obs.frame(&LiveFrame {
                 turn: turn_index,
                 index,
@@ -699,6 +706,9 @@ impl Controller {
                 c_px: f.c_px.filter(|c| c.is_finite()),
             });
             frames.push(f);
+            if spanned {
+                break;
+            }
         }
         if !self.recipe.push.align_during_stop {
             d.servo.stop().map_err(dev("servo"))?;
