@@ -415,6 +415,11 @@ pub fn run_batch_from<C: Camera, P: PushRod>(
         seed,
     );
     twin.faults = cfg.faults.clone();
+    // A resumed batch: the focus drive where the last stored part's focus left it (a part ends
+    // with its drive at its focus, unless a refocus failed after it).
+    if let Some(z) = opts.carried_focus_um {
+        twin.place_focus(z);
+    }
     if let Some(p) = opts.pace {
         twin.set_pace(p);
     }

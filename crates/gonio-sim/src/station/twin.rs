@@ -211,6 +211,12 @@ impl Twin {
         }
     }
 
+    /// Puts the focus drive at `z_um` without a move (no time passes): where the part before
+    /// left it, for a batch resumed after that part.
+    pub fn place_focus(&mut self, z_um: f64) {
+        self.focus_um = z_um;
+    }
+
     /// Runs in step with the wall clock from now on (see [`Pace`]).
     pub fn set_pace(&mut self, pace: Pace) {
         self.pace = Some(pace);
