@@ -191,7 +191,7 @@ mod plc_camera {
         use anyhow::anyhow;
         use gonio_camera::{AravisSource, CameraConfig, CameraError, Trigger};
         use gonio_plc::station::{DetectorTriggered, FrameTap, StampedSource};
-        use gonio_vision::{FrameHeader, FrameSource, Optics};
+        use gonio_vision::{FrameHeader, FrameSource};
 
         /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
         /// on a hardware trigger line).
