@@ -235,10 +235,13 @@ fn the_dashboard_in_headless_chromium() {
         Duration::from_secs(30),
         "document.getElementById('phase').textContent === 'measure'",
     );
+    // A verify turn may be a short arc (a fraction of a second at 3×), so the page may first see
+    // the phase just as a turn ends: the next turn's frames come after a push. The claim is that
+    // the trace is redrawn with frames while the station measures, within a part's time (~4 s).
     let draws = page.eval("Number(document.getElementById('ctheta').dataset.draws)");
     let took = page.wait_until(
-        Duration::from_secs(2),
-        &format!("Number(document.getElementById('ctheta').dataset.draws) > {draws} && Number(document.getElementById('ctheta').dataset.points) > 0"),
+        Duration::from_secs(10),
+        &format!("document.getElementById('phase').textContent === 'measure' && Number(document.getElementById('ctheta').dataset.draws) > {draws} && Number(document.getElementById('ctheta').dataset.points) > 0"),
     );
     eprintln!("live c(θ) trace updated {took:?} after the page saw the station measuring");
     // The trace grows within one turn, then the turn's fit is drawn.
