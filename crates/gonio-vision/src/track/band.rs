@@ -160,9 +160,6 @@ impl Band {
         // One pass over the frame: each row's raw statistics, then its band into the stages
         // while the row is in the L1 cache.
         for y in 0..h {
-            if let Some(next) = frame.get((y + 1) * w..(y + 2) * w) {
-                crate::simd::prefetch(next);
-            }
             raw.add_row(focus, frame, w, y);
             det.push_stages(&frame[y * w + x0..y * w + x0 + bw]).ok()?;
         }
