@@ -300,27 +300,44 @@ impl EdgeList {
     /// A list from pixels already resolved to their components, in raster order (the
     /// reference's; more than `cap` pixels: incomplete).
     pub fn from_resolved(pixels: Vec<EdgePixel>, height: usize, cap: usize) -> Self {
-        let overflow = pixels.len() > cap;
-        let pixels = if overflow { Vec::new() } else { pixels };
-        let mut row_start = Vec::with_capacity(height + 1);
+        let mut list = EdgeList {
+            pixels,
+            ..Default::default()
+        };
+        list.resolve_pixels(height, cap);
+        list
+    }
+
+    /// The list emptied for [`EdgeList::resolve_pixels`]: its pixel storage (kept from frame to
+    /// frame, so a caller that lists every frame's pixels allocates nothing).
+    pub(crate) fn refill(&mut self) -> &mut Vec<EdgePixel> {
+        self.pixels.clear();
+        &mut self.pixels
+    }
+
+    /// Makes the list [`EdgeList::from_resolved`] makes of the pixels now in its storage
+    /// ([`EdgeList::refill`]).
+    pub(crate) fn resolve_pixels(&mut self, height: usize, cap: usize) {
+        self.overflow = self.pixels.len() > cap;
+        if self.overflow {
+            self.pixels.clear();
+        }
+        let pixels = &self.pixels;
+        self.row_start.clear();
+        self.row_start.reserve(height + 1);
         let mut k = 0;
         for y in 0..=height {
             while k < pixels.len() && (pixels[k].row as usize) < y {
                 k += 1;
             }
-            row_start.push(k as u32);
+            self.row_start.push(k as u32);
         }
-        EdgeList {
-            len: pixels.len(),
-            pixels,
-            row_start,
-            events: Vec::new(),
-            resolved: true,
-            overflow,
-            cap,
-            labels: 0,
-            fin: Vec::new(),
-        }
+        self.len = pixels.len();
+        self.events.clear();
+        self.resolved = true;
+        self.cap = cap;
+        self.labels = 0;
+        self.fin.clear();
     }
 
     fn reset(&mut self) {

@@ -202,17 +202,20 @@ impl RawSums {
         self.grad_sum += below.grad_sum;
     }
 
-    /// The sums of a whole frame of rows `w` wide, as the detector takes them row by row
-    /// (`focus` carries the focus sums' state from row to row).
-    pub(crate) fn of_frame(&mut self, focus: &mut RowFocus, frame: &[u8], w: usize) {
-        self.clear();
-        for (y, row) in frame.chunks_exact(w).enumerate() {
-            let s = crate::simd::dispatch(
-                #[inline(always)]
-                || focus.push(y, row, rows_above(frame, w, y)),
-            );
-            self.add(s, row, y);
+    /// Row `y` of a whole frame of rows `w` wide into the sums, as the detector takes them
+    /// (`focus` carries the focus sums' state from row to row): rows go in order, row 0
+    /// starting the frame's sums afresh.
+    #[inline]
+    pub(crate) fn add_row(&mut self, focus: &mut RowFocus, frame: &[u8], w: usize, y: usize) {
+        if y == 0 {
+            self.clear();
         }
+        let row = &frame[y * w..(y + 1) * w];
+        let s = crate::simd::dispatch(
+            #[inline(always)]
+            || focus.push(y, row, rows_above(frame, w, y)),
+        );
+        self.add(s, row, y);
     }
 
     /// The frame's statistics from its sums (a window `w` × `h`).

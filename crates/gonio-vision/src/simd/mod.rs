@@ -96,15 +96,29 @@ fn has_all(features: &[&str]) -> bool {
     features.iter().all(|f| cpu_has(f) == Some(true))
 }
 
+/// 0 = not yet checked, else the [`Level`] the CPU supports.
+static DETECTED: AtomicU8 = AtomicU8::new(0);
+
 /// The best level this CPU supports: the highest whose every feature
-/// ([`AVX512_FEATURES`], [`AVX2_FEATURES`]) it has.
+/// ([`AVX512_FEATURES`], [`AVX2_FEATURES`]) it has. Checked once: the kernels' safe wrappers
+/// assert it on every call (a row's), and the features of a CPU do not change while it runs.
+#[inline]
 pub fn detected() -> Level {
-    if has_all(AVX512_FEATURES) {
-        Level::Avx512
-    } else if has_all(AVX2_FEATURES) {
-        Level::Avx2
-    } else {
-        Level::Scalar
+    match DETECTED.load(Ordering::Relaxed) {
+        1 => Level::Scalar,
+        2 => Level::Avx2,
+        3 => Level::Avx512,
+        _ => {
+            let l = if has_all(AVX512_FEATURES) {
+                Level::Avx512
+            } else if has_all(AVX2_FEATURES) {
+                Level::Avx2
+            } else {
+                Level::Scalar
+            };
+            DETECTED.store(l as u8, Ordering::Relaxed);
+            l
+        }
     }
 }
 
@@ -189,8 +203,13 @@ static VBMI: AtomicU8 = AtomicU8::new(0);
 /// True when the CPU has AVX-512 VBMI (`vpermb`, `vpermt2b`) and VBMI2 (`vpcompressw`)
 /// ([`VBMI_FEATURES`]) besides the AVX-512 level.
 pub fn vbmi_detected() -> bool {
-    detected() == Level::Avx512 && has_all(VBMI_FEATURES)
+    cached(&VBMI_CPU, || {
+        detected() == Level::Avx512 && has_all(VBMI_FEATURES)
+    })
 }
+
+/// 0 = not yet checked, 1 = the CPU lacks VBMI or VBMI2, 2 = it has both.
+static VBMI_CPU: AtomicU8 = AtomicU8::new(0);
 
 /// True when the kernels written with AVX-512 VBMI/VBMI2 intrinsics (the morphology's register
 /// kernel, the segmentation's mask path) are used: the level in use is AVX-512, the CPU has
@@ -228,8 +247,13 @@ static VNNI: AtomicU8 = AtomicU8::new(0);
 /// True when the CPU has AVX-512 VNNI (`vpdpbusd`, [`VNNI_FEATURES`]) besides the AVX-512
 /// level.
 pub fn vnni_detected() -> bool {
-    detected() == Level::Avx512 && has_all(VNNI_FEATURES)
+    cached(&VNNI_CPU, || {
+        detected() == Level::Avx512 && has_all(VNNI_FEATURES)
+    })
 }
+
+/// 0 = not yet checked, 1 = the CPU lacks VNNI, 2 = it has it.
+static VNNI_CPU: AtomicU8 = AtomicU8::new(0);
 
 /// Every code path this CPU offers, by name: `scalar`, `avx2`, `avx512`, and the AVX-512
 /// kernels beyond the level, `vbmi` and `vnni`, as far as the CPU has their features. A test

@@ -17,8 +17,9 @@
 //! values from them.
 //!
 //! Units: columns and rows are the whole frame's pixels. Allocates a detector when the band's
-//! width changes and, per frame, the edge list handed to the selection.
+//! width changes; the edge list handed to the selection keeps its storage from frame to frame.
 
+use crate::focus::RowFocus;
 use crate::label::{Component, EdgeList, EdgePixel};
 use crate::optics::Params;
 use crate::pipeline::{Detector, RawSums};
@@ -108,7 +109,9 @@ pub(crate) struct Band {
     /// Detectors as wide as the bands lately used, the latest last.
     dets: Vec<Detector>,
     cands: Vec<Component>,
-    pixels: Vec<EdgePixel>,
+    /// The band's edge pixels in the frame's columns, for the selection (kept from frame to
+    /// frame).
+    edges: EdgeList,
     /// The frame indices of the components a cut side touches, sorted.
     cut: Vec<u32>,
 }
@@ -116,15 +119,18 @@ pub(crate) struct Band {
 impl Band {
     /// Runs the stages over the band of `frame` (the whole window, `p`'s size) whose exact
     /// columns hold the searched columns `search` widened by `guard` px on both sides, and
-    /// selects the ring among its components with the saturated runs of the whole frame
-    /// (`raw`). `None` when the band would be the whole frame or its edge pixels overflow the
-    /// whole frame's list.
+    /// selects the ring among its components with the saturated runs of the whole frame. The
+    /// whole frame's raw statistics are taken into `raw` (with `focus`, the detector's own
+    /// code) in the same pass over the rows, each row's before its band goes into the stages:
+    /// one pass over the frame, the band's pixels read while in the L1 cache. `None` (`raw`
+    /// then not that frame's) when the band would be the whole frame or its edge pixels
+    /// overflow the whole frame's list.
     pub(crate) fn select(
         &mut self,
         frame: &[u8],
         search: (f64, f64),
         guard: f64,
-        raw: &RawSums,
+        (raw, focus): (&mut RawSums, &mut RowFocus),
         p: &Params,
     ) -> Option<BandFrame> {
         let (w, h) = (p.width, p.height);
@@ -151,8 +157,11 @@ impl Band {
         }
         let det = self.dets.last_mut()?;
         let (x0, bw) = (place.x0, place.width);
-        for row in frame.chunks_exact(w) {
-            det.push_stages(&row[x0..x0 + bw]).ok()?;
+        // One pass over the frame: each row's raw statistics, then its band into the stages
+        // while the row is in the L1 cache.
+        for y in 0..h {
+            raw.add_row(focus, frame, w, y);
+            det.push_stages(&frame[y * w + x0..y * w + x0 + bw]).ok()?;
         }
         let parts = det.finish_parts().ok()?;
         let (e0, e1) = place.exact;
@@ -181,7 +190,7 @@ impl Band {
         }
         self.cut.sort_unstable();
         self.cut.dedup();
-        self.pixels.clear();
+        let out = self.edges.refill();
         for e in pixels {
             let col = e.col as usize + x0;
             if col < e0 || col > e1 {
@@ -191,19 +200,16 @@ impl Band {
             if !cut_in_search && in_search(col, col) && self.cut.binary_search(&comp).is_ok() {
                 cut_in_search = true;
             }
-            self.pixels.push(EdgePixel {
+            out.push(EdgePixel {
                 col: col as u16,
                 comp,
                 ..*e
             });
         }
         let components = parts.components;
-        let mut edges = EdgeList::from_resolved(
-            std::mem::take(&mut self.pixels),
-            h,
-            p.max_edge_pixels.max(n_pixels),
-        );
-        let selection = select(&self.cands, &mut edges, raw.saturated_runs(), p);
+        self.edges
+            .resolve_pixels(h, p.max_edge_pixels.max(n_pixels));
+        let selection = select(&self.cands, &mut self.edges, raw.saturated_runs(), p);
         Some(BandFrame {
             selection,
             place,

@@ -46,9 +46,12 @@
 //! invalid frame is the whole-frame detector's.
 //!
 //! Cost on the station's window: the band's stages, the selection among the band's few
-//! components and one pass of the raw statistics over the frame, about a quarter of the whole
-//! frame's time (BENCHMARKS.md). Written here because it is the detector's product, not a
-//! general tracker.
+//! components and the raw statistics of the whole frame, about a quarter of the whole frame's
+//! time (BENCHMARKS.md). The frame is read once: row by row, its raw statistics and then its
+//! band into the stages, while the row is in the L1 cache (the sums are integers added in row
+//! order, the values of a separate pass; the stages get the same rows in the same order). The
+//! edge list handed to the selection keeps its storage from frame to frame. Written here
+//! because it is the detector's product, not a general tracker.
 //!
 //! Errors: [`VisionError::FrameSize`] for a frame of the wrong size, as the whole detector.
 //!
@@ -406,10 +409,9 @@ impl Tracker {
         let search = (last.lo + shift - half, last.hi + shift + half);
         let p = &self.p;
         let (w, h) = (p.width, p.height);
-        self.raw.of_frame(&mut self.focus, frame, w);
         let b = self
             .band
-            .select(frame, search, GUARD_PX, &self.raw, p)
+            .select(frame, search, GUARD_PX, (&mut self.raw, &mut self.focus), p)
             .ok_or(Fallback::TooWide)?;
         let sel = &b.selection;
         let best = sel.best.as_ref().ok_or(Fallback::Invalid)?;
@@ -504,12 +506,13 @@ impl Tracker {
         if margin < p.min_margin + MARGIN_HEADROOM {
             return None;
         }
-        self.raw.of_frame(&mut self.focus, frame, p.width);
         let search = (
             ring.lo - SEARCH_HALF_WIDTH_PX,
             ring.hi + SEARCH_HALF_WIDTH_PX,
         );
-        let b = self.band.select(frame, search, GUARD_PX, &self.raw, p)?;
+        let b = self
+            .band
+            .select(frame, search, GUARD_PX, (&mut self.raw, &mut self.focus), p)?;
         let sel = &b.selection;
         let best = sel.best.as_ref()?;
         if b.cut_in_search || sel.margin.is_none_or(|m| m < 1.0) {
