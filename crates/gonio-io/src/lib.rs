@@ -4,7 +4,8 @@
 //! dicts), the one strict JSON emitter, which refuses a number that is not finite ([`json`]), and
 //! the replay recorder, the writer of the replay format whose reader is [`formats::replay`]
 //! ([`recorder`]), the detector's stage images as PNG files ([`stage_dump`]), and a command's
-//! outputs written as one atomic set that never overwrites an input ([`output`]).
+//! outputs written as one atomic set that never overwrites an input ([`output`]), and results
+//! as text tables for a terminal ([`table`]).
 //!
 //! Every parser takes text (or bytes) and a name, so that it can be tested and fuzzed (`fuzz/`)
 //! without files. Errors are `anyhow` errors whose one-line text names the file, line and column
@@ -29,3 +30,4 @@ pub mod output;
 pub mod recorder;
 pub mod results;
 pub mod stage_dump;
+pub mod table;
