@@ -24,6 +24,15 @@ fn failed(e: &std::io::Error) -> anyhow::Error {
     anyhow!("cannot write standard output: {}", os_message(e))
 }
 
+/// An error of a library that wrote to [`Stdout`]: a write error (an `std::io::Error`) as
+/// [`out`] reports it, any other error as it is.
+pub fn stdout_error(e: anyhow::Error) -> anyhow::Error {
+    match e.downcast::<std::io::Error>() {
+        Ok(io) => failed(&io),
+        Err(e) => e,
+    }
+}
+
 /// Writes bytes to standard output and flushes them.
 ///
 /// # Errors

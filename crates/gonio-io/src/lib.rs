@@ -4,8 +4,9 @@
 //! dicts), the one strict JSON emitter, which refuses a number that is not finite ([`json`]), and
 //! the replay recorder, the writer of the replay format whose reader is [`formats::replay`]
 //! ([`recorder`]), the detector's stage images as PNG files ([`stage_dump`]), and a command's
-//! outputs written as one atomic set that never overwrites an input ([`output`]), and results
-//! as text tables for a terminal ([`table`]).
+//! outputs written as one atomic set that never overwrites an input ([`output`]), results
+//! as text tables for a terminal ([`table`]), and `gonio demo`, the simulated lab end to end
+//! scored against its truth ([`demo`]).
 //!
 //! Every parser takes text (or bytes) and a name, so that it can be tested and fuzzed (`fuzz/`)
 //! without files. Errors are `anyhow` errors whose one-line text names the file, line and column
@@ -23,6 +24,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod demo;
 pub mod formats;
 pub mod input;
 pub mod json;
