@@ -8,7 +8,6 @@ mod db;
 mod opcua;
 mod plc;
 mod station;
-mod twin;
 
 use clap::{Parser, Subcommand};
 /// The commands' tables (`crate::table`): numbers, names and budgets as text.
