@@ -6,7 +6,8 @@
 //! ([`recorder`]), the detector's stage images as PNG files ([`stage_dump`]), and a command's
 //! outputs written as one atomic set that never overwrites an input ([`output`]), results
 //! as text tables for a terminal ([`table`]), and `gonio demo`, the simulated lab end to end
-//! scored against its truth ([`demo`]).
+//! scored against its truth ([`demo`]), and the address space a command checks before it
+//! sizes its work by a flag ([`memory`]).
 //!
 //! Every parser takes text (or bytes) and a name, so that it can be tested and fuzzed (`fuzz/`)
 //! without files. Errors are `anyhow` errors whose one-line text names the file, line and column
@@ -28,6 +29,7 @@ pub mod demo;
 pub mod formats;
 pub mod input;
 pub mod json;
+pub mod memory;
 pub mod output;
 pub mod recorder;
 pub mod results;
