@@ -4,6 +4,7 @@
 use anyhow::{Result, anyhow};
 use gonio_store::Store;
 
+pub use gonio_store::new_store::NewStore;
 pub use gonio_store::writer::software_version;
 
 /// Opens the store at `location` (a SQLite path or a `postgres://` URL), migrating it.
@@ -30,40 +31,6 @@ pub fn open_existing(location: &str) -> Result<Box<dyn Store>> {
             gonio_store::display_location(location)
         ),
     })
-}
-
-/// A SQLite store a command is about to create, removed again (with its journal files) unless
-/// the command [`NewStore::keep`]s it: a command that fails while setting up (a station whose
-/// devices do not answer) leaves no empty store behind. A store that already existed, or a
-/// `postgres://` URL, is never touched.
-#[derive(Debug)]
-pub struct NewStore(Option<std::path::PathBuf>);
-
-impl NewStore {
-    /// Notes whether `location` is a SQLite file that does not exist yet (before opening it).
-    pub fn before_open(location: &str) -> Self {
-        let path = std::path::Path::new(location);
-        NewStore(
-            (!gonio_store::is_postgres(location) && !path.exists()).then(|| path.to_path_buf()),
-        )
-    }
-
-    /// The command is set up: the store stays, whatever happens next.
-    pub fn keep(mut self) {
-        self.0 = None;
-    }
-}
-
-impl Drop for NewStore {
-    fn drop(&mut self) {
-        if let Some(path) = self.0.take() {
-            for suffix in ["", "-journal", "-wal", "-shm"] {
-                let mut p = path.clone().into_os_string();
-                p.push(suffix);
-                let _ = std::fs::remove_file(p);
-            }
-        }
-    }
 }
 
 /// Reserves the results store of a command (`--db`, a SQLite path) in the command's inputs:

@@ -9,6 +9,5 @@
 #![deny(missing_docs)]
 
 pub mod flag;
-pub mod memory;
 pub mod output;
 pub mod term;

@@ -8,10 +8,10 @@ mod db;
 mod opcua;
 mod plc;
 mod station;
-mod table;
-mod twin;
 
 use clap::{Parser, Subcommand};
+/// The commands' tables (`crate::table`): numbers, names and budgets as text.
+use gonio_io::table;
 
 /// Precision rotary-encoder metrology: mount gratings centred, calibrate encoders, with a GUM
 /// uncertainty on every result.

@@ -1,13 +1,31 @@
 //! The station commands' flags (`--strategy`, `--fidelity`, `--recipe`, `--parts`); the twin's
 //! batch committed to the results store part by part, the one path of `gonio mount --sim` and
-//! `gonio serve --station sim`, is [`crate::twin`].
+//! `gonio serve --station sim`, is `gonio_sim::station::stored`.
 
-pub use crate::twin::{Run, Start, Target, prepare, run};
 use anyhow::Result;
 use gonio_core::bound::Bound;
-use gonio_sim::station::Fidelity;
+use gonio_sim::station::stored::{self, Prepared};
+pub use gonio_sim::station::stored::{Run, Start, Target};
+use gonio_sim::station::{BatchConfig, BatchReport, Fidelity, PartDone};
 use gonio_station::{Recipe, Strategy};
 use std::path::Path;
+
+/// Opens the store and starts the batch in it, or finds the batch to resume
+/// ([`stored::prepare`]).
+pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
+    Ok(stored::prepare(cfg, seed, t)?)
+}
+
+/// Runs the prepared batch, each part committed as it finishes ([`stored::run`]).
+pub fn run(
+    p: Prepared,
+    cfg: &BatchConfig,
+    seed: u64,
+    run: Run<'_>,
+    on_part: &mut dyn FnMut(&PartDone, Option<i64>),
+) -> Result<BatchReport> {
+    Ok(stored::run(p, cfg, seed, run, on_part)?)
+}
 
 /// Most parts in one batch: one limit for `gonio mount` and `gonio serve --station`.
 pub const MAX_PARTS: usize = 1_000_000;

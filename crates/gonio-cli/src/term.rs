@@ -7,6 +7,7 @@
 //! - Messages on standard error (`wrote …`, progress) never fail the command.
 
 use anyhow::{Result, anyhow};
+pub use gonio_io::output::os_message;
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -18,14 +19,17 @@ pub fn stdout_closed() -> bool {
     CLOSED.load(Ordering::Relaxed)
 }
 
-fn handle(r: std::io::Result<()>) -> Result<()> {
-    match r {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
-            CLOSED.store(true, Ordering::Relaxed);
-            Ok(())
-        }
-        Err(e) => Err(anyhow!("cannot write standard output: {}", os_message(&e))),
+/// A write to standard output that failed (not a closed pipe).
+fn failed(e: &std::io::Error) -> anyhow::Error {
+    anyhow!("cannot write standard output: {}", os_message(e))
+}
+
+/// An error of a library that wrote to [`Stdout`]: a write error (an `std::io::Error`) as
+/// [`out`] reports it, any other error as it is.
+pub fn stdout_error(e: anyhow::Error) -> anyhow::Error {
+    match e.downcast::<std::io::Error>() {
+        Ok(io) => failed(&io),
+        Err(e) => e,
     }
 }
 
@@ -34,11 +38,10 @@ fn handle(r: std::io::Result<()>) -> Result<()> {
 /// # Errors
 /// A write error other than a closed pipe.
 pub fn out_bytes(data: &[u8]) -> Result<()> {
-    if stdout_closed() {
-        return Ok(());
-    }
-    let mut o = std::io::stdout().lock();
-    handle(o.write_all(data).and_then(|_| o.flush()))
+    let mut o = Stdout;
+    o.write_all(data)
+        .and_then(|()| o.flush())
+        .map_err(|e| failed(&e))
 }
 
 /// Writes text to standard output.
@@ -54,10 +57,7 @@ pub fn out(text: &str) -> Result<()> {
 /// # Errors
 /// A write error other than a closed pipe.
 pub fn flush() -> Result<()> {
-    if stdout_closed() {
-        return Ok(());
-    }
-    handle(std::io::stdout().lock().flush())
+    Stdout.flush().map_err(|e| failed(&e))
 }
 
 /// Writes a message line to standard error (errors ignored: a message never fails a command).
@@ -67,12 +67,36 @@ pub fn note(text: &str) {
     let _ = e.write_all(b"\n");
 }
 
-/// An operating-system error without the temporary file's name (`No space left on device (os
-/// error 28)`).
-pub fn os_message(e: &std::io::Error) -> String {
-    match e.raw_os_error() {
-        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
-        None => e.kind().to_string(),
+/// Standard output as a writer with this module's rules: a closed pipe ends it quietly (every
+/// write after it succeeds and writes nothing), every write is flushed (the output set's `-`).
+#[derive(Debug, Clone, Copy)]
+pub struct Stdout;
+
+impl Stdout {
+    fn with(
+        f: impl FnOnce(&mut std::io::StdoutLock<'_>) -> std::io::Result<()>,
+    ) -> std::io::Result<()> {
+        if stdout_closed() {
+            return Ok(());
+        }
+        match f(&mut std::io::stdout().lock()) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                CLOSED.store(true, Ordering::Relaxed);
+                Ok(())
+            }
+            r => r,
+        }
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Stdout::with(|o| o.write_all(buf).and_then(|()| o.flush()))?;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Stdout::with(|o| o.flush())
     }
 }
 

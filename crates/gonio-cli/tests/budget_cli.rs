@@ -1,4 +1,4 @@
-//! `gonio budget` against hostile inputs, through the binary (issue 13): each input is generated
+//! `gonio budget` against hostile inputs, through the binary: each input is generated
 //! here. A 65,536-character row name, U overflowing to infinity, a BOM, Latin-1 bytes, an error
 //! that would echo a megabyte, a diamond of 60 nested budgets, a 1,000-row correlation chain and a
 //! Monte Carlo run beyond the work limit. Correctness only: speed is in the criterion benches.

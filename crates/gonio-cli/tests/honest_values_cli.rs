@@ -1,5 +1,5 @@
-//! Numbers that are wrong but finite, and DCCs that are valid or not written (issue 29, points 2
-//! and 3), one test per class, through the binary: En with U = 0 does not pass; a coverage
+//! Numbers that are wrong but finite, and DCCs that are valid or not written, one
+//! test per class, through the binary: En with U = 0 does not pass; a coverage
 //! factor beyond f64 is an error; shift angles are range-checked and shifts a pitch apart are
 //! refused; a 3-face polygon and all-zero readings are valid; metadata with a NaN temperature or
 //! a control character is refused; a hand-edited certificate (negative U, p > 1, no angles) is

@@ -1,4 +1,4 @@
-//! Hostile inputs through the binary (issue 13), one test per class: sizes from the input
+//! Hostile inputs through the binary, one test per class: sizes from the input
 //! (limits checked before allocating), outputs that cannot destroy (same file, device, symlink,
 //! duplicate paths, a failing second output, umask, signals, stale simulation outputs), terminal
 //! output (closed pipe, full disk), finite results, helpful messages. Every input is generated

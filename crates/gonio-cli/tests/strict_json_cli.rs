@@ -1,4 +1,4 @@
-//! Strict JSON everywhere (issue 29): every command's `--json` (and `detect --json-lines`), every
+//! Strict JSON everywhere: every command's `--json` (and `detect --json-lines`), every
 //! `mount` strategy at both fidelities, with and without quality-gate rejections, is read by a
 //! strict parser (serde_json: no `NaN`, `Infinity` or out-of-range numbers) and keeps the frozen
 //! key lists of tests/data/json-keys-*.txt. A quantity a method does not define is `null` (u(e)

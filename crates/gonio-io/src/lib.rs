@@ -3,7 +3,11 @@
 //! more than one front end gives ([`results`]: the `gonio` binary's JSON, the Python module's
 //! dicts), the one strict JSON emitter, which refuses a number that is not finite ([`json`]), and
 //! the replay recorder, the writer of the replay format whose reader is [`formats::replay`]
-//! ([`recorder`]), and the detector's stage images as PNG files ([`stage_dump`]).
+//! ([`recorder`]), the detector's stage images as PNG files ([`stage_dump`]), and a command's
+//! outputs written as one atomic set that never overwrites an input ([`output`]), results
+//! as text tables for a terminal ([`table`]), and `gonio demo`, the simulated lab end to end
+//! scored against its truth ([`demo`]), and the address space a command checks before it
+//! sizes its work by a flag ([`memory`]).
 //!
 //! Every parser takes text (or bytes) and a name, so that it can be tested and fuzzed (`fuzz/`)
 //! without files. Errors are `anyhow` errors whose one-line text names the file, line and column
@@ -21,9 +25,13 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod demo;
 pub mod formats;
 pub mod input;
 pub mod json;
+pub mod memory;
+pub mod output;
 pub mod recorder;
 pub mod results;
 pub mod stage_dump;
+pub mod table;

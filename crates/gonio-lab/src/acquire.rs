@@ -34,7 +34,7 @@
 use crate::instrument::{Autocollimator, InstrumentError, Transport};
 use crate::journal::{self, ExchangeKind, Header, Journal, JournalError, Outcome, Record};
 use crate::log::{Mode, Reply};
-use crate::plan::{Plan, PlannedReading};
+use crate::plan::{ModeRule, Plan, PlannedReading};
 use crate::readings::Row;
 pub use crate::sequence::CheckKind;
 use crate::sequence::Sequence;
@@ -56,6 +56,64 @@ pub struct Settings {
     pub rejects: u32,
     /// The autocollimator's standard deviation of one sample, arcsec (the checks' limits).
     pub sigma_arcsec: f64,
+}
+
+/// What the operator asks of an acquisition, before it is checked against the plan
+/// ([`Settings::for_plan`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Requested {
+    /// The readings' mode, or `None` for the one the plan's rule gives.
+    pub mode: Option<Mode>,
+    /// Samples averaged per position.
+    pub samples: usize,
+    /// Largest spread of one position's samples, arcsec, or `None` for 5σ.
+    pub max_spread_arcsec: Option<f64>,
+    /// Sets read again when the spread is over the limit.
+    pub rereads: u32,
+    /// The autocollimator's standard deviation of one sample, arcsec.
+    pub sigma_arcsec: f64,
+}
+
+impl Settings {
+    /// The settings of an acquisition through `plan` (named `plan_name` in errors): the mode
+    /// asked for, which must agree with the plan's rule, or the rule's (absolute unless the
+    /// plan says relative); the spread limit 5σ unless one is given; 3 rejects. The bounds are
+    /// checked when the acquisition starts ([`Acquisition::start`]).
+    ///
+    /// # Errors
+    /// [`AcquireError::ModeConflict`]: a mode the plan's rule refuses.
+    pub fn for_plan(
+        asked: &Requested,
+        plan: &impl Sequence,
+        plan_name: &str,
+    ) -> Result<Settings, AcquireError> {
+        let rule = plan.mode();
+        let mode = match (asked.mode, rule) {
+            (None, ModeRule::Relative) => Mode::Relative,
+            (None, _) => Mode::Absolute,
+            (Some(m @ Mode::Absolute), ModeRule::Relative)
+            | (Some(m @ Mode::Relative), ModeRule::Absolute) => {
+                return Err(AcquireError::ModeConflict {
+                    given: m,
+                    plan: plan_name.to_string(),
+                    plan_mode: if rule == ModeRule::Relative {
+                        "relative"
+                    } else {
+                        "absolute"
+                    },
+                });
+            }
+            (Some(m), _) => m,
+        };
+        Ok(Settings {
+            mode,
+            samples: asked.samples,
+            max_spread_arcsec: asked.max_spread_arcsec.unwrap_or(5.0 * asked.sigma_arcsec),
+            rereads: asked.rereads,
+            rejects: 3,
+            sigma_arcsec: asked.sigma_arcsec,
+        })
+    }
 }
 
 impl Default for Settings {
@@ -136,6 +194,16 @@ pub enum AcquireError {
         name: &'static str,
         /// The bound it broke.
         error: OutOfBound,
+    },
+    /// The mode asked for is not the one the plan says (the flag `--mode`).
+    #[error("--mode {given}: the plan {plan} says mode = \"{plan_mode}\"")]
+    ModeConflict {
+        /// The mode asked for.
+        given: Mode,
+        /// The plan's name.
+        plan: String,
+        /// The plan's mode (`absolute` or `relative`).
+        plan_mode: &'static str,
     },
     /// A position that is not in the plan.
     #[error("position {index} is not in the plan's {planned} readings")]

@@ -1,4 +1,4 @@
-//! A DCC is valid or not written (issue 29): many random certificates, hand-edited the way a
+//! A DCC is valid or not written: many random certificates, hand-edited the way a
 //! user could (negative U, p > 1, k < 1, angles out of range or twice, no angles) and with
 //! random metadata strings (control characters, XML's special characters, any Unicode, NaN
 //! temperatures), go the way `gonio certificate --dcc` takes them: read from JSON (validated),

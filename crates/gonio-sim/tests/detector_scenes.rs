@@ -1,4 +1,4 @@
-//! Acceptance of the ring detector on the `random` scene family (issue 9, point 4): 2,000 scenes
+//! Acceptance of the ring detector on the `random` scene family: 2,000 scenes
 //! from a fixed seed list, run through the one path from a frame source to the result
 //! (`RenderedFrames` → `SourceDetector`), judged against the renderer's ground truth.
 //!

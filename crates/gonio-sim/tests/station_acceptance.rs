@@ -1,4 +1,4 @@
-//! Acceptance of the mounting strategies on the default plant (issue 6, point 5): 200 parts,
+//! Acceptance of the mounting strategies on the default plant: 200 parts,
 //! three seeds, against the seed's results (paper strategy, on the published sequence) and the
 //! issue's targets; the time model of the published and of the default sequence
 //! (docs/station-timing.md).

@@ -1,5 +1,5 @@
-//! Full fidelity on realistic scenes (issue 9, point 5): 10 parts mounted end to end with every frame of the `realistic` scene rendered and run through the station's
-//! own camera path (`TwinFrames` → `DetectorCamera` → fit → push), against issue 6's acceptance
+//! Full fidelity on realistic scenes: 10 parts mounted end to end with every frame of the `realistic` scene rendered and run through the station's
+//! own camera path (`TwinFrames` → `DetectorCamera` → fit → push), against the mounting acceptance
 //! figures, and part by part against the same parts measured by a perfect geometric camera
 //! (the same random stream: the detector must change nothing). Ten parts, not the 25 of Yu et
 //! al., 2024: every frame is rendered (≈ 8 s of CPU a part), and the batch figures are judged
@@ -67,7 +67,7 @@ fn ten_parts_at_full_fidelity_on_the_realistic_scene() {
         // … so the station pushes the same way.
         assert_eq!(f.record.pushes, g.record.pushes, "{s}");
     }
-    // Issue 6's acceptance for the default strategy: ≤ 2.0 µm, ≤ 1.7 pushes, ≤ 22 s, set for
+    // The mounting acceptance for the default strategy: ≤ 2.0 µm, ≤ 1.7 pushes, ≤ 22 s, set for
     // batches of 200 parts (station_acceptance). These 10 parts are a sample of that batch: their
     // means may exceed the targets by sampling alone (each part on its own random stream), so
     // each mean is allowed two standard errors, s/√10 from the sample's own spread.

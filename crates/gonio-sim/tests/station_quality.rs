@@ -1,4 +1,4 @@
-//! Issue 15: the station pushes only on a measurement it can trust. Faults are injected through
+//! The station pushes only on a measurement it can trust. Faults are injected through
 //! the `Camera` and `PushRod` traits (wrappers around the twin's devices, as a real glitch would
 //! arrive); for each, no push is made on an untrusted turn and the part ends in the stated
 //! verdict with a record of why. On good parts the gate costs nothing.
@@ -448,7 +448,7 @@ fn a_part_that_does_not_move_is_not_shoved_again() {
 
 #[test]
 fn no_cost_on_good_parts_false_reject_rate() {
-    // Issue 15, point 4: over 1 000 good parts on the default plant the gate rejects ≤ 0.5 %
+    // Over 1 000 good parts on the default plant the gate rejects ≤ 0.5 %
     // (≤ 5 parts). Expected: none. A part is rejected only when a turn and its re-measurement
     // both fail; the likeliest false alarm, the half-turn check (χ₃-distributed on good turns,
     // limit at its 10⁻⁴ tail), makes that ≈ 10⁻⁸ per part; the residual stays below 0.35 px

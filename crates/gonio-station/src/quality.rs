@@ -41,7 +41,8 @@
 use crate::sample::Sample;
 use serde::{Deserialize, Serialize};
 
-/// The detector's accuracy bound per valid frame, px (issue 9: |c − c_true| ≤ 0.1 px).
+/// The detector's accuracy bound per valid frame, px (the detector's acceptance:
+/// |c − c_true| ≤ 0.1 px).
 pub const DETECTOR_ACCURACY_PX: f64 = 0.1;
 /// The station's per-frame scatter of the ring's column, px (the default plant: 0.3 px).
 pub const FRAME_NOISE_PX: f64 = 0.3;

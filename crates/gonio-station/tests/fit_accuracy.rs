@@ -1,5 +1,5 @@
 //! Accuracy of the eccentricity fits on simulated turns against their ground truth
-//! (issue 6, acceptance: 200 frames, 0.3 px noise, roundness harmonics 2–4 of 0.5 px).
+//! (the acceptance: 200 frames, 0.3 px noise, roundness harmonics 2–4 of 0.5 px).
 
 use gonio_station::fit::{FitMethod, FitOptions, Sample, fit, fit_judged_with};
 use gonio_station::quality::QualityLimits;

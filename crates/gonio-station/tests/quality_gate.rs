@@ -1,4 +1,4 @@
-//! The quality gate on single turns (issue 15, point 1): good turns pass, each failure mode is
+//! The quality gate on single turns: good turns pass, each failure mode is
 //! caught by the check meant for it, and the default limits follow from their derivation
 //! (`docs/quality-gates.md`).
 
@@ -72,7 +72,7 @@ fn good_turns_pass() {
 
 #[test]
 fn the_issues_turn_is_not_trusted() {
-    // Issue 15: 100 frames, e = 75 µm, 40 called valid, all of them on track lines rather than
+    // The untrusted turn: 100 frames, e = 75 µm, 40 called valid, all of them on track lines rather than
     // the ring (here: track-border circles 20 and 40 px either side of the ring).
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let noise = Normal::new(0.0, 0.3).unwrap();

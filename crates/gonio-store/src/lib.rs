@@ -21,6 +21,7 @@
 mod backend;
 mod error;
 pub mod migrate;
+pub mod new_store;
 mod pg;
 pub mod record;
 pub mod scratch;

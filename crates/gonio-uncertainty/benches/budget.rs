@@ -1,4 +1,4 @@
-//! Budget evaluation against hostile sizes (issue 13): a 1,000-row budget with 999 neighbour
+//! Budget evaluation against hostile sizes: a 1,000-row budget with 999 neighbour
 //! correlations (> 120 s before, growing as n⁴), a diamond of 60 nested budgets each referring
 //! twice to the next (> 12 GB before, in Monte Carlo), and the flattening of that diamond.
 

@@ -1,4 +1,4 @@
-//! Monte Carlo speed: 10⁶ trials of a 10-input linear model on one core (issue 10 target
+//! Monte Carlo speed: 10⁶ trials of a 10-input linear model on one core (target
 //! ≤ 0.15 s), through a closure and through the budget's `LinearModel` (what `gonio budget
 //! --monte-carlo` runs), plus the Student-t coverage factor and a nested budget evaluation.
 

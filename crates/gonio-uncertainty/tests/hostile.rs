@@ -1,5 +1,5 @@
 //! Hostile inputs, generated here (no large files in the repository), one test per class of
-//! issue 13: sizes and super-linear work (a diamond of nested budgets, a 1,000-row correlation
+//! sizes and super-linear work (a diamond of nested budgets, a 1,000-row correlation
 //! chain, the envelope and Monte Carlo limits), long names, overflow (finite in, finite out), and
 //! encodings (BOM, non-UTF-8, UTF-16). Speed is measured by the `budget` criterion bench; these
 //! tests assert correctness only.

@@ -16,7 +16,8 @@
 //! network. Errors are JSON (`{"error": "…"}`), bad query strings included. How connections
 //! are limited, hosts checked, and TLS and a bearer token served: [`server`]; the token and the
 //! key are read from files only their owner may read: [`secret`]. The station publishes through [`live::LiveObserver`]; the web layer never calls
-//! the station.
+//! the station. Its camera's frames become the live thumbnail through [`thumbnails`], and a
+//! station link's figures the status's `plc` through [`link_watch`].
 //!
 //! ```no_run
 //! # async fn doc() -> Result<(), gonio_web::WebError> {
@@ -30,11 +31,13 @@
 
 mod api;
 mod assets;
+pub mod link_watch;
 pub mod live;
 mod pages;
 pub mod secret;
 pub mod server;
 mod state;
+pub mod thumbnails;
 
 use std::sync::Arc;
 use thiserror::Error;

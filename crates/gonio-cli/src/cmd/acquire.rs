@@ -14,13 +14,15 @@ use gonio_cli::output::Outputs;
 use gonio_cli::{note, say};
 use gonio_core::bound::{Num, duration_s};
 use gonio_io::input;
-use gonio_lab::acquire::{self, AcquireError, Acquisition, Attempt, Check, CheckKind, Settings};
+use gonio_lab::acquire::{
+    self, AcquireError, Acquisition, Attempt, Check, CheckKind, Requested, Settings,
+};
 use gonio_lab::axis::AxisPlan;
 use gonio_lab::instrument;
 use gonio_lab::instrument::{Autocollimator, Transport};
 use gonio_lab::journal::{self, Outcome};
 use gonio_lab::log::Mode;
-use gonio_lab::plan::{ModeRule, Plan};
+use gonio_lab::plan::Plan;
 use gonio_lab::sequence::Sequence;
 use std::io::{BufRead, IsTerminal};
 use std::path::PathBuf;
@@ -151,31 +153,20 @@ pub(crate) enum End {
     Quit,
 }
 
+/// The acquisition's settings: the flags checked against the plan.
 fn settings(args: &Args, plan: &impl Sequence) -> Result<Settings> {
-    let mode = match (args.mode, plan.mode()) {
-        (None, ModeRule::Relative) => Mode::Relative,
-        (None, _) => Mode::Absolute,
-        (Some(m @ Mode::Absolute), ModeRule::Relative)
-        | (Some(m @ Mode::Relative), ModeRule::Absolute) => bail!(
-            "--mode {m}: the plan {} says mode = \"{}\"",
-            args.plan.display(),
-            if plan.mode() == ModeRule::Relative {
-                "relative"
-            } else {
-                "absolute"
-            }
-        ),
-        (Some(m), _) => m,
-    };
-    let max_spread = args.max_spread_arcsec.unwrap_or(5.0 * args.sigma_arcsec);
-    Ok(Settings {
-        mode,
+    let asked = Requested {
+        mode: args.mode,
         samples: args.samples,
-        max_spread_arcsec: max_spread,
+        max_spread_arcsec: args.max_spread_arcsec,
         rereads: args.rereads,
-        rejects: 3,
         sigma_arcsec: args.sigma_arcsec,
-    })
+    };
+    Ok(Settings::for_plan(
+        &asked,
+        plan,
+        &args.plan.display().to_string(),
+    )?)
 }
 
 fn acquire<S: Sequence>(args: Args, plan: S, inputs: input::Inputs) -> Result<()> {

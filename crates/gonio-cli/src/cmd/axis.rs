@@ -125,7 +125,7 @@ fn summary(doc: &AxisResult) -> String {
                 r.target_deg
             );
             let mut t = String::new();
-            crate::table::text_table(&mut t, &r.budget);
+            crate::table::budget::text(&mut t, &r.budget);
             for l in t.lines() {
                 let _ = writeln!(s, "    {l}");
             }

@@ -1,15 +1,14 @@
 //! `gonio budget`: evaluate a GUM uncertainty budget file (TOML), optionally with Monte Carlo.
 
-use crate::table::{display_name, dof_text, sig, summary_line, text_table, unit};
 use anyhow::{Result, anyhow, bail};
 use gonio_cli::flag;
 use gonio_cli::output::Outputs;
-use gonio_io::results::budget::{self, McJson, Progress};
+use gonio_io::results::budget::{self, Progress};
+use gonio_io::table::budget as table;
 use gonio_uncertainty::limits::MAX_FILE_BYTES;
 use gonio_uncertainty::montecarlo;
-use gonio_uncertainty::{BudgetResult, short};
+use gonio_uncertainty::short;
 use std::collections::HashSet;
-use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -101,13 +100,13 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = String::new();
     for r in e.all.iter().filter(|r| shown.contains(r.name.as_str())) {
         match format.as_str() {
-            "csv" => csv_table(&mut out, r),
-            "markdown" | "md" => markdown_table(&mut out, r),
-            _ => text_table(&mut out, r),
+            "csv" => table::csv(&mut out, r),
+            "markdown" | "md" => table::markdown(&mut out, r),
+            _ => table::text(&mut out, r),
         }
     }
     if let Some(m) = &e.monte_carlo {
-        mc_summary(&mut out, m, e.capped, result, format.as_str());
+        table::monte_carlo(&mut out, m, e.capped, result, format == "csv");
     }
 
     // Checked before anything is printed: a result that is not finite is an error, not a null.
@@ -139,132 +138,6 @@ fn progress_bar(total: usize, adaptive: bool, inputs: usize) -> indicatif::Progr
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     bar
-}
-
-fn markdown_table(out: &mut String, r: &BudgetResult) {
-    let _ = writeln!(
-        out,
-        "### {}{}\n",
-        display_name(&r.name),
-        unit(r).replace(' ', " in ")
-    );
-    let _ = writeln!(out, "| contribution | u | c | \\|c·u\\| | ν | share |");
-    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|");
-    for c in &r.contributions {
-        let _ = writeln!(
-            out,
-            "| {} | {} | {} | {} | {} | {:.1} % |",
-            display_name(&c.name).replace('|', "\\|"),
-            sig(c.u, 4),
-            sig(c.c, 4),
-            sig(c.cu, 4),
-            dof_text(c.nu),
-            c.share * 100.0
-        );
-    }
-    let _ = writeln!(out, "\n{}\n", summary_line(r));
-}
-
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
-fn csv_table(out: &mut String, r: &BudgetResult) {
-    if out.is_empty() {
-        out.push_str("budget,name,u,c,cu,nu,share\n");
-    }
-    for c in &r.contributions {
-        let _ = writeln!(
-            out,
-            "{},{},{},{},{},{},{}",
-            csv_field(&r.name),
-            csv_field(&c.name),
-            c.u,
-            c.c,
-            c.cu,
-            dof_text(c.nu),
-            c.share
-        );
-    }
-    let _ = writeln!(
-        out,
-        "# {}: u_c={} nu_eff={} nu_eff_raw={} coverage={} k={} U={}",
-        r.name,
-        r.u_c,
-        dof_text(r.nu_eff),
-        r.nu_eff_raw,
-        r.coverage,
-        r.k,
-        r.expanded
-    );
-}
-
-/// The Monte Carlo summary; `capped`: the adaptive run's trial limit when the model's size lowered
-/// it below the default 10⁷.
-fn mc_summary(
-    out: &mut String,
-    m: &McJson,
-    capped: Option<usize>,
-    gum: &BudgetResult,
-    format: &str,
-) {
-    let r = &m.result;
-    let v = &m.validation;
-    let p = if format == "csv" { "# " } else { "" };
-    let u = unit(gum);
-    let _ = writeln!(
-        out,
-        "{p}Monte Carlo (JCGM 101): {} trials in {} batches ({}), seed {}, tolerance δ = {}{u}",
-        r.trials,
-        r.batches,
-        if r.batches > 1 || r.converged {
-            if r.converged {
-                "adaptive, converged".to_string()
-            } else {
-                match capped {
-                    Some(limit) => format!(
-                        "adaptive, NOT converged at the trial limit of {limit} (for this many inputs)"
-                    ),
-                    None => "adaptive, NOT converged at the trial limit".to_string(),
-                }
-            }
-        } else {
-            "fixed".to_string()
-        },
-        r.seed,
-        sig(r.tolerance, 1),
-    );
-    let _ = writeln!(
-        out,
-        "{p}  y = {}{u}   u(y) = {}{u}   {} % interval: symmetric [{}, {}]   shortest [{}, {}]",
-        sig(r.estimate, 4),
-        sig(r.std_uncertainty, 4),
-        r.coverage * 100.0,
-        sig(r.symmetric.low, 4),
-        sig(r.symmetric.high, 4),
-        sig(r.shortest.low, 4),
-        sig(r.shortest.high, 4),
-    );
-    let _ = writeln!(
-        out,
-        "{p}  GUM [{}, {}]: d_low = {}, d_high = {} {} δ = {} → {}; reported: {}",
-        sig(v.gum.low, 4),
-        sig(v.gum.high, 4),
-        sig(v.d_low, 2),
-        sig(v.d_high, 2),
-        if v.passed { "≤" } else { "vs" },
-        sig(v.tolerance, 1),
-        if v.passed {
-            "GUM validated"
-        } else {
-            "GUM not validated"
-        },
-        m.reported
-    );
 }
 
 #[cfg(test)]

@@ -2,14 +2,15 @@
 //! input, one JSON line per frame.
 
 use anyhow::{Result, anyhow, bail};
+use gonio_cli::flag;
 use gonio_cli::output::{OutId, Outputs};
-use gonio_cli::{flag, memory};
 use gonio_core::bound::Bound;
 use gonio_core::quantile::quantile_sorted;
-use gonio_io::formats::angles::{self, AngleLog};
+use gonio_io::formats::angles::{self, FrameAngles as Angles};
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
 use gonio_io::input::Inputs;
+use gonio_io::memory;
 use gonio_io::results::detect::Line;
 use gonio_vision::{
     DetectInOrderError, Detection, Detector, FrameResult, FrameSource, Optics, RawFrames,
@@ -255,32 +256,6 @@ pub enum TriggerArg {
     Line1,
 }
 
-pub(crate) enum Angles {
-    None,
-    Table(AngleLog),
-    Speed { start: f64, speed: f64, fps: f64 },
-}
-
-impl Angles {
-    pub(crate) fn at(&self, k: usize) -> Result<(Option<f64>, Option<f64>)> {
-        match self {
-            Angles::None => Ok((None, None)),
-            Angles::Speed { start, speed, fps } => {
-                let t = k as f64 / fps;
-                Ok((Some(start + speed * t), Some(t)))
-            }
-            Angles::Table(log) => match log.at(k) {
-                Some((th, t)) => Ok((Some(th), t)),
-                None => bail!(
-                    "{}: no angle for frame {k}: the angle file covers {} frames",
-                    log.name,
-                    log.len()
-                ),
-            },
-        }
-    }
-}
-
 fn load_angles(inputs: &Inputs, a: &Args) -> Result<Angles> {
     if let Some(p) = &a.angles {
         let table = CsvTable::read(inputs, p)?;
@@ -288,8 +263,8 @@ fn load_angles(inputs: &Inputs, a: &Args) -> Result<Angles> {
     }
     if let (Some(speed), Some(fps)) = (a.speed_deg_s, a.fps) {
         return Ok(Angles::Speed {
-            start: a.start_deg,
-            speed,
+            start_deg: a.start_deg,
+            speed_deg_s: speed,
             fps,
         });
     }

@@ -7,18 +7,16 @@ use anyhow::{Context, Result, bail};
 use gonio_cli::flag;
 use gonio_core::bound::Bound;
 use gonio_opcua::feed::Feed;
-use gonio_plc::batch::LinkFigures;
 use gonio_sim::station::{BatchConfig, Fidelity, FrameTiming, Pace, PartDone};
-use gonio_station::observe::{LiveFrame, Observer, Phase};
+use gonio_station::Recipe;
 use gonio_station::tap::{FrameTap, SeenFrame};
-use gonio_station::{PartRecord, Recipe};
+use gonio_web::link_watch::{self, LinkWatch};
 use gonio_web::live::{Hub, LiveObserver};
 use gonio_web::secret::{self, Permissions};
-use serde_json::Value;
+use gonio_web::thumbnails::Thumbnails;
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
 
 /// A station to run under the dashboard.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -423,7 +421,7 @@ fn spawn_station(
         let h = hub.clone();
         // The live thumbnail: a rendered frame (full fidelity only).
         let mut thumbnails = Thumbnails::new(hub.clone());
-        let tap = |f: &SeenFrame<'_>| thumbnails.show(f.width, f.height, f.pixels, f.result);
+        let tap = |f: &SeenFrame<'_>| thumbnails.show(f);
         let frames = cfg.fidelity == Fidelity::Frames;
         let report = station::run(
             *p,
@@ -465,80 +463,6 @@ fn batch_finished(hub: &Hub, ended: Result<String>) {
     hub.batch_finished(&message);
 }
 
-/// Fewest wall-clock time between two live thumbnails.
-const THUMBNAIL_EVERY: Duration = Duration::from_millis(200);
-
-/// The live thumbnail of the frames a station's camera takes: one at most every
-/// [`THUMBNAIL_EVERY`], the rest return at once.
-struct Thumbnails {
-    hub: Arc<Hub>,
-    last: Option<Instant>,
-}
-
-impl Thumbnails {
-    fn new(hub: Arc<Hub>) -> Self {
-        Thumbnails { hub, last: None }
-    }
-
-    /// A frame (`width` × `height` 8-bit grey pixels) and what the detector found in it.
-    fn show(&mut self, width: usize, height: usize, pixels: &[u8], r: &gonio_vision::FrameResult) {
-        if self.last.is_some_and(|t| t.elapsed() < THUMBNAIL_EVERY) {
-            return;
-        }
-        self.last = Some(Instant::now());
-        let edges_px = r.edges.iter().map(|e| e.column_px).collect();
-        if let Some(img) = gonio_web::live::thumbnail(width, height, pixels, edges_px, r.c_px) {
-            self.hub.image(&img);
-        }
-    }
-}
-
-/// Keeps the snapshot of the PLC link's figures that `/api/status` reports (`plc`) up to date:
-/// told what the controller does (an observer on the batch's thread, where the station lives),
-/// it reads the station at most every [`LinkWatch::EVERY`], and at every part's end.
-struct LinkWatch<F> {
-    figures: F,
-    address: String,
-    snapshot: Arc<Mutex<Value>>,
-    last: Option<Instant>,
-}
-
-impl<F: Fn() -> LinkFigures> LinkWatch<F> {
-    /// Fewest wall-clock time between two readings (each takes the station's lock and scans the
-    /// round trips' histogram).
-    const EVERY: Duration = Duration::from_secs(1);
-
-    /// Reads the figures now if `now` or if the last reading is older than [`Self::EVERY`].
-    fn refresh(&mut self, now: bool) {
-        if !now && self.last.is_some_and(|t| t.elapsed() < Self::EVERY) {
-            return;
-        }
-        self.last = Some(Instant::now());
-        let mut v = serde_json::to_value((self.figures)()).unwrap_or_default();
-        if let Some(o) = v.as_object_mut() {
-            o.insert("address".into(), Value::from(self.address.as_str()));
-        }
-        if let Ok(mut s) = self.snapshot.lock() {
-            *s = v;
-        }
-    }
-}
-
-impl<F: Fn() -> LinkFigures> Observer for LinkWatch<F> {
-    fn part_started(&mut self, _serial: &str) {
-        self.refresh(false);
-    }
-    fn phase(&mut self, _phase: Phase) {
-        self.refresh(false);
-    }
-    fn frame(&mut self, _frame: &LiveFrame) {
-        self.refresh(false);
-    }
-    fn part_finished(&mut self, _record: &PartRecord) {
-        self.refresh(true);
-    }
-}
-
 /// Runs the batch through the PLC on a thread of its own (the station's link and camera live
 /// there), publishing to `hub` (the controller's steps, a thumbnail of the camera's frames, the
 /// link's figures for `/api/status`) and committing every part to the store as `gonio mount
@@ -550,19 +474,11 @@ fn spawn_plc(
     feed: Arc<Feed>,
 ) -> Result<std::thread::JoinHandle<()>> {
     let (opened, is_open) = std::sync::mpsc::channel::<Result<()>>();
-    let snapshot = Arc::new(Mutex::new(Value::Null));
-    {
-        let snapshot = snapshot.clone();
-        hub.set_plc_source(Box::new(move || {
-            snapshot.lock().map(|s| s.clone()).unwrap_or_default()
-        }));
-    }
+    let snapshot = link_watch::snapshot(&hub);
     let address = request.url.clone();
     let thread = std::thread::spawn(move || {
         let mut thumbnails = Thumbnails::new(hub.clone());
-        let tap: FrameTap = Box::new(move |f: &SeenFrame<'_>| {
-            thumbnails.show(f.width, f.height, f.pixels, f.result)
-        });
+        let tap: FrameTap = Box::new(move |f: &SeenFrame<'_>| thumbnails.show(f));
         let batch = match crate::plc::open(request, Some(tap)) {
             Ok(b) => {
                 let _ = opened.send(Ok(()));
@@ -573,12 +489,7 @@ fn spawn_plc(
                 return;
             }
         };
-        let mut watch = LinkWatch {
-            figures: batch.link_figures(),
-            address,
-            snapshot,
-            last: None,
-        };
+        let mut watch = LinkWatch::new(batch.link_figures(), address, snapshot);
         watch.refresh(true);
         let mut live = (
             (LiveObserver::new(hub.clone()), feed.observer()),

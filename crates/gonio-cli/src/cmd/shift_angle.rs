@@ -233,7 +233,7 @@ pub fn print_summary(c: &Certificate) -> Result<()> {
     if let Some(b) = &c.budget {
         let _ = writeln!(out, "  uncertainty budget of the angle with the largest U:");
         let mut t = String::new();
-        crate::table::text_table(&mut t, b);
+        crate::table::budget::text(&mut t, b);
         for l in t.lines() {
             let _ = writeln!(out, "    {l}");
         }

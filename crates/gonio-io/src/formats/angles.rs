@@ -1,4 +1,5 @@
-//! Angle logs (`frame,theta_deg[,time_s]`) for `gonio detect --angles`.
+//! Angle logs (`frame,theta_deg[,time_s]`) for `gonio detect --angles`, and the angle of a
+//! frame however it is known ([`FrameAngles`]: a log, a constant speed, or not at all).
 
 use super::csv::CsvTable;
 use anyhow::{Result, bail};
@@ -34,6 +35,52 @@ impl AngleLog {
     /// The first frame of `0..n` without an angle.
     pub fn first_missing(&self, n: usize) -> Option<usize> {
         (0..n).find(|k| !self.by_frame.contains_key(k))
+    }
+}
+
+/// The table angle and time of each frame: from an angle log, from a constant speed, or unknown.
+#[derive(Debug)]
+pub enum FrameAngles {
+    /// Not known: `theta_deg` and `time_s` are null.
+    None,
+    /// From an angle log (`--angles`).
+    Table(AngleLog),
+    /// A constant speed from a start angle at a frame rate.
+    Speed {
+        /// The angle of frame 0, degrees.
+        start_deg: f64,
+        /// The table's speed, degrees per second.
+        speed_deg_s: f64,
+        /// Frames per second.
+        fps: f64,
+    },
+}
+
+impl FrameAngles {
+    /// Frame `k`'s angle (degrees) and time (s), each `None` when not known.
+    ///
+    /// # Errors
+    /// An angle log that has no row for frame `k` (`NAME: no angle for frame K: …`).
+    pub fn at(&self, k: usize) -> Result<(Option<f64>, Option<f64>)> {
+        match self {
+            FrameAngles::None => Ok((None, None)),
+            FrameAngles::Speed {
+                start_deg,
+                speed_deg_s,
+                fps,
+            } => {
+                let t = k as f64 / fps;
+                Ok((Some(start_deg + speed_deg_s * t), Some(t)))
+            }
+            FrameAngles::Table(log) => match log.at(k) {
+                Some((th, t)) => Ok((Some(th), t)),
+                None => bail!(
+                    "{}: no angle for frame {k}: the angle file covers {} frames",
+                    log.name,
+                    log.len()
+                ),
+            },
+        }
     }
 }
 

@@ -1,6 +1,7 @@
 //! The mounting station's digital twin (the station of Yu et al., 2024): the default plant,
 //! a discrete-event clock, simulated servo, camera, focus drive and push rod implementing
-//! `gonio_station::hal`, and a batch runner.
+//! `gonio_station::hal`, and a batch runner; with the feature `store`, the batch committed part by
+//! part to the results store ([`stored`]).
 //!
 //! Two fidelities: [`Fidelity::Fast`] computes each frame's ring column from the geometry plus
 //! the detector's noise ([`SimCamera`]); [`Fidelity::Frames`] renders each frame
@@ -20,6 +21,8 @@ pub mod batch;
 pub mod frames;
 pub mod pace;
 pub mod plant;
+#[cfg(feature = "store")]
+pub mod stored;
 pub mod twin;
 
 pub use batch::{

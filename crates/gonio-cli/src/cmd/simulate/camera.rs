@@ -1,7 +1,7 @@
 //! `gonio simulate camera`: a GigE Vision camera (Aravis's fake camera, in-process) showing the
 //! renderer's frames of a turning, eccentric grating.
 
-use super::frames::SceneArg;
+use super::SceneArg;
 use anyhow::{Result, bail};
 use gonio_cli::flag;
 use gonio_core::bound::{Bound, Num};

@@ -1,5 +1,6 @@
 //! `gonio simulate frames`: rendered camera frames of a rotating, eccentric grating, with truth.
 
+use super::SceneArg;
 use anyhow::{Result, bail};
 use gonio_cli::flag;
 use gonio_cli::output::Outputs;
@@ -14,20 +15,6 @@ use gonio_sim::frames::{MAX_FEATURES, scene};
 use gonio_vision::FrameSource;
 use serde::Serialize;
 use std::path::PathBuf;
-
-/// The named scenes on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum SceneArg {
-    /// The ring alone: noise and blur only.
-    Clean,
-    /// A typical grating near its ring: track-border groups, incremental lines, code bars,
-    /// dust, vignetting (default).
-    Realistic,
-    /// Everything at once, close to the ring (several hundred edge components a frame).
-    Dense,
-    /// A new scene drawn from the whole family for every frame (docs/scenes.md).
-    Random,
-}
 
 /// Arguments of `gonio simulate frames`.
 #[derive(Debug, clap::Args)]

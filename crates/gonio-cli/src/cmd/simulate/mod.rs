@@ -15,6 +15,20 @@ use gonio_io::formats::encoder as encoder_file;
 use gonio_sim::EncoderModel;
 use std::path::Path;
 
+/// The named scenes on the command line (`simulate frames`, `simulate camera`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneArg {
+    /// The ring alone: noise and blur only.
+    Clean,
+    /// A typical grating near its ring: track-border groups, incremental lines, code bars,
+    /// dust, vignetting (default).
+    Realistic,
+    /// Everything at once, close to the ring (several hundred edge components a frame).
+    Dense,
+    /// A new scene drawn from the whole family for every frame (docs/scenes.md).
+    Random,
+}
+
 /// What to simulate.
 #[derive(Debug, clap::Subcommand)]
 pub enum Simulate {

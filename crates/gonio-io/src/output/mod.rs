@@ -1,7 +1,7 @@
 //! The outputs of one command, written as a set: each to its own temporary file beside its
 //! destination, all renamed into place only when every one has been written, so that a failure
-//! (an error, a full disk, SIGINT/SIGTERM) leaves the old files as they were and no temporary file
-//! behind.
+//! (an error, a full disk, an interruption) leaves the old files as they were and no temporary
+//! file behind.
 //!
 //! An output is refused before anything is computed when it cannot be replaced safely:
 //! - it is one of the command's inputs (same device and inode, whatever the name: `shift-angle
@@ -19,118 +19,47 @@
 //! New files are created with mode 0666 less the umask (as `>` in a shell would). A directory of
 //! simulation outputs must be new or empty, or the command is given `--force`; with `--force` the
 //! files of an earlier run that this run does not write (stale frames) are removed when the set
-//! is committed.
+//! is committed. `-` is standard output as the caller gives it (a writer: nothing here prints);
+//! what an interruption must remove is registered in [`pending`], whose cleanup the binary's
+//! signal handler calls.
+//!
+//! Errors are `anyhow` errors naming the flag and the user's path, one line each.
+//!
+//! ```
+//! use gonio_io::output::Outputs;
+//! let d = tempfile::tempdir().unwrap();
+//! let path = d.path().join("a.json");
+//! let mut out = Outputs::new(Box::new(std::io::sink()));
+//! let id = out.file("--json", &path).unwrap();
+//! out.json(id, &[1.5, 2.0]).unwrap();
+//! assert!(!path.exists()); // nothing in place before the commit
+//! out.commit().unwrap();
+//! assert_eq!(std::fs::read_to_string(&path).unwrap(), "[\n  1.5,\n  2.0\n]\n");
+//! ```
 
-use crate::term;
-pub use crate::term::os_message;
+pub mod pending;
+
+use crate::input::{FileId, Inputs};
+use crate::json;
 use anyhow::{Result, anyhow, bail};
-use gonio_io::input::{FileId, Inputs};
-use gonio_io::json;
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Temporary files not yet renamed into place (removed on SIGINT, SIGTERM and SIGHUP).
-static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-
-fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
-    PENDING.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// A directory to clean up on SIGINT, SIGTERM and SIGHUP.
-#[derive(Debug, PartialEq, Eq)]
-enum Dir {
-    /// A temporary directory: removed with its content.
-    Temporary(PathBuf),
-    /// A directory the command created: removed if empty.
-    Created(PathBuf),
-}
-
-/// Directories not yet kept (removed on a signal, after the temporary files, innermost first).
-static PENDING_DIRS: Mutex<Vec<Dir>> = Mutex::new(Vec::new());
-
-fn pending_dirs() -> std::sync::MutexGuard<'static, Vec<Dir>> {
-    PENDING_DIRS.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// Makes a temporary directory with `make` (a part's record being written) and registers it:
-/// if the process is interrupted (SIGINT, SIGTERM, SIGHUP) before [`release_dir`], it is removed
-/// with its content. The registry is locked while the directory is made, so a signal's cleanup
-/// (which takes the same lock) runs before it exists or after it is registered, never between.
-///
-/// # Errors
-/// Those of `make`.
-pub fn guard_temporary_dir(
-    make: &mut gonio_io::recorder::TempDirMaker<'_>,
-) -> std::io::Result<tempfile::TempDir> {
-    install_signal_cleanup();
-    let mut dirs = pending_dirs();
-    let dir = make()?;
-    dirs.push(Dir::Temporary(dir.path().to_path_buf()));
-    Ok(dir)
-}
-
-/// Registers the directory `dir` that the command has just created: if the process is
-/// interrupted before [`release_dir`], it is removed if it is empty.
-pub fn guard_created_dir(dir: &Path) {
-    install_signal_cleanup();
-    pending_dirs().push(Dir::Created(dir.to_path_buf()));
-}
-
-/// The directory `dir` is kept (or already removed): a signal no longer removes it.
-pub fn release_dir(dir: &Path) {
-    pending_dirs().retain(|d| match d {
-        Dir::Temporary(p) | Dir::Created(p) => p != dir,
-    });
-}
-
-/// Removes what an interrupted command leaves: the temporary files, then the temporary
-/// directories and the empty created ones, the latest first. Holds the locks until the process
-/// exits (called by the signal thread only).
-fn clean_up_interrupted() {
-    let mut p = pending();
-    for f in p.drain(..) {
-        let _ = std::fs::remove_file(f);
+/// An operating-system error without the temporary file's name (`No space left on device (os
+/// error 28)`).
+pub fn os_message(e: &std::io::Error) -> String {
+    match e.raw_os_error() {
+        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
+        None => e.kind().to_string(),
     }
-    let mut dirs = pending_dirs();
-    for d in dirs.drain(..).rev() {
-        match d {
-            Dir::Temporary(p) => {
-                let _ = std::fs::remove_dir_all(p);
-            }
-            Dir::Created(p) => {
-                let _ = std::fs::remove_dir(p);
-            }
-        }
-    }
-    // Locks held on purpose: nothing renames or creates after this.
-    std::mem::forget(dirs);
-    std::mem::forget(p);
 }
 
-/// Installs (once) the handler that removes pending temporary files and directories on SIGINT,
-/// SIGTERM and SIGHUP and then exits with status 128 + the signal. A set being committed finishes its renames first
-/// (the handler waits for the same lock), so a signal never leaves half a set in place.
-pub fn install_signal_cleanup() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        #[cfg(unix)]
-        {
-            use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-            if let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
-            {
-                std::thread::spawn(move || {
-                    if let Some(sig) = signals.forever().next() {
-                        clean_up_interrupted();
-                        std::process::exit(128 + sig);
-                    }
-                });
-            }
-        }
-    });
+/// A write to standard output that failed.
+fn stdout_error(e: &std::io::Error) -> anyhow::Error {
+    anyhow!("cannot write standard output: {}", os_message(e))
 }
 
 /// A handle to one output of a set.
@@ -178,10 +107,11 @@ struct Stale {
 
 /// The outputs of one command, written as a set (see the module documentation), and its
 /// inputs: what the command read through [`Outputs::inputs`] no output may overwrite.
-#[derive(Debug, Default)]
 pub struct Outputs {
     /// The command's inputs (files read, the results store reserved, standard input).
     inputs: Inputs,
+    /// Standard output, as the caller gives it (`-`).
+    stdout: Box<dyn Write + Send>,
     items: Vec<Item>,
     stale: Vec<Stale>,
     /// Directories this set created (removed again if it is not committed and they are empty).
@@ -285,18 +215,28 @@ fn check_destination(inputs: &Inputs, flag: &str, path: &Path) -> Result<Option<
     Ok(id)
 }
 
+impl std::fmt::Debug for Outputs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Outputs")
+            .field("inputs", &self.inputs)
+            .field("items", &self.items)
+            .field("stale", &self.stale)
+            .field("created", &self.created)
+            .finish_non_exhaustive()
+    }
+}
+
 impl Outputs {
-    /// An empty set (and the signal handler that removes temporary files, installed once).
-    pub fn new() -> Outputs {
-        Outputs::with_inputs(Inputs::new())
+    /// An empty set writing `-` to `stdout`.
+    pub fn new(stdout: Box<dyn Write + Send>) -> Outputs {
+        Outputs::with_inputs(Inputs::new(), stdout)
     }
 
-    /// An empty set whose command has read `inputs` already (the signal handler installed
-    /// once).
-    pub fn with_inputs(inputs: Inputs) -> Outputs {
-        install_signal_cleanup();
+    /// An empty set whose command has read `inputs` already, writing `-` to `stdout`.
+    pub fn with_inputs(inputs: Inputs, stdout: Box<dyn Write + Send>) -> Outputs {
         Outputs {
             inputs,
+            stdout,
             items: Vec::new(),
             stale: Vec::new(),
             created: Vec::new(),
@@ -357,7 +297,7 @@ impl Outputs {
             }
             let dir = parent_of(path);
             // Created and listed under one lock: a signal's cleanup never misses a new file.
-            let mut p = pending();
+            let mut p = pending::files();
             let (tmp, f) = create_temp(&dir).map_err(|e| {
                 anyhow!(
                     "cannot write {shown} (in {}): {}",
@@ -435,7 +375,7 @@ impl Outputs {
                         os_message(&e)
                     )
                 })?;
-                guard_created_dir(&first_missing);
+                pending::guard_created_dir(&first_missing);
                 self.created.push(first_missing);
             }
         }
@@ -462,14 +402,18 @@ impl Outputs {
         &self.items[id.0].path
     }
 
-    /// Appends `data` to the output (standard output: written now; a closed pipe ends quietly).
+    /// Appends `data` to the output (standard output: written and flushed now).
     ///
     /// # Errors
     /// A write error (a full disk), naming the user's path.
     pub fn write(&mut self, id: OutId, data: &[u8]) -> Result<()> {
         let item = &mut self.items[id.0];
         match &mut item.target {
-            Target::Stdout => term::out_bytes(data),
+            Target::Stdout => self
+                .stdout
+                .write_all(data)
+                .and_then(|()| self.stdout.flush())
+                .map_err(|e| stdout_error(&e)),
             Target::Spool(f) => f
                 .write_all(data)
                 .map_err(|e| anyhow!("cannot spool standard output: {}", os_message(&e))),
@@ -576,7 +520,7 @@ impl Outputs {
             self.json(j, cert)?;
         }
         if let Some(c) = compensation {
-            self.write(c, gonio_io::formats::compensation::csv(cert).as_bytes())?;
+            self.write(c, crate::formats::compensation::csv(cert).as_bytes())?;
         }
         Ok(())
     }
@@ -605,7 +549,7 @@ impl Outputs {
         // Flush and close every file first: a full disk shows here.
         for k in 0..self.items.len() {
             match &mut self.items[k].target {
-                Target::Stdout => term::flush()?,
+                Target::Stdout => self.stdout.flush().map_err(|e| stdout_error(&e))?,
                 Target::Spool(f) => f
                     .flush()
                     .map_err(|e| anyhow!("cannot spool standard output: {}", os_message(&e)))?,
@@ -619,10 +563,10 @@ impl Outputs {
         }
         for item in &mut self.items {
             if let Target::Spool(f) = &mut item.target {
-                copy_to_stdout(f.get_mut())?;
+                copy_to_stdout(f.get_mut(), &mut self.stdout)?;
             }
         }
-        let mut p = pending();
+        let mut p = pending::files();
         for item in &self.items {
             if let Target::File { tmp, .. } = &item.target {
                 std::fs::rename(tmp, &item.path).map_err(|e| {
@@ -649,14 +593,14 @@ impl Outputs {
         drop(p);
         self.items.clear();
         for d in self.created.drain(..) {
-            release_dir(&d);
+            pending::release_dir(&d);
         }
         Ok(())
     }
 }
 
 /// Copies a spooled standard output from its start to standard output, a block at a time.
-fn copy_to_stdout(f: &mut File) -> Result<()> {
+fn copy_to_stdout(f: &mut File, stdout: &mut dyn Write) -> Result<()> {
     use std::io::{Read, Seek, SeekFrom};
     let spool =
         |e: std::io::Error| anyhow!("cannot read spooled standard output: {}", os_message(&e));
@@ -665,9 +609,12 @@ fn copy_to_stdout(f: &mut File) -> Result<()> {
     loop {
         let n = f.read(&mut buf).map_err(spool)?;
         if n == 0 {
-            return term::flush();
+            return stdout.flush().map_err(|e| stdout_error(&e));
         }
-        term::out_bytes(&buf[..n])?;
+        stdout
+            .write_all(&buf[..n])
+            .and_then(|()| stdout.flush())
+            .map_err(|e| stdout_error(&e))?;
     }
 }
 
@@ -675,7 +622,7 @@ impl Drop for Outputs {
     /// An uncommitted set removes its temporary files (and the directories it created, if
     /// empty).
     fn drop(&mut self) {
-        let mut p = pending();
+        let mut p = pending::files();
         for item in &mut self.items {
             if let Target::File { tmp, file } = &mut item.target {
                 drop(file.take());
@@ -686,7 +633,7 @@ impl Drop for Outputs {
         drop(p);
         for d in self.created.iter().rev() {
             let _ = std::fs::remove_dir(d);
-            release_dir(d);
+            pending::release_dir(d);
         }
     }
 }
@@ -701,7 +648,7 @@ mod tests {
         let a = d.path().join("a.json");
         std::fs::write(&a, "old").unwrap();
         {
-            let mut o = Outputs::new();
+            let mut o = Outputs::new(Box::new(std::io::sink()));
             let ia = o.file("--json", &a).unwrap();
             o.write(ia, b"new").unwrap();
             // The second output's directory is missing: refused before anything is written.
@@ -712,7 +659,7 @@ mod tests {
         }
         assert_eq!(std::fs::read_to_string(&a).unwrap(), "old");
         assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 1, "temp left");
-        let mut o = Outputs::new();
+        let mut o = Outputs::new(Box::new(std::io::sink()));
         let ia = o.file("--json", &a).unwrap();
         let e = o.file("--compensation", &d.path().join("./a.json"));
         assert!(
@@ -729,7 +676,7 @@ mod tests {
     #[test]
     fn directories_and_devices_are_refused() {
         let d = tempfile::tempdir().unwrap();
-        let mut o = Outputs::new();
+        let mut o = Outputs::new(Box::new(std::io::sink()));
         let e = o.file("--json", d.path()).unwrap_err().to_string();
         assert!(e.contains("is a directory"), "{e}");
         #[cfg(unix)]

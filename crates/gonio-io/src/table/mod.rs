@@ -1,8 +1,17 @@
-//! Tables for the terminal, written into a `String` the caller prints: numbers with a given
-//! number of significant digits, degrees of freedom, and GUM budget tables.
+//! Results as text tables, written into a `String` the caller prints: numbers with a given
+//! number of decimals or significant digits, an undefined number as an en dash (never `NaN`),
+//! degrees of freedom (`inf`), names cut to a table's width; the GUM budget as a text,
+//! Markdown or CSV table ([`budget`]).
+//!
+//! ```
+//! use gonio_io::table::{fixed, sig, dof_text};
+//! assert_eq!(fixed(2.345, 1), "2.3");
+//! assert_eq!(fixed(None, 1), "–");
+//! assert_eq!(sig(0.0123456, 3), "0.0123");
+//! assert_eq!(dof_text(f64::INFINITY), "inf");
+//! ```
 
-use gonio_uncertainty::BudgetResult;
-use std::fmt::Write as _;
+pub mod budget;
 
 /// Longest row or budget name shown whole in a table; longer names are cut with `…` (the CSV and
 /// JSON outputs keep every name whole).
@@ -61,73 +70,6 @@ pub fn sig(x: f64, digits: usize) -> String {
     } else {
         format!("{x:.prec$e}", prec = digits - 1)
     }
-}
-
-/// The budget's unit with a leading space (empty without one).
-pub fn unit(r: &BudgetResult) -> String {
-    r.unit.as_deref().map_or(String::new(), |u| format!(" {u}"))
-}
-
-/// u_c, ν_eff, k, U and p on one line.
-pub fn summary_line(r: &BudgetResult) -> String {
-    format!(
-        "u_c = {}{u}   nu_eff = {} (raw {:.2})   k = {:.3}   U = {}{u}   (p = {} %)",
-        sig(r.u_c, 4),
-        dof_text(r.nu_eff),
-        r.nu_eff_raw,
-        r.k,
-        sig(r.expanded, 4),
-        gonio_core::bound::Num(r.coverage * 100.0),
-        u = unit(r),
-    )
-}
-
-/// The budget as a text table (rows with shares, then the summary line); names longer than
-/// [`NAME_WIDTH`] are cut.
-pub fn text_table(out: &mut String, r: &BudgetResult) {
-    let names: Vec<String> = r
-        .contributions
-        .iter()
-        .map(|c| display_name(&c.name))
-        .collect();
-    let w = names
-        .iter()
-        .map(|n| n.chars().count())
-        .max()
-        .unwrap_or(12)
-        .max(12);
-    let _ = writeln!(
-        out,
-        "Budget \"{}\"{}",
-        display_name(&r.name),
-        unit(r).replace(' ', " in ")
-    );
-    let _ = writeln!(
-        out,
-        "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>7}",
-        "contribution", "u", "c", "|c·u|", "ν", "share"
-    );
-    for (c, name) in r.contributions.iter().zip(&names) {
-        let _ = writeln!(
-            out,
-            "  {:<w$}  {:>11}  {:>10}  {:>11}  {:>6}  {:>6.1}%",
-            name,
-            sig(c.u, 4),
-            sig(c.c, 4),
-            sig(c.cu, 4),
-            dof_text(c.nu),
-            c.share * 100.0
-        );
-    }
-    for (a, b, rho) in &r.correlations {
-        let _ = writeln!(
-            out,
-            "  correlation r({}, {}) = {rho}",
-            display_name(a),
-            display_name(b)
-        );
-    }
-    let _ = writeln!(out, "  {}\n", summary_line(r));
 }
 
 #[cfg(test)]

@@ -1,17 +1,91 @@
-//! The digital twin's batch in the results store, the one path of `gonio mount --sim` and
-//! `gonio serve --station sim`: the twin's batch (`gonio_sim::station`) with each part
-//! committed through the store's batch writer (`gonio_store::writer`) as it finishes, a
-//! batch resumed after its last stored part, and the batch's end status. Errors are one-line
-//! texts for the terminal.
+//! The digital twin's batch in the results store (feature `store`), the one path of `gonio
+//! mount --sim` and `gonio serve --station sim`: the twin's batch ([`run_batch_observed`]) with
+//! each part committed through the store's batch writer (`gonio_store::writer`) as it finishes,
+//! a batch resumed after its last stored part, and the batch's end status. Errors
+//! ([`StoredError`]) name the store (as `gonio_store::display_location` shows it) or the part.
+//!
+//! ```
+//! use gonio_sim::station::BatchConfig;
+//! use gonio_sim::station::stored::{Run, Start, Target, prepare, run};
+//! let d = tempfile::tempdir().unwrap();
+//! let db = d.path().join("r.sqlite").display().to_string();
+//! let cfg = BatchConfig { parts: 2, ..BatchConfig::default() };
+//! let target = Target { db: Some(&db), resume: false, station: "sim" };
+//! let Start::Run(p) = prepare(&cfg, 7, &target).unwrap() else { panic!("a new batch") };
+//! let mut none = gonio_station::observe::NoObserver;
+//! let run_opts = Run { observer: &mut none, pace: None, frame_tap: None, discard_parts: false };
+//! let report = run(*p, &cfg, 7, run_opts, &mut |_, id| assert!(id.is_some())).unwrap();
+//! assert_eq!(report.parts.len(), 2);
+//! let again = Target { resume: true, ..target };
+//! assert!(matches!(prepare(&cfg, 7, &again).unwrap(), Start::Complete(_)));
+//! ```
 
-use anyhow::{Result, anyhow};
-use gonio_sim::station::{
-    BatchConfig, BatchReport, FrameTap, Pace, PartDone, RunOptions, run_batch_observed,
-};
+use super::{BatchConfig, BatchReport, FrameTap, Pace, PartDone, RunOptions, run_batch_observed};
+use gonio_station::StationError;
 use gonio_station::observe::Observer;
 use gonio_station::strategy::Learned;
+use gonio_store::StoreError;
 use gonio_store::writer::{BatchSpec, BatchWriter, Resume};
 use std::ops::ControlFlow;
+
+/// Why a batch in the store could not start, run or end.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StoredError {
+    /// The store cannot be opened.
+    #[error("results store {location}")]
+    Open {
+        /// The store as shown to a person (a URL without its password).
+        location: String,
+        /// What the store said.
+        #[source]
+        source: StoreError,
+    },
+    /// The store failed while the batch was started, resumed or ended.
+    #[error("{location}")]
+    Store {
+        /// The store as shown to a person.
+        location: String,
+        /// What the store said.
+        #[source]
+        source: StoreError,
+    },
+    /// `resume` found no batch of this station with these settings.
+    #[error(
+        "{location}: no batch of station {station} with these settings (seed {seed}, {parts} parts, strategy {strategy}, recipe {recipe}) to resume: start it without --resume"
+    )]
+    NotFound {
+        /// The store as shown to a person.
+        location: String,
+        /// The station's name in the store.
+        station: String,
+        /// The batch's seed.
+        seed: u64,
+        /// Parts planned.
+        parts: usize,
+        /// The push strategy's name.
+        strategy: String,
+        /// The recipe's name.
+        recipe: String,
+    },
+    /// A finished part could not be stored: the batch stops there and stays resumable.
+    #[error("storing part {part} ({serial})")]
+    Commit {
+        /// 1-based number of the part in the batch.
+        part: usize,
+        /// The part's serial number.
+        serial: String,
+        /// What the store said.
+        #[source]
+        source: StoreError,
+    },
+    /// The simulated station failed.
+    #[error("simulated station")]
+    Station(#[source] StationError),
+    /// The batch's settings could not be written as its identity in the store.
+    #[error("the batch's settings as JSON")]
+    Config(#[source] serde_json::Error),
+}
 
 /// Where a batch's parts go.
 #[derive(Debug, Clone)]
@@ -46,18 +120,19 @@ pub enum Start {
 }
 
 /// The batch's identity in the store: what was asked for, so `--resume` finds the same batch.
-fn batch_config_json(cfg: &BatchConfig, seed: u64) -> Result<String> {
-    Ok(serde_json::to_string(&serde_json::json!({
+fn batch_config_json(cfg: &BatchConfig, seed: u64) -> Result<String, StoredError> {
+    serde_json::to_string(&serde_json::json!({
         "seed": seed,
         "config": cfg,
-    }))?)
+    }))
+    .map_err(StoredError::Config)
 }
 
 /// Opens the store and starts the batch in it, or finds the batch to resume.
 ///
 /// # Errors
 /// The store cannot be opened or written; `--resume` finds no batch with these settings.
-pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
+pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start, StoredError> {
     let Some(location) = t.db else {
         return Ok(Start::Run(Box::new(Prepared {
             writer: None,
@@ -68,8 +143,11 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
             note: None,
         })));
     };
-    let st = crate::db::open(location)?;
     let loc = gonio_store::display_location(location);
+    let st = gonio_store::open(location).map_err(|source| StoredError::Open {
+        location: loc.clone(),
+        source,
+    })?;
     let config_json = batch_config_json(cfg, seed)?;
     let spec = BatchSpec {
         station: t.station,
@@ -88,15 +166,20 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
         note: None,
     };
     if t.resume {
-        match BatchWriter::resume(st, &spec).map_err(|e| anyhow!("{loc}: {e}"))? {
+        let in_store = |source| StoredError::Store {
+            location: loc.clone(),
+            source,
+        };
+        match BatchWriter::resume(st, &spec).map_err(in_store)? {
             Resume::NotFound => {
-                return Err(anyhow!(
-                    "{loc}: no batch of station {} with these settings (seed {seed}, {} parts, strategy {}, recipe {}) to resume: start it without --resume",
-                    t.station,
-                    cfg.parts,
-                    cfg.strategy.name(),
-                    cfg.recipe.name
-                ));
+                return Err(StoredError::NotFound {
+                    location: loc,
+                    station: t.station.to_string(),
+                    seed,
+                    parts: cfg.parts,
+                    strategy: cfg.strategy.name().to_string(),
+                    recipe: cfg.recipe.name.clone(),
+                });
             }
             Resume::Complete(info) => {
                 return Ok(Start::Complete(format!(
@@ -117,13 +200,18 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
                 // The focus the last stored part found: where the next part's focus check starts.
                 p.carried_focus_um = w
                     .last_part()
-                    .map_err(|e| anyhow!("{loc}: {e}"))?
+                    .map_err(in_store)?
                     .and_then(|part| part.focus_um);
                 p.writer = Some(*w);
             }
         }
     } else {
-        p.writer = Some(BatchWriter::begin(st, &spec).map_err(|e| anyhow!("{loc}: {e}"))?);
+        p.writer = Some(
+            BatchWriter::begin(st, &spec).map_err(|source| StoredError::Store {
+                location: loc.clone(),
+                source,
+            })?,
+        );
     }
     Ok(Start::Run(Box::new(p)))
 }
@@ -153,7 +241,7 @@ pub fn run(
     seed: u64,
     run: Run<'_>,
     on_part: &mut dyn FnMut(&PartDone, Option<i64>),
-) -> Result<BatchReport> {
+) -> Result<BatchReport, StoredError> {
     let Prepared {
         mut writer,
         location,
@@ -193,22 +281,22 @@ pub fn run(
                 ControlFlow::Continue(())
             }
             Err(e) => {
-                error = Some(anyhow!(
-                    "storing part {} ({}): {e}",
-                    d.index + 1,
-                    d.part.record.serial
-                ));
+                error = Some(StoredError::Commit {
+                    part: d.index + 1,
+                    serial: d.part.record.serial.clone(),
+                    source: e,
+                });
                 ControlFlow::Break(())
             }
         }
     })
-    .map_err(|e| anyhow!("simulated station: {e}"))?;
+    .map_err(StoredError::Station)?;
     if let Some(e) = error {
         return Err(e);
     }
     if let Some(w) = writer.as_mut() {
         w.end(report.stopped.as_deref())
-            .map_err(|e| anyhow!("{location}: {e}"))?;
+            .map_err(|source| StoredError::Store { location, source })?;
     }
     Ok(report)
 }
