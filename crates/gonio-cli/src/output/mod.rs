@@ -73,11 +73,22 @@ pub fn guard_temporary_dir(
     Ok(dir)
 }
 
-/// Registers the directory `dir` that the command has just created: if the process is
-/// interrupted before [`release_dir`], it is removed if it is empty.
-pub fn guard_created_dir(dir: &Path) {
+/// Creates the directory `dir` (the first missing one of a path) with `make` and registers it
+/// as one step: if the process is interrupted before [`release_dir`], it is removed if it is
+/// empty. The registry is locked while it is made, so a signal's cleanup runs before it exists
+/// or after it is registered, never between.
+///
+/// # Errors
+/// Those of `make` (nothing is registered then).
+pub fn guard_created_dir(
+    dir: &Path,
+    make: &mut dyn FnMut() -> std::io::Result<()>,
+) -> std::io::Result<()> {
     install_signal_cleanup();
-    pending_dirs().push(Dir::Created(dir.to_path_buf()));
+    let mut dirs = pending_dirs();
+    make()?;
+    dirs.push(Dir::Created(dir.to_path_buf()));
+    Ok(())
 }
 
 /// The directory `dir` is kept (or already removed): a signal no longer removes it.
@@ -429,13 +440,14 @@ impl Outputs {
                     }
                     first_missing = p.to_path_buf();
                 }
-                std::fs::create_dir_all(dir).map_err(|e| {
-                    anyhow!(
-                        "{flag} {shown}: cannot create the directory: {}",
-                        os_message(&e)
-                    )
-                })?;
-                guard_created_dir(&first_missing);
+                guard_created_dir(&first_missing, &mut || std::fs::create_dir_all(dir)).map_err(
+                    |e| {
+                        anyhow!(
+                            "{flag} {shown}: cannot create the directory: {}",
+                            os_message(&e)
+                        )
+                    },
+                )?;
                 self.created.push(first_missing);
             }
         }
