@@ -20,6 +20,10 @@
 //! simulation outputs must be new or empty, or the command is given `--force`; with `--force` the
 //! files of an earlier run that this run does not write (stale frames) are removed when the set
 //! is committed.
+//!
+//! A command that drives devices takes the first SIGINT or SIGTERM itself
+//! ([`defer_interrupts`]) to leave them safe and end with [`Interrupted`]; a second signal
+//! removes the pending outputs and exits at once.
 
 use crate::term;
 pub use crate::term::os_message;
@@ -30,8 +34,9 @@ use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering::SeqCst;
+use std::sync::atomic::{AtomicI32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// Temporary files not yet renamed into place (removed on SIGINT, SIGTERM and SIGHUP).
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -125,6 +130,8 @@ fn clean_up_interrupted() {
 /// Installs (once) the handler that removes pending temporary files and directories on SIGINT,
 /// SIGTERM and SIGHUP and then exits with status 128 + the signal. A set being committed finishes its renames first
 /// (the handler waits for the same lock), so a signal never leaves half a set in place.
+/// While a command defers interrupts ([`defer_interrupts`]), the first SIGINT or SIGTERM is
+/// handed to it instead, and only a second one ends the process so.
 pub fn install_signal_cleanup() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
@@ -134,7 +141,14 @@ pub fn install_signal_cleanup() {
             if let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
             {
                 std::thread::spawn(move || {
-                    if let Some(sig) = signals.forever().next() {
+                    for sig in signals.forever() {
+                        if sig != SIGHUP
+                            && deferred()
+                                .as_ref()
+                                .is_some_and(|f| f.compare_exchange(0, sig, SeqCst, SeqCst).is_ok())
+                        {
+                            continue;
+                        }
                         clean_up_interrupted();
                         std::process::exit(128 + sig);
                     }
@@ -143,6 +157,52 @@ pub fn install_signal_cleanup() {
         }
     });
 }
+
+/// The flag of the command that ends itself on the first SIGINT or SIGTERM ([`defer_interrupts`]).
+static DEFERRED: Mutex<Option<Arc<AtomicI32>>> = Mutex::new(None);
+
+fn deferred() -> std::sync::MutexGuard<'static, Option<Arc<AtomicI32>>> {
+    DEFERRED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// While held, interrupts are the command's to handle ([`defer_interrupts`]).
+#[derive(Debug)]
+#[must_use = "interrupts are deferred only while this is held"]
+pub struct DeferredInterrupts(());
+
+impl Drop for DeferredInterrupts {
+    fn drop(&mut self) {
+        deferred().take();
+    }
+}
+
+/// Hands the first SIGINT or SIGTERM to the command: its number is stored in `flag` (which
+/// must hold 0), and the command ends itself, leaving its devices safe; a second signal (or
+/// SIGHUP) removes the pending outputs and exits at once with 128 + the signal. Until the
+/// guard is dropped.
+pub fn defer_interrupts(flag: Arc<AtomicI32>) -> DeferredInterrupts {
+    install_signal_cleanup();
+    *deferred() = Some(flag);
+    DeferredInterrupts(())
+}
+
+/// A command that ended because it was interrupted (SIGINT, SIGTERM) after leaving its
+/// devices safe: the binary prints the message and exits with 128 + the signal.
+#[derive(Debug)]
+pub struct Interrupted {
+    /// The signal's number.
+    pub signal: i32,
+    /// What was done (one line).
+    pub message: String,
+}
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Interrupted {}
 
 /// A handle to one output of a set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
