@@ -674,7 +674,11 @@ mod tests {
                 "safe_state_ms = 3600000",
                 "at most 60000 ms",
             ),
-            ("[timing]\nsafe_state_ms = 0\n", "safe_state_ms = 0", "at least 1 ms"),
+            (
+                "[timing]\nsafe_state_ms = 0\n",
+                "safe_state_ms = 0",
+                "at least 1 ms",
+            ),
             (
                 "[timing]\nwatchdog_ms = 100000000\n",
                 "watchdog_ms",

@@ -448,7 +448,16 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             station_name: station_name.clone(),
         },
         None,
-    )?;
+    )
+    .map_err(|e| match interrupt.signal() {
+        // Interrupted while the station was being opened: nothing was mounted.
+        Some(signal) => gonio_cli::output::Interrupted {
+            signal,
+            message: format!("before the station was open ({e})"),
+        }
+        .into(),
+        None => e,
+    })?;
     batch.set_interrupt(interrupt.clone());
     let recorder = start_recording(
         &a,

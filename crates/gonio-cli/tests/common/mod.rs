@@ -148,6 +148,15 @@ impl Drop for Guard {
     }
 }
 
+/// The rest of `child`'s standard error (piped and not taken yet), once it has exited.
+pub fn read_stderr(child: &mut Child) -> String {
+    let mut err = String::new();
+    if let Some(mut e) = child.stderr.take() {
+        let _ = e.read_to_string(&mut err);
+    }
+    err
+}
+
 /// The first line of `child`'s standard error that contains `marker`, within `limit`; the
 /// rest of its standard error is drained in the background (and kept for messages).
 pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -> String {
