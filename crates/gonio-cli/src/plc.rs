@@ -250,7 +250,7 @@ mod plc_camera {
         use gonio_plc::sim::StampedSource;
         use gonio_plc::triggered::DetectorTriggered;
         use gonio_station::tap::SeenFrame;
-        use gonio_vision::{FrameHeader, FrameSource, Optics};
+        use gonio_vision::{FrameHeader, FrameSource};
 
         /// A real camera's frames numbered by the camera's frame id (= the PLC's trigger count
         /// on a hardware trigger line).
@@ -318,7 +318,7 @@ mod plc_camera {
         /// Opens camera `id` for the recipe's window and exposure: the simulated station's
         /// camera when its PLC says it is simulated (`sim`), else a real one.
         pub fn open(id: &str, recipe: &Recipe, frame_timeout_ms: u64, sim: bool) -> Result<Camera> {
-            let optics = Optics::default();
+            let optics = recipe.optics();
             let config = CameraConfig {
                 window_size: (optics.window_width_px, optics.window_height_px),
                 exposure_us: Some(recipe.measure.exposure_s * 1e6),

@@ -31,6 +31,8 @@ pub struct Prepared {
     /// 0-based index of the first part to mount.
     pub first_part: usize,
     learned: Learned,
+    /// The focus drive's position the last stored part left it at, µm (a resumed batch).
+    carried_focus_um: Option<f64>,
     /// What `--resume` found (a line for the terminal).
     pub note: Option<String>,
 }
@@ -62,6 +64,7 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
             location: String::new(),
             first_part: 0,
             learned: Learned::default(),
+            carried_focus_um: None,
             note: None,
         })));
     };
@@ -81,6 +84,7 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
         location: loc.clone(),
         first_part: 0,
         learned: Learned::default(),
+        carried_focus_um: None,
         note: None,
     };
     if t.resume {
@@ -100,7 +104,7 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
                     info.batch, info.parts_stored, info.parts_planned
                 )));
             }
-            Resume::Found(w, info) => {
+            Resume::Found(mut w, info) => {
                 p.note = Some(format!(
                     "resuming batch {} in {loc} at part {} of {} ({} stored)",
                     info.batch,
@@ -110,6 +114,11 @@ pub fn prepare(cfg: &BatchConfig, seed: u64, t: &Target<'_>) -> Result<Start> {
                 ));
                 p.first_part = info.next_index();
                 p.learned = info.learned.unwrap_or_default();
+                // The focus the last stored part found: where the next part's focus check starts.
+                p.carried_focus_um = w
+                    .last_part()
+                    .map_err(|e| anyhow!("{loc}: {e}"))?
+                    .and_then(|part| part.focus_um);
                 p.writer = Some(*w);
             }
         }
@@ -150,6 +159,7 @@ pub fn run(
         location,
         first_part,
         learned,
+        carried_focus_um,
         ..
     } = p;
     let mut clock = writer.as_ref().map(BatchWriter::clock);
@@ -162,6 +172,7 @@ pub fn run(
     let opts = RunOptions {
         first_part,
         learned,
+        carried_focus_um,
         observer: Some(&mut both),
         pace: run.pace,
         // A shorter lifetime for the tap, as for the observers (a trait object's lifetime

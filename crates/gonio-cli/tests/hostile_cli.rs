@@ -659,10 +659,11 @@ fn messages_locate_and_hint() {
     refused(&gonio(&["shift-angle", s(&p)]), "decimal comma");
     // A recipe value the file does not set is named as a default, never at line 0.
     let r = d.path().join("r.toml");
-    std::fs::write(&r, "[measure]\nspeed_deg_per_s = 36000.0\n").unwrap();
+    // (A 540-row window: the camera's 100 fps, below the default 240 fps.)
+    std::fs::write(&r, "window_px = [1440, 540]\n").unwrap();
     let e = refused(
         &gonio(&["mount", "--sim", "--seed", "1", "--recipe", s(&r)]),
-        "r.toml",
+        "r.toml: measure.fps = 240 (the default",
     );
     assert!(!e.contains("line 0") && !e.contains(":0:0"), "{e}");
     // An error that would echo a megabyte stays one short line.

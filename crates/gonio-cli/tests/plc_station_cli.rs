@@ -573,8 +573,9 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
             batch["message"].as_str().unwrap().contains("batch done"),
             "{batch}"
         );
-        // The camera's frames, live: a thumbnail of the window (1440 × 540 px) reduced 4 × 4,
-        // with the ring's detected edges, at most every 200 ms while the part was mounted.
+        // The camera's frames, live: a thumbnail of the default recipe's window (1440 × 180 px)
+        // reduced 4 × 4, with the ring's detected edges, at most every 200 ms while the part
+        // was mounted.
         let image = at("image").expect("an image event");
         assert!(image < finished, "{names:?}");
         let images = names.iter().filter(|n| **n == "image").count();
@@ -582,7 +583,7 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
         let img = &events[image].1;
         assert_eq!(
             (img["width"].as_u64(), img["height"].as_u64()),
-            (Some(1440), Some(540))
+            (Some(1440), Some(180))
         );
         let png = |src: &serde_json::Value| {
             use base64::Engine as _;
@@ -596,14 +597,14 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
             let i = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).unwrap();
             (i.width(), i.height())
         };
-        assert_eq!(png(&img["src"]), (360, 135), "the window reduced 4 × 4");
+        assert_eq!(png(&img["src"]), (360, 45), "the window reduced 4 × 4");
         // A frame with the ring: its two edges, and the full-resolution strip around it.
         let ring = events
             .iter()
             .find(|(n, v)| n == "image" && v["edges_px"].as_array().is_some_and(|e| e.len() == 2))
             .map(|e| &e.1)
             .expect("a thumbnail with the ring's two edges");
-        assert_eq!(png(&ring["zoom_src"]), (360, 135), "{ring}");
+        assert_eq!(png(&ring["zoom_src"]), (360, 45), "{ring}");
         // Fewer thumbnails than 200 ms slots in the part.
         let part_s = f["time_s"].as_f64().unwrap();
         assert!(

@@ -87,8 +87,12 @@ fn a_recorded_part_replays_bit_identical_and_a_change_is_reported() {
     let r: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let rt = r[0]["turns"].as_array().unwrap();
     assert_eq!(rt.len(), turns.len());
-    for t in rt {
-        assert_eq!(t["frames"], 200);
+    // Every frame of every turn replayed: as many as the record's turn took (258 for the
+    // default recipe's full turn from rest, fewer for a 300° verify turn).
+    let taken = pj["record"]["turns"].as_array().unwrap();
+    assert_eq!(taken[0]["frames_taken"], 258);
+    for (t, r) in rt.iter().zip(taken) {
+        assert_eq!(t["frames"], r["frames_taken"]);
         assert_eq!(t["frames_differing"], 0);
         assert!(t["differences"].as_array().unwrap().is_empty());
     }

@@ -16,7 +16,6 @@ use gonio_station::record::TurnRecord;
 use gonio_station::replay::{CameraStamp, RecordedTurn};
 use gonio_station::tap::SeenFrame;
 use gonio_station::{PartRecord, Recipe, Strategy};
-use gonio_vision::Optics;
 use std::cell::RefCell;
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -300,7 +299,7 @@ impl State {
             software_version: self.plan.software_version.clone(),
             recipe: self.plan.recipe.clone(),
             strategy: self.plan.strategy,
-            optics: Optics::default(),
+            optics: self.plan.recipe.optics(),
             width,
             height,
             turns: p.turns.clone(),

@@ -116,6 +116,18 @@ impl<C: TriggeredCamera> Servo for PlcStation<C> {
             i.motion(Command::Turn, v, 0).map(|_| ())
         })
     }
+    fn begin_turn(&mut self, speed_deg_per_s: f64) -> Result<(), PlcError> {
+        // The turn command is not waited for: the frames of the ramp count (each has its
+        // latched angle); frames triggered before the PLC took it are stale.
+        step(self, |i| {
+            let v = i.link.map.speed_counts(speed_deg_per_s);
+            i.link.send(Command::Turn, v, 0)?;
+            let s = i.link.status()?;
+            i.link.check(&s, "turn")?;
+            i.fresh_after_s = s.time_s;
+            Ok(())
+        })
+    }
     fn stop(&mut self) -> Result<(), PlcError> {
         step(self, |i| i.motion(Command::StopServo, 0, 0).map(|_| ()))
     }

@@ -176,13 +176,15 @@ impl<C: TriggeredCamera> PlcStation<C> {
         }
     }
 
-    /// Tells the PLC the part is finished (it unloads it and loads the next).
+    /// Tells the PLC the part is finished (it unloads it and loads the next). Frames triggered
+    /// before the next part is on the shaft are stale (a part's focus check may start without a
+    /// move of its own).
     ///
     /// # Errors
     /// Link failures.
     pub fn part_done(&self) -> Result<(), PlcError> {
         let mut i = self.0.borrow_mut();
-        i.link.command(Command::PartDone, 0, 0)?;
+        i.motion(Command::PartDone, 0, 0)?;
         Ok(())
     }
 

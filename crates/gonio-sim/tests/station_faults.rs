@@ -34,7 +34,7 @@ fn ring_lost_before_the_first_turn_rejects() {
         assert_eq!(p.record.turns[1].kind, TurnKind::Remeasure);
         let why = p.record.reject_reason.as_deref().unwrap();
         assert!(
-            why.starts_with("turn 2 lost the ring: 0 of 200 frames valid"),
+            why.starts_with("turn 2 lost the ring: 0 of 258 frames valid"),
             "{why}"
         );
     }
@@ -132,7 +132,7 @@ fn max_pushes_rejects() {
 #[test]
 fn timeout_rejects() {
     let recipe = Recipe::from_toml(
-        "threshold_um = 0.05\ntimeout_s = 12.0\n[quality]\nmax_u_e_fraction = 1.0\n",
+        "threshold_um = 0.05\ntimeout_s = 9.0\n[quality]\nmax_u_e_fraction = 1.0\n",
     )
     .unwrap();
     let c = BatchConfig {
@@ -143,7 +143,8 @@ fn timeout_rejects() {
     let r = run_batch(&c, 3, &mut |_, _, _| {}).unwrap();
     for p in &r.parts {
         assert_eq!(p.record.result, PartResult::RejectedTimeout);
-        // Focus + measurement + one push cycle (14.8 s) passes the 12 s timeout.
+        // Focus + measurement + one push cycle (11.6 s in the default sequence, 1.9 s of it a
+        // focus sweep) passes the 9 s timeout.
         assert_eq!(p.record.pushes, 1);
     }
 }
@@ -192,7 +193,7 @@ fn device_error_ends_the_part_with_a_record_and_stops_the_batch() {
 
 #[test]
 fn device_error_mid_part_keeps_the_record_and_the_batch_can_go_on() {
-    // The camera's 250th call: after autofocus (19 frames) and the first turn (200 frames), in
+    // The camera's 300th call: after autofocus (19 frames) and the first turn (258 frames), in
     // the middle of the first verify turn of part 1 (when it needs a push) or in part 2.
     let recipe = Recipe {
         on_device_error: DeviceErrorPolicy::Continue,
@@ -201,7 +202,7 @@ fn device_error_mid_part_keeps_the_record_and_the_batch_can_go_on() {
     let c = BatchConfig {
         recipe,
         ..cfg(Faults {
-            device_error: Some((DeviceId::Camera, 250)),
+            device_error: Some((DeviceId::Camera, 300)),
             ..Faults::default()
         })
     };

@@ -270,14 +270,15 @@ fn a_ring_lost_mid_part_is_stored_and_the_batch_goes_on() {
     for p in hit {
         assert_eq!(p.result, "rejected_ring_lost", "{:?}", p.reject_reason);
         let why = p.reject_reason.as_deref().unwrap();
-        // The verify turn lost the ring, was measured again after a refocus, lost it again.
+        // The verify turn lost the ring, was measured again after a refocus (a full turn of
+        // 258 frames), lost it again.
         assert!(
-            why.starts_with("turn 3 lost the ring: 0 of 200 frames valid")
+            why.starts_with("turn 3 lost the ring: 0 of 258 frames valid")
                 && why.ends_with("(after 1 re-measurement(s))"),
             "{why}"
         );
         assert_eq!(p.turns.len(), 3);
-        assert!(p.turns[0].quality.is_some() && p.turns[0].valid_frames == 200);
+        assert!(p.turns[0].quality.is_some() && p.turns[0].valid_frames == 258);
         for t in &p.turns[1..] {
             assert_eq!(t.valid_frames, 0);
             assert!(t.quality.is_none(), "a lost turn is not judged");

@@ -13,6 +13,15 @@
 //!   otherwise pushing stops and the part ends `push_inconsistent` (unless the trusted verify
 //!   turn already finds it within the threshold: then it is accepted, the push flagged).
 //!
+//! The sequence saves time where the measurement allows it (`docs/station-timing.md`): the
+//! focus carried from the last part is checked with a few frames instead of swept
+//! (`focus.carry_from_last_part`, a full sweep when the check finds no peak); a turn's frames
+//! start with the servo's ramp (`measure.frames_from_rest`) and end when they span the turn's
+//! arc (a camera that misses triggers gives fewer frames, not a longer turn); a verify turn covers
+//! `measure.verify_turn_deg` with the ring's roundness carried from the part's full turn
+//! ([`crate::ring`]); and the servo goes from a turn straight to the push angle
+//! (`push.align_during_stop`).
+//!
 //! A part also ends accepted (e below the recipe's threshold; the live strategy pushes again
 //! while e is above `push.live_aim_fraction` of it and pushes and time remain) or rejected (max
 //! pushes, ring lost, focus failure, timeout). A device error ends the part `rejected_device_error` with its record
@@ -35,6 +44,7 @@ use crate::observe::{LiveFrame, NoObserver, Observer, Phase};
 pub use crate::record::{
     DeviceFault, PartRecord, PartResult, PhaseTimes, PushRecord, TurnKind, TurnRecord,
 };
+use crate::ring::RoundnessPrior;
 pub use crate::strategy::{Learned, Strategy};
 use crate::strategy::{LiveFeedback, PushOutcome, PushPlan, PushPrediction, e_vec_um};
 use crate::turn::evaluate_turn;
@@ -74,6 +84,9 @@ pub struct Controller {
     pub learned: Learned,
     /// Keep what was learned from one part for the next.
     pub carry_learning: bool,
+    /// The focus position the last part found (`None`: none yet, or its focus failed): the
+    /// next part's focus check starts there (`focus.carry_from_last_part`).
+    pub carried_focus_um: Option<f64>,
 }
 
 /// A fit whose turn passed the quality gate: the only kind the station pushes on.
@@ -109,6 +122,7 @@ impl Controller {
             strategy,
             learned: Learned::default(),
             carry_learning: true,
+            carried_focus_um: None,
         }
     }
 
@@ -208,6 +222,7 @@ impl Controller {
             }
             Err(other) => return Err(other),
         }
+        self.carried_focus_um = rec.focus_um;
         obs.part_finished(&rec);
         Ok(rec)
     }
@@ -229,7 +244,12 @@ impl Controller {
     {
         let t = now(d)?;
         obs.phase(Phase::Focus);
-        let focus = self.autofocus(d)?;
+        let carried = if self.recipe.focus.carry_from_last_part {
+            self.carried_focus_um
+        } else {
+            None
+        };
+        let focus = self.focus(d, rec, carried)?;
         rec.phase_times.focus_s += now(d)? - t;
         match focus {
             Some(z) => rec.focus_um = Some(z),
@@ -248,20 +268,29 @@ impl Controller {
             Strategy::Live => threshold * self.recipe.push.live_aim_fraction,
             _ => threshold,
         };
-        let mut current = match self.gated_turn(d, rec, t0, TurnKind::Initial, obs)? {
-            Gated::Trusted(f) => *f,
-            Gated::Rejected(r, why) => return Ok((r, Some(why))),
-        };
+        // Whether the servo still turns after a measuring turn (its stop joined to the align).
+        let mut turning = false;
+        let mut current =
+            match self.gated_turn(d, rec, t0, TurnKind::Initial, None, &mut turning, obs)? {
+                Gated::Trusted(f) => *f,
+                Gated::Rejected(r, why) => return Ok((r, Some(why))),
+            };
+        // The ring's roundness from the part's full turn, carried into its shorter verify turns
+        // (with the eccentricity it was fitted at: its chord).
+        let shorter = self.recipe.measure.verify_turn_deg < self.recipe.measure.turn_deg;
+        let mut ring = own_ring(&current).filter(|_| shorter);
         rec.initial_e_um = Some(current.0.e_px * um);
         rec.final_e_um = rec.initial_e_um;
         loop {
             let (e_um, theta_max) = (current.0.e_px * um, current.0.theta_max_deg);
             if e_um < aim {
+                self.stop_turn(d, rec, &mut turning)?;
                 return Ok((PartResult::Accepted, None));
             }
             // Between the aim and the threshold (live only), a part is accepted once the
             // pushes or the time are used up.
             if rec.pushes >= self.recipe.push.max_pushes {
+                self.stop_turn(d, rec, &mut turning)?;
                 if e_um < threshold {
                     return Ok((PartResult::Accepted, None));
                 }
@@ -275,6 +304,7 @@ impl Controller {
             }
             let elapsed = now(d)? - t0;
             if elapsed > self.recipe.timeout_s {
+                self.stop_turn(d, rec, &mut turning)?;
                 if e_um < threshold {
                     return Ok((PartResult::Accepted, None));
                 }
@@ -291,7 +321,7 @@ impl Controller {
                 .plan(e_um, theta_max, &self.learned, &self.recipe);
             let t = now(d)?;
             obs.phase(Phase::Push);
-            let pushed = self.push(d, &current, &plan, t - t0)?;
+            let pushed = self.push(d, &current, &plan, t - t0, &mut turning, rec)?;
             let push_duration = now(d)? - t;
             rec.phase_times.push_s += push_duration;
             let (mut push, prediction) = match pushed {
@@ -310,10 +340,27 @@ impl Controller {
             obs.push(&push);
             rec.pushes += 1;
             rec.push_log.push(push);
-            let next = match self.gated_turn(d, rec, t0, TurnKind::Verify, obs)? {
+            // The carried roundness with the chord of the eccentricity the push model expects.
+            let carried = ring.as_ref().map(|(r, e_px, theta)| {
+                let v = prediction.e_after_vec_um;
+                let to = (v[0].hypot(v[1]) / um, v[1].atan2(v[0]).to_degrees());
+                r.rechorded((*e_px, *theta), to, self.recipe.ring_radius_px())
+            });
+            let next = match self.gated_turn(
+                d,
+                rec,
+                t0,
+                TurnKind::Verify,
+                carried.as_ref(),
+                &mut turning,
+                obs,
+            )? {
                 Gated::Trusted(f) => *f,
                 Gated::Rejected(r, why) => return Ok((r, Some(why))),
             };
+            if let Some(r) = own_ring(&next).filter(|_| shorter) {
+                ring = Some(r);
+            }
             let after = e_vec_um(&next.0, um);
             let deviation = (after[0] - prediction.e_after_vec_um[0])
                 .hypot(after[1] - prediction.e_after_vec_um[1]);
@@ -325,6 +372,7 @@ impl Controller {
             last.deviation_um = Some(deviation);
             last.consistent = Some(consistent);
             if !consistent {
+                self.stop_turn(d, rec, &mut turning)?;
                 if e_after < threshold {
                     // The trusted verify turn finds the part centred: nothing left to push.
                     return Ok((PartResult::Accepted, None));
@@ -351,14 +399,40 @@ impl Controller {
         }
     }
 
+    /// Stops the servo if a measuring turn left it turning (the stop counts to the turn).
+    fn stop_turn<S, C, F, P, K>(
+        &self,
+        d: &mut Devices<S, C, F, P, K>,
+        rec: &mut PartRecord,
+        turning: &mut bool,
+    ) -> Result<(), StationError>
+    where
+        S: Servo,
+        K: Clock,
+    {
+        if *turning {
+            let t = now(d)?;
+            d.servo.stop().map_err(dev("servo"))?;
+            *turning = false;
+            rec.phase_times.measure_s += now(d)? - t;
+        }
+        Ok(())
+    }
+
     /// Measures a turn and judges it; a turn that fails the gate or loses the ring is measured
-    /// again (after a refocus) up to `quality.remeasure_turns` times.
+    /// again (after a refocus) up to `quality.remeasure_turns` times. The first attempt carries
+    /// `ring` (a verify turn over `measure.verify_turn_deg`); a re-measurement covers
+    /// `measure.turn_deg` and fits its own roundness. A trusted turn may leave the servo turning
+    /// (`turning`: `push.align_during_stop`); a rejected one leaves it stopped.
+    #[allow(clippy::too_many_arguments)]
     fn gated_turn<S, C, F, P, K>(
         &self,
         d: &mut Devices<S, C, F, P, K>,
         rec: &mut PartRecord,
         t0: f64,
         kind: TurnKind,
+        ring: Option<&RoundnessPrior>,
+        turning: &mut bool,
         obs: &mut dyn Observer,
     ) -> Result<Gated, StationError>
     where
@@ -370,14 +444,15 @@ impl Controller {
         let q = &self.recipe.quality;
         let mut attempt = 0;
         loop {
-            let k = if attempt == 0 {
-                kind
+            let (k, carried) = if attempt == 0 {
+                (kind, ring)
             } else {
-                TurnKind::Remeasure
+                (TurnKind::Remeasure, None)
             };
             let t = now(d)?;
             obs.phase(Phase::Measure(k));
-            let turn = self.measure(d, t0, k, rec.turns.len(), rec.focus_um, obs)?;
+            let turn = self.measure(d, t0, k, rec.turns.len(), rec.focus_um, carried, obs)?;
+            *turning = self.recipe.push.align_during_stop;
             rec.phase_times.measure_s += now(d)? - t;
             let n = rec.turns.len() + 1;
             let (failure, result) = match turn {
@@ -405,6 +480,7 @@ impl Controller {
                     (why, PartResult::RejectedRingLost)
                 }
             };
+            self.stop_turn(d, rec, turning)?;
             if attempt >= q.remeasure_turns {
                 let why = if attempt > 0 {
                     format!("{failure} (after {attempt} re-measurement(s))")
@@ -418,6 +494,7 @@ impl Controller {
             if q.refocus_before_remeasure {
                 let t = now(d)?;
                 obs.phase(Phase::Focus);
+                rec.focus_sweeps += 1;
                 let z = self.autofocus(d)?;
                 rec.phase_times.focus_s += now(d)? - t;
                 match z {
@@ -431,6 +508,102 @@ impl Controller {
                 }
             }
         }
+    }
+
+    /// The part's focus: a check around `start` (the last part's focus) when there is one, a
+    /// full sweep when there is none or the check finds no peak. `None` on focus failure.
+    fn focus<S, C, F, P, K>(
+        &self,
+        d: &mut Devices<S, C, F, P, K>,
+        rec: &mut PartRecord,
+        start: Option<f64>,
+    ) -> Result<Option<f64>, StationError>
+    where
+        C: Camera,
+        F: FocusDrive,
+    {
+        if let Some(z0) = start {
+            rec.focus_checks += 1;
+            if let Some(z) = self.focus_check(d, z0)? {
+                return Ok(Some(z));
+            }
+        }
+        rec.focus_sweeps += 1;
+        self.autofocus(d)
+    }
+
+    /// Focus check around `z0`: the focus measure at `z0` and `z0 ± focus.check_step_um`,
+    /// walking on toward the best while it is at an end (at most `focus.check_max_points`
+    /// positions), then the peak of the parabola through the log of the measure at the best and
+    /// its two neighbours (exact for the Gaussian focus curve the sweep assumes too). `None` (a
+    /// sweep follows) when the best stays at an end, or the best is below `focus.min_measure` or
+    /// below `focus.min_contrast` × the worst position's: the same tests of a peak as the sweep's.
+    fn focus_check<S, C, F, P, K>(
+        &self,
+        d: &mut Devices<S, C, F, P, K>,
+        z0: f64,
+    ) -> Result<Option<f64>, StationError>
+    where
+        C: Camera,
+        F: FocusDrive,
+    {
+        let fs = &self.recipe.focus;
+        let h = fs.check_step_um;
+        // (step index, focus measure), in index order.
+        let mut pts: std::collections::VecDeque<(i64, f64)> = std::collections::VecDeque::new();
+        let look = |d: &mut Devices<S, C, F, P, K>, k: i64| -> Result<f64, StationError> {
+            let z = z0 + k as f64 * h;
+            // The drive stays where the last part left it: no move to the start.
+            let there = k == 0
+                && (d.focus.position_um().map_err(dev("focus drive"))? - z).abs() < FOCUS_AT_UM;
+            if !there {
+                d.focus.move_to_um(z).map_err(dev("focus drive"))?;
+            }
+            let f = d.camera.capture().map_err(dev("camera"))?;
+            Ok(if f.focus_measure.is_finite() {
+                f.focus_measure
+            } else {
+                0.0
+            })
+        };
+        pts.push_back((0, look(d, 0)?));
+        pts.push_front((-1, look(d, -1)?));
+        pts.push_back((1, look(d, 1)?));
+        let best = |pts: &std::collections::VecDeque<(i64, f64)>| {
+            (0..pts.len()).fold(0, |b, i| if pts[i].1 > pts[b].1 { i } else { b })
+        };
+        while pts.len() < fs.check_max_points {
+            let b = best(&pts);
+            if b == 0 {
+                let k = pts[0].0 - 1;
+                pts.push_front((k, look(d, k)?));
+            } else if b == pts.len() - 1 {
+                let k = pts[b].0 + 1;
+                pts.push_back((k, look(d, k)?));
+            } else {
+                break;
+            }
+        }
+        let b = best(&pts);
+        let worst = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let m = pts[b].1;
+        if b == 0
+            || b == pts.len() - 1
+            || m < fs.min_measure
+            || m < fs.min_contrast * worst.max(1e-12)
+        {
+            return Ok(None);
+        }
+        let ln = |i: usize| pts[i].1.max(1e-12).ln();
+        let (ym, y0, yp) = (ln(b - 1), ln(b), ln(b + 1));
+        let curvature = ym - 2.0 * y0 + yp;
+        if !curvature.is_finite() || curvature >= 0.0 {
+            return Ok(None);
+        }
+        let t = (0.5 * (ym - yp) / curvature).clamp(-1.0, 1.0);
+        let z = z0 + (pts[b].0 as f64 + t) * h;
+        d.focus.move_to_um(z).map_err(dev("focus drive"))?;
+        Ok(Some(z))
     }
 
     /// Autofocus: one sweep, then a Gaussian peak fit (a parabola on the log of the focus
@@ -501,7 +674,9 @@ impl Controller {
         Ok(Some(z_star))
     }
 
-    /// One measuring turn, its fit and the quality gate's verdict.
+    /// One measuring turn over `measure.turn_deg`, or `measure.verify_turn_deg` with the ring's
+    /// roundness `carried`; its fit and the quality gate's verdict. The servo keeps turning
+    /// after the turn when `push.align_during_stop` (the caller stops it or aligns from it).
     #[allow(clippy::too_many_arguments)]
     fn measure<S, C, F, P, K>(
         &self,
@@ -510,6 +685,7 @@ impl Controller {
         kind: TurnKind,
         turn_index: usize,
         focus_um: Option<f64>,
+        carried: Option<&RoundnessPrior>,
         obs: &mut dyn Observer,
     ) -> Result<Turn, StationError>
     where
@@ -518,27 +694,53 @@ impl Controller {
         K: Clock,
     {
         let ms = &self.recipe.measure;
+        let arc = if carried.is_some() {
+            ms.verify_turn_deg
+        } else {
+            ms.turn_deg
+        };
         let t_start = now(d)?;
-        d.servo
-            .start_turn(ms.speed_deg_per_s)
-            .map_err(dev("servo"))?;
-        let n = self.recipe.frames_per_turn();
+        if ms.frames_from_rest {
+            d.servo.begin_turn(ms.speed_deg_per_s)
+        } else {
+            d.servo.start_turn(ms.speed_deg_per_s)
+        }
+        .map_err(dev("servo"))?;
+        let n = self.recipe.frames_for_arc(arc);
+        // The turn ends when its frames span the arc: after `n` frames from a camera that
+        // delivers every trigger, or at the n-th frame's time (to half a frame) from one that
+        // misses some. The quality gate judges the coverage and gaps of what it delivered.
+        let span_s = (n as f64 - 1.5) / ms.fps;
+        let mut first_s = None;
         let mut frames: Vec<CameraFrame> = Vec::with_capacity(n);
         for index in 0..n {
             let f = d.camera.capture().map_err(dev("camera"))?;
             let t_s = f.start_s + 0.5 * f.exposure_s - t_start;
+            let spanned = t_s - *first_s.get_or_insert(t_s) >= span_s;
             obs.frame(&LiveFrame {
                 turn: turn_index,
                 index,
                 frames: n,
                 t_s,
-                turn_deg: ms.speed_deg_per_s * t_s,
+                turn_deg: self.recipe.nominal_turn_deg(t_s),
                 c_px: f.c_px.filter(|c| c.is_finite()),
             });
             frames.push(f);
+            if spanned {
+                break;
+            }
         }
-        d.servo.stop().map_err(dev("servo"))?;
-        let log = d.servo.angle_log(t_start).map_err(dev("servo"))?;
+        if !self.recipe.push.align_during_stop {
+            d.servo.stop().map_err(dev("servo"))?;
+        }
+        // From rest, the first frame is taken as the servo starts: the log reaches back before
+        // it (the servo at rest), so that every frame's angle is interpolated, none cut off.
+        let since = if ms.frames_from_rest {
+            t_start - LOG_LEAD_S
+        } else {
+            t_start
+        };
+        let log = d.servo.angle_log(since).map_err(dev("servo"))?;
         obs.turn_inputs(&frames, &log);
         let (rec, fit) = evaluate_turn(
             &self.recipe,
@@ -548,6 +750,7 @@ impl Controller {
             t_start - t0,
             kind,
             focus_um,
+            carried,
         );
         obs.turn(&rec, fit.as_ref());
         Ok(match fit {
@@ -557,13 +760,17 @@ impl Controller {
     }
 
     /// Align, approach, push (open loop or under live feedback), retract; the push model's
-    /// prediction for the verify turn. `None` if the ring was lost during a live push.
+    /// prediction for the verify turn. `None` if the ring was lost during a live push. A servo
+    /// still `turning` from the measuring turn brakes into the align move. Each step's time
+    /// goes into `rec`'s phase times.
     fn push<S, C, F, P, K>(
         &self,
         d: &mut Devices<S, C, F, P, K>,
         cur: &Trusted,
         plan: &PushPlan,
         t_start_s: f64,
+        turning: &mut bool,
+        rec: &mut PartRecord,
     ) -> Result<Option<(PushRecord, PushPrediction)>, StationError>
     where
         S: Servo,
@@ -574,11 +781,23 @@ impl Controller {
         let cur = &cur.0;
         let um = self.recipe.um_per_px;
         let e_um = cur.e_px * um;
-        // Align: the nearest servo angle equivalent to the commanded direction.
+        let times = &mut rec.phase_times;
+        // Align: the servo angle equivalent to the commanded direction nearest to where the
+        // servo comes to rest (a turning servo brakes over v²/2a).
+        let t = now(d)?;
         let now_deg = d.servo.angle_deg().map_err(dev("servo"))?;
-        let target = now_deg + (plan.angle_deg - now_deg + 180.0).rem_euclid(360.0) - 180.0;
+        let rest_deg = if *turning {
+            let m = &self.recipe.measure;
+            now_deg + 0.5 * m.speed_deg_per_s * m.speed_deg_per_s / m.servo_accel_deg_per_s2
+        } else {
+            now_deg
+        };
+        let target = rest_deg + (plan.angle_deg - rest_deg + 180.0).rem_euclid(360.0) - 180.0;
         d.servo.move_to_deg(target).map_err(dev("servo"))?;
+        *turning = false;
+        let t = lap(d, t, &mut times.align_s)?;
         d.rod.approach(plan.approach).map_err(dev("push rod"))?;
+        let t = lap(d, t, &mut times.approach_s)?;
         let (commanded, steps, prediction, lost) = match plan.open_loop_um {
             Some(dd) => {
                 d.rod.push_um(dd).map_err(dev("push rod"))?;
@@ -618,7 +837,9 @@ impl Controller {
                 (fb.commanded_um, fb.steps, p, lost)
             }
         };
+        let t = lap(d, t, &mut times.stroke_s)?;
         d.rod.retract().map_err(dev("push rod"))?;
+        lap(d, t, &mut times.retract_s)?;
         if lost {
             return Ok(None);
         }
@@ -642,6 +863,33 @@ impl Controller {
             prediction,
         )))
     }
+}
+
+/// The roundness a trusted turn fitted for itself (not carried from an earlier one), with the
+/// eccentricity (px) and θ_max (degrees) it was fitted at: the prior of the part's later verify
+/// turns.
+fn own_ring(t: &Trusted) -> Option<(RoundnessPrior, f64, f64)> {
+    if t.0.carried_roundness {
+        None
+    } else {
+        t.0.ring.clone().map(|r| (r, t.0.e_px, t.0.theta_max_deg))
+    }
+}
+
+/// How far back before a turn from rest its angle log is read, s.
+const LOG_LEAD_S: f64 = 0.05;
+/// The focus drive counts as at a position within this, µm (well inside the depth of focus).
+const FOCUS_AT_UM: f64 = 1.0;
+
+/// Adds the time since `t` to `part` and returns the time now.
+fn lap<S, C, F, P, K: Clock>(
+    d: &mut Devices<S, C, F, P, K>,
+    t: f64,
+    part: &mut Option<f64>,
+) -> Result<f64, StationError> {
+    let n = now(d)?;
+    PhaseTimes::add(part, n - t);
+    Ok(n)
 }
 
 fn now<S, C, F, P, K: Clock>(d: &mut Devices<S, C, F, P, K>) -> Result<f64, StationError> {

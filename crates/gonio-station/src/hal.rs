@@ -50,10 +50,17 @@ pub trait Servo {
     type Error: DeviceError;
     /// The current angle, degrees (continuous: it keeps counting past 360°).
     fn angle_deg(&mut self) -> Result<f64, Self::Error>;
-    /// Moves to `target_deg` and waits until there.
+    /// Moves to `target_deg` and waits until there; called while turning, the servo brakes
+    /// into the move (one motion, no stop in between).
     fn move_to_deg(&mut self, target_deg: f64) -> Result<(), Self::Error>;
     /// Accelerates to a constant speed and keeps turning (returns once at speed).
     fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), Self::Error>;
+    /// Starts accelerating to a constant speed and returns at once, so that a measuring turn's
+    /// frames can be taken during the ramp (each frame's angle comes from the angle log). The
+    /// default waits until at speed, as [`Servo::start_turn`].
+    fn begin_turn(&mut self, speed_deg_per_s: f64) -> Result<(), Self::Error> {
+        self.start_turn(speed_deg_per_s)
+    }
     /// Stops turning (returns once stopped).
     fn stop(&mut self) -> Result<(), Self::Error>;
     /// The angle log from time `since_s` on.
@@ -136,6 +143,9 @@ impl<T: Servo + ?Sized> Servo for &mut T {
     }
     fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), Self::Error> {
         (**self).start_turn(speed_deg_per_s)
+    }
+    fn begin_turn(&mut self, speed_deg_per_s: f64) -> Result<(), Self::Error> {
+        (**self).begin_turn(speed_deg_per_s)
     }
     fn stop(&mut self) -> Result<(), Self::Error> {
         (**self).stop()

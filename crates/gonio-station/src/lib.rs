@@ -10,6 +10,7 @@
 //! - [`camera`]: [`DetectorCamera`], a frame source with the streaming detector behind it: the
 //!   station's camera, the one typed path from a frame to a push.
 //! - [`quality`]: the quality gate on every turn: may the station push on this measurement?
+//! - [`ring`]: the ring's roundness carried from a full turn to the part's later, shorter turns.
 //! - [`recipe`]: per-grating-type settings (TOML).
 //! - [`strategy`]: the push strategies, the live-feedback loop, the push model's prediction
 //!   and what is learned from each push.
@@ -42,6 +43,7 @@ pub mod quality;
 pub mod recipe;
 pub mod record;
 pub mod replay;
+pub mod ring;
 pub mod sample;
 pub mod spline;
 pub mod strategy;

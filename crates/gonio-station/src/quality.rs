@@ -16,8 +16,11 @@
 //! | `half_turns` | the second half-turn's steps (Δc₀, Δa, Δb), in σ | ≤ 4.6 σ |
 //!
 //! (acc: the detector's accuracy bound per valid frame, 0.1 px; σ: the station's per-frame noise,
-//! 0.3 px.) The gate judges the turn's data through the least-squares model whatever the fit
-//! method: the seed's extreme-point method has no residual model of its own.
+//! 0.3 px.) A turn fitted with the ring's roundness carried from a full turn of the same part
+//! ([`crate::ring`]) has its largest gap judged against 72° (coverage 80 %): there the carried
+//! roundness inflates u(e) by no more than a free roundness does at 45° (1.55× against 1.56×).
+//! The gate judges the turn's data through the least-squares model whatever the fit method: the
+//! seed's extreme-point method has no residual model of its own.
 //!
 //! ```
 //! use gonio_station::fit::{fit_judged, FitOptions, Sample};
@@ -51,6 +54,10 @@ pub const MAX_GAP_DEG: f64 = 45.0;
 pub const COVERAGE_SECTORS: usize = 36;
 /// The limit of the half-turn distance: √χ²₃ at a tail probability of 10⁻⁴.
 pub const HALF_TURN_Z: f64 = 4.6;
+/// The largest gap, degrees, of a turn fitted with the ring's roundness carried from a full turn
+/// of the same part: up to here u(e) is inflated by at most 1.55× against a full turn (the
+/// free-roundness limit [`MAX_GAP_DEG`] allows 1.56×; `docs/station-timing.md`).
+pub const MAX_GAP_CARRIED_DEG: f64 = 72.0;
 
 /// The recipe's quality settings (`[quality]`): the inputs of the derivation and, optionally,
 /// limits that override the derived ones.
@@ -67,6 +74,9 @@ pub struct QualitySettings {
     pub min_coverage: Option<f64>,
     /// Largest angle without a used frame, degrees.
     pub max_gap_deg: f64,
+    /// Largest angle without a used frame in a turn fitted with the ring's roundness carried
+    /// from a full turn of the part, degrees (its coverage limit follows: 1 − gap/360).
+    pub max_gap_carried_roundness_deg: f64,
     /// Smallest share of the frames taken that the fit used, 0–1.
     pub min_used_fraction: f64,
     /// Largest share of the fit's frames rejected as outliers, 0–1.
@@ -91,6 +101,7 @@ impl Default for QualitySettings {
             max_residual_rms_px: None,
             min_coverage: None,
             max_gap_deg: MAX_GAP_DEG,
+            max_gap_carried_roundness_deg: MAX_GAP_CARRIED_DEG,
             min_used_fraction: 0.75,
             max_outlier_fraction: 0.05,
             max_u_e_fraction: 0.05,
@@ -109,6 +120,8 @@ impl QualitySettings {
             max_residual_rms_px: self.max_residual_rms_px.unwrap_or(RESIDUAL_FACTOR * budget),
             min_coverage: self.min_coverage.unwrap_or(1.0 - self.max_gap_deg / 360.0),
             max_gap_deg: self.max_gap_deg,
+            min_coverage_carried: 1.0 - self.max_gap_carried_roundness_deg / 360.0,
+            max_gap_carried_deg: self.max_gap_carried_roundness_deg,
             min_used_fraction: self.min_used_fraction,
             max_outlier_fraction: self.max_outlier_fraction,
             max_u_e_um: self.max_u_e_fraction * threshold_um,
@@ -128,6 +141,10 @@ pub struct QualityLimits {
     pub min_coverage: f64,
     /// Largest angle without a used frame, degrees.
     pub max_gap_deg: f64,
+    /// Smallest coverage of a turn fitted with a carried roundness.
+    pub min_coverage_carried: f64,
+    /// Largest gap of a turn fitted with a carried roundness, degrees.
+    pub max_gap_carried_deg: f64,
     /// Smallest share of the frames taken that the fit used.
     pub min_used_fraction: f64,
     /// Largest share of the fit's frames rejected as outliers.
@@ -299,7 +316,9 @@ pub fn coverage(angles_deg: &[f64]) -> (f64, f64) {
     (share, gap)
 }
 
-/// Judges a turn from the least-squares evidence.
+/// Judges a turn from the least-squares evidence; `carried`: the fit took the ring's roundness
+/// from an earlier turn (the coverage limits for a carried roundness apply).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn judge(
     used: &[Sample],
     given: usize,
@@ -308,7 +327,13 @@ pub(crate) fn judge(
     u_e_px: Option<f64>,
     halves: Option<HalfTurns>,
     limits: &QualityLimits,
+    carried: bool,
 ) -> QualityVerdict {
+    let (min_coverage, max_gap) = if carried {
+        (limits.min_coverage_carried, limits.max_gap_carried_deg)
+    } else {
+        (limits.min_coverage, limits.max_gap_deg)
+    };
     let angles: Vec<f64> = used.iter().map(|s| s.theta_deg).collect();
     let (cov, gap) = coverage(&angles);
     let outliers = given - used.len();
@@ -338,16 +363,11 @@ pub(crate) fn judge(
             limits.max_residual_rms_px,
             le,
         ),
-        (
-            QualityCheck::Coverage,
-            det(m.coverage),
-            limits.min_coverage,
-            ge,
-        ),
+        (QualityCheck::Coverage, det(m.coverage), min_coverage, ge),
         (
             QualityCheck::LargestGap,
             det(m.largest_gap_deg),
-            limits.max_gap_deg,
+            max_gap,
             le,
         ),
         (

@@ -23,13 +23,17 @@ use serde::{Deserialize, Serialize};
 pub struct Recipe {
     /// The recipe's name (written into every part record).
     pub name: String,
-    /// Radius of the alignment ring, mm.
+    /// Radius of the alignment ring, mm: the detector's optics (`Recipe::optics`) and the chord
+    /// correction of a carried roundness ([`crate::ring`]).
     pub ring_radius_mm: f64,
     /// Width of the alignment ring, µm.
     pub ring_width_um: f64,
     /// Pixel scale on the grating, µm per px (seed: 4.5 µm pixels, 6× lens → 0.75).
     pub um_per_px: f64,
-    /// Processing window, px (width, height).
+    /// Processing window, px (width, height): the camera's window and the detector's, centred
+    /// on the sensor. Its height sets the camera's frame rate (`measure.camera_line_time_us`);
+    /// the ring crosses every row, so fewer rows cost the detector only its averaging
+    /// (`docs/station-timing.md`).
     pub window_px: [u32; 2],
     /// Accept the part when e is below this, µm.
     pub threshold_um: f64,
@@ -77,6 +81,23 @@ pub struct MeasureSettings {
     pub turn_deg: f64,
     /// Reject (ring lost) when fewer than this fraction of a turn's frames have a valid ring.
     pub min_valid_fraction: f64,
+    /// Angle covered by a verify turn, degrees, fitted with the ring's roundness carried from
+    /// the part's trusted turn of `turn_deg` (`docs/station-timing.md`); at least
+    /// 360° − `quality.max_gap_carried_roundness_deg` (a shorter turn fails the gate's largest
+    /// gap). A verify turn covers `turn_deg` when this is not shorter, or without a carried
+    /// roundness (the paper's fit), and so does a re-measurement.
+    pub verify_turn_deg: f64,
+    /// Take a turn's frames from the start of the servo's ramp (their angles come from the
+    /// angle log) instead of once it is at speed.
+    pub frames_from_rest: bool,
+    /// The servo's acceleration, °/s²: the ramp to `speed_deg_per_s` (the frames a turn from
+    /// rest needs).
+    pub servo_accel_deg_per_s2: f64,
+    /// The camera's line time, µs: a row-by-row readout gives at most
+    /// 1 / (line time · (window rows + blank lines)) frames per second.
+    pub camera_line_time_us: f64,
+    /// The camera's blanking between frames, in lines.
+    pub camera_blank_lines: u32,
 }
 
 /// Autofocus: one sweep, then a peak fit on the detector's focus measure.
@@ -93,6 +114,14 @@ pub struct FocusSettings {
     pub min_measure: f64,
     /// Focus failure when best/median of the sweep is below this (no peak).
     pub min_contrast: f64,
+    /// Start from the focus the last part of this controller found and check it with a few
+    /// frames around it ([`FocusSettings::check_step_um`]); a full sweep only when the check
+    /// finds no peak.
+    pub carry_from_last_part: bool,
+    /// Spacing of the check's positions, µm.
+    pub check_step_um: f64,
+    /// Most positions of one check (it walks toward the peak until the best is inside), ≥ 3.
+    pub check_max_points: usize,
 }
 
 /// Pushing.
@@ -143,6 +172,9 @@ pub struct PushSettings {
     pub verify_tolerance_um: f64,
     /// … plus this share of the predicted move.
     pub verify_tolerance_fraction: f64,
+    /// After a measuring turn that a push follows, move the servo to the push angle straight
+    /// from the turn (its stop and the align move in one motion) instead of stopping first.
+    pub align_during_stop: bool,
 }
 
 /// What the learning strategies learn from each push: the push gain and the angle offset
@@ -173,7 +205,7 @@ impl Default for Recipe {
             ring_radius_mm: 20.0,
             ring_width_um: 8.0,
             um_per_px: 0.75,
-            window_px: [1440, 540],
+            window_px: [1440, 180],
             threshold_um: 5.0,
             timeout_s: 150.0,
             measure: MeasureSettings::default(),
@@ -203,11 +235,20 @@ impl Default for LearnSettings {
 impl Default for MeasureSettings {
     fn default() -> Self {
         MeasureSettings {
-            speed_deg_per_s: 180.0,
-            fps: 100.0,
+            // 1.8° between frames, as the seed's 180°/s at 100 fps, at the frame rate a 180-row
+            // window allows (264 fps; `docs/station-timing.md`).
+            speed_deg_per_s: 432.0,
+            fps: 240.0,
             exposure_s: 0.5e-3,
             turn_deg: 360.0,
             min_valid_fraction: 0.5,
+            verify_turn_deg: 300.0,
+            frames_from_rest: true,
+            // The twin's servo: 0.2 s to the seed's 180°/s.
+            servo_accel_deg_per_s2: 900.0,
+            // The seed's 100 fps at its 540-row window: 10 ms = 580 lines of 17.24 µs.
+            camera_line_time_us: 17.24,
+            camera_blank_lines: 40,
         }
     }
 }
@@ -220,6 +261,9 @@ impl Default for FocusSettings {
             nominal_um: 0.0,
             min_measure: 1.0,
             min_contrast: 1.2,
+            carry_from_last_part: true,
+            check_step_um: 25.0,
+            check_max_points: 7,
         }
     }
 }
@@ -249,6 +293,7 @@ impl Default for PushSettings {
             live_min_step_um: 1.05,
             verify_tolerance_um: VERIFY_TOLERANCE_UM,
             verify_tolerance_fraction: VERIFY_TOLERANCE_FRACTION,
+            align_during_stop: true,
         }
     }
 }
@@ -361,6 +406,34 @@ impl Recipe {
         Ok(r)
     }
 
+    /// The sequence of the published station (Yu et al., 2024), for comparison: the seed's
+    /// 540-row window at 100 fps and 180°/s, every turn a full turn started at speed, a focus
+    /// sweep for every part, a stop before each align (`docs/station-timing.md`). Everything
+    /// else is the default.
+    pub fn published() -> Recipe {
+        let d = Recipe::default();
+        Recipe {
+            name: "published".into(),
+            window_px: [1440, 540],
+            measure: MeasureSettings {
+                speed_deg_per_s: 180.0,
+                fps: 100.0,
+                verify_turn_deg: d.measure.turn_deg,
+                frames_from_rest: false,
+                ..d.measure
+            },
+            focus: FocusSettings {
+                carry_from_last_part: false,
+                ..d.focus
+            },
+            push: PushSettings {
+                align_during_stop: false,
+                ..d.push
+            },
+            ..d
+        }
+    }
+
     /// Writes the recipe as TOML.
     pub fn to_toml(&self) -> String {
         toml::to_string(self).unwrap_or_default()
@@ -404,13 +477,19 @@ impl Recipe {
             return Err(bad("measure.turn_deg", m.turn_deg, "at most 720°"));
         }
         unit("measure.min_valid_fraction", m.min_valid_fraction)?;
+        self.validate_timing()?;
         // Sizes: each of these counts allocates or loops per part (limits far above real use).
-        let turn_frames = m.turn_deg / m.speed_deg_per_s * m.fps;
+        let turn_frames = m.turn_deg.max(m.verify_turn_deg) / m.speed_deg_per_s * m.fps
+            + if m.frames_from_rest {
+                0.5 * m.speed_deg_per_s / m.servo_accel_deg_per_s2 * m.fps
+            } else {
+                0.0
+            };
         if turn_frames.is_nan() || turn_frames > MAX_FRAMES_PER_TURN as f64 {
             return Err(bad(
                 "measure.fps",
                 m.fps,
-                "at most 100000 frames per turn (turn_deg / speed_deg_per_s · fps)",
+                "at most 100000 frames per turn (turn_deg / speed_deg_per_s · fps, and the ramp's)",
             ));
         }
         for (key, v, max) in [
@@ -445,6 +524,21 @@ impl Recipe {
             return Err(bad("focus.steps", f.steps, "at least 5"));
         }
         finite("focus.nominal_um", f.nominal_um)?;
+        if !(f.check_step_um.is_finite() && f.check_step_um > 0.0 && f.check_step_um <= f.range_um)
+        {
+            return Err(bad(
+                "focus.check_step_um",
+                f.check_step_um,
+                &format!("above 0, at most focus.range_um ({} µm)", f.range_um),
+            ));
+        }
+        if !(3..=1000).contains(&f.check_max_points) {
+            return Err(bad(
+                "focus.check_max_points",
+                f.check_max_points,
+                "from 3 to 1000",
+            ));
+        }
         non_neg("focus.min_measure", f.min_measure)?;
         pos("focus.min_contrast", f.min_contrast)?;
         pos("push.max_push_um", p.max_push_um)?;
@@ -695,14 +789,142 @@ impl Recipe {
         Ok(())
     }
 
+    /// The sequence's timing settings: the verify turn, the servo's ramp, the camera's frame
+    /// rate against its window; each bound named in its error.
+    fn validate_timing(&self) -> Result<(), StationError> {
+        let m = &self.measure;
+        let gap = self.quality.max_gap_carried_roundness_deg;
+        if !(gap > 0.0 && gap <= 360.0) {
+            return Err(bad(
+                "quality.max_gap_carried_roundness_deg",
+                gap,
+                "above 0°, at most 360°",
+            ));
+        }
+        let shortest = 360.0 - gap;
+        if !(m.verify_turn_deg.is_finite()
+            && m.verify_turn_deg > shortest
+            && m.verify_turn_deg <= 720.0)
+        {
+            return Err(bad(
+                "measure.verify_turn_deg",
+                m.verify_turn_deg,
+                &format!(
+                    "above {shortest}° (360° − quality.max_gap_carried_roundness_deg: a shorter verify turn fails the quality gate's largest gap), at most 720°"
+                ),
+            ));
+        }
+        if !(m.servo_accel_deg_per_s2.is_finite()
+            && m.servo_accel_deg_per_s2 >= 1.0
+            && m.servo_accel_deg_per_s2 <= 1.0e6)
+        {
+            return Err(bad(
+                "measure.servo_accel_deg_per_s2",
+                m.servo_accel_deg_per_s2,
+                "from 1 to 1000000 °/s²",
+            ));
+        }
+        if !(m.camera_line_time_us.is_finite()
+            && m.camera_line_time_us > 0.0
+            && m.camera_line_time_us <= 1000.0)
+        {
+            return Err(bad(
+                "measure.camera_line_time_us",
+                m.camera_line_time_us,
+                "above 0, at most 1000 µs",
+            ));
+        }
+        if m.camera_blank_lines > 100_000 {
+            return Err(bad(
+                "measure.camera_blank_lines",
+                m.camera_blank_lines,
+                "at most 100000 lines",
+            ));
+        }
+        let max_fps = self.camera_max_fps();
+        if m.fps > max_fps * (1.0 + 1e-9) {
+            return Err(bad(
+                "measure.fps",
+                m.fps,
+                &format!(
+                    "at most {max_fps:.1} fps, the camera's frame rate for a {}-row window (1 / (measure.camera_line_time_us · (window_px[1] + measure.camera_blank_lines)))",
+                    self.window_px[1]
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The detector's optics for this recipe: the seed station's (`Optics::default()`) with the
+    /// recipe's processing window (`window_px`, centred on the sensor) and ring radius.
+    pub fn optics(&self) -> gonio_vision::Optics {
+        gonio_vision::Optics {
+            window_width_px: self.window_px[0],
+            window_height_px: self.window_px[1],
+            ring_radius_um: self.ring_radius_mm * 1000.0,
+            ..gonio_vision::Optics::default()
+        }
+    }
+
+    /// The ring's radius in pixels (`ring_radius_mm` at `um_per_px`).
+    pub fn ring_radius_px(&self) -> f64 {
+        self.ring_radius_mm * 1000.0 / self.um_per_px
+    }
+
+    /// The camera's highest frame rate for the recipe's window height, frames per second:
+    /// 1 / (`measure.camera_line_time_us` · (`window_px[1]` + `measure.camera_blank_lines`)).
+    /// The seed's camera: 100 fps at 540 rows, 187 fps at 270, 263.7 fps at 180.
+    pub fn camera_max_fps(&self) -> f64 {
+        let m = &self.measure;
+        let lines = f64::from(self.window_px[1]) + f64::from(m.camera_blank_lines);
+        1.0e6 / (m.camera_line_time_us * lines)
+    }
+
+    /// Frames a turn over `arc_deg` takes: at the measuring speed, from the start of the servo's
+    /// ramp when `measure.frames_from_rest` (the ramp at `measure.servo_accel_deg_per_s2`
+    /// covers v²/2a at half the speed).
+    pub fn frames_for_arc(&self, arc_deg: f64) -> usize {
+        let m = &self.measure;
+        let v = m.speed_deg_per_s;
+        let t = if m.frames_from_rest {
+            let ramp_s = v / m.servo_accel_deg_per_s2;
+            let ramp_deg = 0.5 * v * ramp_s;
+            if arc_deg <= ramp_deg {
+                (2.0 * arc_deg / m.servo_accel_deg_per_s2).sqrt()
+            } else {
+                ramp_s + (arc_deg - ramp_deg) / v
+            }
+        } else {
+            arc_deg / v
+        };
+        (t * m.fps).round() as usize
+    }
+
+    /// The nominal angle a turn has covered `t_s` after it started, degrees: from rest up the
+    /// ramp when `measure.frames_from_rest`, else at the measuring speed.
+    pub fn nominal_turn_deg(&self, t_s: f64) -> f64 {
+        let m = &self.measure;
+        let v = m.speed_deg_per_s;
+        if !m.frames_from_rest {
+            return v * t_s;
+        }
+        let ramp_s = v / m.servo_accel_deg_per_s2;
+        let t = t_s.max(0.0);
+        if t < ramp_s {
+            0.5 * m.servo_accel_deg_per_s2 * t * t
+        } else {
+            0.5 * v * ramp_s + v * (t - ramp_s)
+        }
+    }
+
     /// The quality gate's limits for this recipe (derived defaults unless overridden).
     pub fn quality_limits(&self) -> QualityLimits {
         self.quality.limits(self.threshold_um, self.um_per_px)
     }
 
-    /// Frames in one measuring turn.
+    /// Frames in one measuring turn of `measure.turn_deg`.
     pub fn frames_per_turn(&self) -> usize {
-        (self.measure.turn_deg / self.measure.speed_deg_per_s * self.measure.fps).round() as usize
+        self.frames_for_arc(self.measure.turn_deg)
     }
 }
 
@@ -752,6 +974,33 @@ mod tests {
                 2,
             ),
             ("[push]\nlive_stall_um = 1e300\n", "push.live_stall_um", 2),
+            (
+                "[measure]\nverify_turn_deg = 280.0\n",
+                "measure.verify_turn_deg",
+                2,
+            ),
+            ("[measure]\nfps = 300.0\n", "measure.fps", 2),
+            (
+                "[measure]\nservo_accel_deg_per_s2 = 0.0\n",
+                "measure.servo_accel_deg_per_s2",
+                2,
+            ),
+            (
+                "[measure]\ncamera_line_time_us = -1.0\n",
+                "measure.camera_line_time_us",
+                2,
+            ),
+            ("[focus]\ncheck_step_um = 400.0\n", "focus.check_step_um", 2),
+            (
+                "[focus]\ncheck_max_points = 2\n",
+                "focus.check_max_points",
+                2,
+            ),
+            (
+                "[quality]\nmax_gap_carried_roundness_deg = 400.0\n",
+                "quality.max_gap_carried_roundness_deg",
+                2,
+            ),
         ] {
             match Recipe::from_toml(text).unwrap_err() {
                 StationError::RecipeValue {
@@ -770,12 +1019,37 @@ mod tests {
             e.to_string(),
             "line 2, column 1: fit.huber_k = 0: expected a finite number > 0"
         );
+        // The camera's frame rate for the window, the bound named in the error.
+        let e = Recipe::from_toml("window_px = [1440, 540]\n[measure]\nfps = 240.0\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "line 3, column 1: measure.fps = 240: expected at most 100.0 fps, the camera's frame rate for a 540-row window (1 / (measure.camera_line_time_us · (window_px[1] + measure.camera_blank_lines)))"
+        );
+        let e = Recipe::from_toml("[measure]\nverify_turn_deg = 200.0\n").unwrap_err();
+        assert!(e.to_string().contains("above 288°"), "{e}");
     }
 
     #[test]
     fn round_trips_and_defaults() {
         let r = Recipe::default();
         assert_eq!(Recipe::from_toml(&r.to_toml()).unwrap(), r);
-        assert_eq!(r.frames_per_turn(), 200);
+        // From rest: the 0.48 s ramp to 432°/s covers 103.68° in 115 frames, the remaining
+        // 256.32° take 142.4 frames at 240 fps (1.8° apart).
+        assert_eq!(r.frames_per_turn(), 258);
+        assert_eq!(r.frames_for_arc(r.measure.verify_turn_deg), 224);
+        let constant = Recipe {
+            measure: MeasureSettings {
+                frames_from_rest: false,
+                ..r.measure.clone()
+            },
+            ..r.clone()
+        };
+        assert_eq!(constant.frames_per_turn(), 200);
+        assert!((r.camera_max_fps() - 263.7).abs() < 0.05);
+        let seed = Recipe {
+            window_px: [1440, 540],
+            ..r
+        };
+        assert!((seed.camera_max_fps() - 100.0).abs() < 0.01);
     }
 }

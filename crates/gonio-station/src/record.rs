@@ -6,6 +6,7 @@
 use crate::StationError;
 use crate::hal::{ApproachSpeed, DeviceErrorKind};
 use crate::quality::QualityVerdict;
+use crate::ring::RoundnessPrior;
 use crate::sample::Sample;
 use serde::{Deserialize, Serialize};
 
@@ -95,6 +96,10 @@ pub struct TurnRecord {
     pub focus_um: Option<f64>,
     /// The quality gate's verdict (`None` when the ring was lost and nothing was fitted).
     pub quality: Option<QualityVerdict>,
+    /// The ring's roundness this turn's fit carried from the part's earlier full turn (a verify
+    /// turn over part of a revolution); `None`: the turn fitted its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub carried_roundness: Option<RoundnessPrior>,
 }
 
 /// One push.
@@ -135,14 +140,37 @@ pub struct PushRecord {
 }
 
 /// Time spent in each phase of a part, s.
+///
+/// `push_s` is the push cycles' align, approach, push and retract, each also given on its own
+/// (`None`, JSON `null`: not recorded, in records older than the fields). An align straight
+/// from a measuring turn includes the servo's braking.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhaseTimes {
-    /// Autofocus (including refocusing before a re-measurement).
+    /// Autofocus (including refocusing before a re-measurement): checks and sweeps.
     pub focus_s: f64,
     /// Measuring turns, fits included.
     pub measure_s: f64,
     /// Align, approach, push and retract.
     pub push_s: f64,
+    /// Of `push_s`: turning the part to the push angle.
+    #[serde(default)]
+    pub align_s: Option<f64>,
+    /// Of `push_s`: the rod's approach to contact.
+    #[serde(default)]
+    pub approach_s: Option<f64>,
+    /// Of `push_s`: the push itself (every feedback step).
+    #[serde(default)]
+    pub stroke_s: Option<f64>,
+    /// Of `push_s`: the rod's retract.
+    #[serde(default)]
+    pub retract_s: Option<f64>,
+}
+
+impl PhaseTimes {
+    /// Adds `dt_s` to one of the optional parts of the push phase (a `None` becomes `dt_s`).
+    pub fn add(part: &mut Option<f64>, dt_s: f64) {
+        *part = Some(part.unwrap_or(0.0) + dt_s);
+    }
 }
 
 /// The device error that ended a part.
@@ -181,6 +209,12 @@ pub struct PartRecord {
     pub remeasured_turns: u32,
     /// Focus position found last, µm (`None`, JSON `null`: autofocus failed).
     pub focus_um: Option<f64>,
+    /// Focus checks around the focus carried from the last part (`focus.carry_from_last_part`).
+    #[serde(default)]
+    pub focus_checks: u32,
+    /// Full focus sweeps (the first part, a check that found no peak, a refocus).
+    #[serde(default)]
+    pub focus_sweeps: u32,
     /// Every measuring turn, re-measurements included.
     pub turns: Vec<TurnRecord>,
     /// Every push.
@@ -206,6 +240,8 @@ impl PartRecord {
             reject_reason: None,
             remeasured_turns: 0,
             focus_um: None,
+            focus_checks: 0,
+            focus_sweeps: 0,
             turns: Vec::new(),
             push_log: Vec::new(),
             phase_times: PhaseTimes::default(),

@@ -40,7 +40,7 @@
 //! let log: Vec<AngleSample> =
 //!     (0..=2002).map(|k| AngleSample { t_s: k as f64 * 1e-3, theta_deg: 0.18 * k as f64 }).collect();
 //! let (stored, _) =
-//!     evaluate_turn(&r, Strategy::Learned, &frames, log.clone(), 0.0, TurnKind::Initial, Some(0.0));
+//!     evaluate_turn(&r, Strategy::Learned, &frames, log.clone(), 0.0, TurnKind::Initial, Some(0.0), None);
 //! let rec = RecordedTurn { t_start_s: 0.0, kind: TurnKind::Initial, focus_um: Some(0.0),
 //!                          frames: frames.clone(), log, camera: Vec::new() };
 //! let out = replay_turn(&mut Again(frames.into_iter()), &r, Strategy::Learned, &rec, &stored).unwrap();
@@ -200,6 +200,7 @@ pub fn replay_turn<C: Camera>(
         rec.t_start_s,
         rec.kind,
         rec.focus_um,
+        stored.carried_roundness.as_ref(),
     );
     diffs.extend(compare_turns(stored, &turn));
     Ok(TurnReplay {

@@ -25,7 +25,8 @@
 //!     })
 //!     .collect();
 //! let log = (0..=2002).map(|k| AngleSample { t_s: k as f64 * 1e-3, theta_deg: 0.18 * k as f64 }).collect();
-//! let (turn, fit) = evaluate_turn(&r, Strategy::Learned, &frames, log, 0.0, TurnKind::Initial, Some(0.0));
+//! let (turn, fit) =
+//!     evaluate_turn(&r, Strategy::Learned, &frames, log, 0.0, TurnKind::Initial, Some(0.0), None);
 //! assert_eq!(turn.samples.len(), 200);
 //! let e = turn.e_um.unwrap();
 //! assert!((e - 30.0).abs() < 0.1, "{e}");
@@ -33,11 +34,12 @@
 //! ```
 
 use crate::Strategy;
-use crate::fit::{EccentricityFit, FitOptions, Sample, fit_judged};
+use crate::fit::{EccentricityFit, FitOptions, Sample, fit_judged_with};
 use crate::hal::CameraFrame;
 use crate::interval::{AngleLog, AngleSample};
 use crate::recipe::Recipe;
 use crate::record::{TurnKind, TurnRecord};
+use crate::ring::RoundnessPrior;
 
 /// The fit options of a strategy under a recipe: the recipe's settings with the strategy's
 /// method.
@@ -52,9 +54,12 @@ pub fn fit_options(recipe: &Recipe, strategy: Strategy) -> FitOptions {
 /// strategy stamps), keeps angles strictly increasing, fits and judges the turn.
 ///
 /// `t_start_s` is the turn's start relative to the part's start, `focus_um` the focus position
-/// during the turn (`None` when autofocus never succeeded). Returns the turn's record and, when the ring was found in enough frames
-/// (the recipe's `measure.min_valid_fraction`) and the fit succeeded, the fit; `None` means
-/// the ring was lost.
+/// during the turn (`None` when autofocus never succeeded), `carried` the ring's roundness from
+/// the part's earlier full turn when this turn covers part of a revolution
+/// ([`crate::fit::fit_judged_with`]). Returns the turn's record and, when the ring was found
+/// in enough frames (the recipe's `measure.min_valid_fraction`) and the fit succeeded, the fit;
+/// `None` means the ring was lost.
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate_turn(
     recipe: &Recipe,
     strategy: Strategy,
@@ -63,6 +68,7 @@ pub fn evaluate_turn(
     t_start_s: f64,
     kind: TurnKind,
     focus_um: Option<f64>,
+    carried: Option<&RoundnessPrior>,
 ) -> (TurnRecord, Option<EccentricityFit>) {
     let n = frames.len();
     let mut rec = TurnRecord {
@@ -79,6 +85,7 @@ pub fn evaluate_turn(
         outliers: 0,
         focus_um,
         quality: None,
+        carried_roundness: carried.cloned(),
     };
     let Ok(log) = AngleLog::new(log) else {
         rec.invalid_frames = n;
@@ -111,7 +118,13 @@ pub fn evaluate_turn(
         return (rec, None);
     }
     let limits = recipe.quality_limits();
-    match fit_judged(&rec.samples, n, &fit_options(recipe, strategy), &limits) {
+    match fit_judged_with(
+        &rec.samples,
+        n,
+        &fit_options(recipe, strategy),
+        &limits,
+        carried,
+    ) {
         Ok(f) => {
             let um = recipe.um_per_px;
             rec.e_um = Some(f.e_px * um);

@@ -178,23 +178,57 @@ fn u_e_is_judged_against_the_threshold() {
 /// The standard uncertainty of the eccentricity coefficients (worst direction) over a turn at
 /// 1.8° steps with a contiguous gap, relative to a full turn, with the roundness harmonics 2–4
 /// free (no prior).
+/// The normal matrix XᵀX (per unit noise) of c₀, the first harmonic and roundness orders 2–4
+/// over 360° − `gap` at 1.8° steps.
+fn normal_matrix(gap: f64) -> DMatrix<f64> {
+    let n = ((360.0 - gap) / 1.8).round() as usize;
+    let x = DMatrix::from_fn(n, 9, |i, j| {
+        let t = (1.8 * i as f64).to_radians();
+        let k = (j as f64 + 1.0).div_euclid(2.0);
+        match j {
+            0 => 1.0,
+            _ if j % 2 == 1 => (k * t).cos(),
+            _ => (k * t).sin(),
+        }
+    });
+    x.transpose() * &x
+}
+
+/// u(e) in its worst direction, per unit noise, from a normal matrix.
+fn u_e(a: DMatrix<f64>) -> f64 {
+    let inv = a.try_inverse().unwrap();
+    let ab = inv.view((1, 1), (2, 2)).into_owned();
+    ab.symmetric_eigen().eigenvalues.max().sqrt()
+}
+
 fn gap_inflation(gap_deg: f64) -> f64 {
-    let u = |gap: f64| {
-        let n = ((360.0 - gap) / 1.8).round() as usize;
-        let x = DMatrix::from_fn(n, 9, |i, j| {
-            let t = (1.8 * i as f64).to_radians();
-            let k = (j as f64 + 1.0).div_euclid(2.0);
-            match j {
-                0 => 1.0,
-                _ if j % 2 == 1 => (k * t).cos(),
-                _ => (k * t).sin(),
-            }
-        });
-        let inv = (x.transpose() * &x).try_inverse().unwrap();
-        let ab = inv.view((1, 1), (2, 2)).into_owned();
-        ab.symmetric_eigen().eigenvalues.max().sqrt()
-    };
-    u(gap_deg) / u(0.0)
+    u_e(normal_matrix(gap_deg)) / u_e(normal_matrix(0.0))
+}
+
+/// As [`gap_inflation`], with the roundness carried from a full turn (each coefficient's prior
+/// variance that turn's posterior variance).
+fn carried_gap_inflation(gap_deg: f64) -> f64 {
+    let full = normal_matrix(0.0).try_inverse().unwrap();
+    let mut a = normal_matrix(gap_deg);
+    for j in 3..9 {
+        a[(j, j)] += 1.0 / full[(j, j)];
+    }
+    u_e(a) / u_e(normal_matrix(0.0))
+}
+
+#[test]
+fn the_carried_gap_limit_follows_from_its_derivation() {
+    // docs/quality-gates.md: with the ring's roundness carried from a full turn of the part, a
+    // gap of 72° inflates u(e) by 1.55×, no more than a free roundness at 45° (1.56×); 80°
+    // would exceed it. A 90° gap (a 270° arc) gives 1.76×, its own roundness 6.8×.
+    let l = QualityLimits::default();
+    assert_eq!(l.max_gap_carried_deg, 72.0);
+    assert!((l.min_coverage_carried - 0.8).abs() < 1e-12);
+    let at = carried_gap_inflation(72.0);
+    assert!(at <= gap_inflation(45.0) && at > 1.5, "{at}");
+    assert!(carried_gap_inflation(80.0) > gap_inflation(45.0));
+    assert!((1.7..1.8).contains(&carried_gap_inflation(90.0)));
+    assert!(gap_inflation(90.0) > 6.0);
 }
 
 #[test]

@@ -22,9 +22,17 @@ fn standard_recipe_is_the_default() {
 }
 
 #[test]
+fn published_sequence_recipe_is_recipe_published() {
+    let r = Recipe::from_toml(&example("published-sequence.toml")).unwrap();
+    assert_eq!(r, Recipe::published());
+    assert_eq!(r.frames_per_turn(), 200);
+}
+
+#[test]
 fn fine_recipe_parses() {
     let r = Recipe::from_toml(&example("r25-fine.toml")).unwrap();
-    assert_eq!(r.frames_per_turn(), 300);
+    // 3 s at 120°/s and 100 fps; from rest, the 0.133 s ramp covers 8° in 13 frames.
+    assert_eq!(r.frames_per_turn(), 307);
     assert_eq!(r.push.max_pushes, 6);
     assert_eq!(r.threshold_um, 3.0);
 }

@@ -30,6 +30,11 @@ pub const MIGRATIONS: &[Migration] = &[
         name: "parts_simulated",
         sql: include_str!("../migrations/0002_parts_simulated.sql"),
     },
+    Migration {
+        version: 3,
+        name: "push_phase_times",
+        sql: include_str!("../migrations/0003_push_phase_times.sql"),
+    },
 ];
 
 /// The schema version this software writes.

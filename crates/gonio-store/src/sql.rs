@@ -184,7 +184,8 @@ const PART_COLS: &str = concat!(
     summary_cols!(),
     ", recipe_hash, software_version, focus_um, focus_s, measure_s, push_s, device, \
      device_error_kind, device_error_message, learned_gain, learned_offset_deg, \
-     learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um"
+     learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um, \
+     align_s, approach_s, stroke_s, retract_s"
 );
 
 const TURN_COLS: &str = "part_id, turn_index, kind, t_start_s, frames_taken, valid_frames, \
@@ -247,6 +248,10 @@ fn part_row(v: &[Value]) -> Result<StoredPart, StoreError> {
             focus_s: r.real(21),
             measure_s: r.real(22),
             push_s: r.real(23),
+            align_s: r.opt_real(33),
+            approach_s: r.opt_real(34),
+            stroke_s: r.opt_real(35),
+            retract_s: r.opt_real(36),
         },
         device_error,
         turns: Vec::new(),
@@ -528,6 +533,10 @@ fn insert_part_in(db: &mut dyn Backend, p: &NewPart<'_>) -> Result<i64, StoreErr
         p.truth.map(|t| t.0).into(),
         p.truth.map(|t| t.1).into(),
         p.simulated.into(),
+        rec.phase_times.align_s.into(),
+        rec.phase_times.approach_s.into(),
+        rec.phase_times.stroke_s.into(),
+        rec.phase_times.retract_s.into(),
     ];
     let placeholders: Vec<String> = (1..=params.len()).map(|i| format!("${i}")).collect();
     let cols = "batch_id, batch_index, station, serial, recipe_name, recipe_hash, strategy, \
@@ -535,7 +544,7 @@ fn insert_part_in(db: &mut dyn Backend, p: &NewPart<'_>) -> Result<i64, StoreErr
         verdict, reject_reason, remeasured_turns, focus_um, focus_s, measure_s, push_s, device, \
         device_error_kind, device_error_message, learned_gain, learned_offset_deg, \
         learned_gain_observations, learned_offset_observations, true_initial_e_um, true_final_e_um, \
-        simulated";
+        simulated, align_s, approach_s, stroke_s, retract_s";
     let id = db
         .query(
             &format!(

@@ -22,7 +22,7 @@
 //! assert!(id > 0);
 //! ```
 
-use crate::{BatchInfo, BatchStatus, NewBatch, NewPart, Store, StoreError};
+use crate::{BatchInfo, BatchStatus, NewBatch, NewPart, PartQuery, Store, StoreError, StoredPart};
 use gonio_station::observe::Observer;
 use gonio_station::strategy::Learned;
 use gonio_station::{PartRecord, Recipe};
@@ -140,6 +140,20 @@ impl BatchWriter {
             simulated: spec.simulated,
             started_at: Arc::new(Mutex::new(crate::time::now_utc())),
         }
+    }
+
+    /// The batch's most recently stored part (`None`: none stored yet): where a resumed batch
+    /// takes its carried state from (the focus the last part found, say).
+    ///
+    /// # Errors
+    /// The store cannot be read.
+    pub fn last_part(&mut self) -> Result<Option<StoredPart>, StoreError> {
+        let q = PartQuery {
+            batch: Some(self.batch),
+            limit: Some(1),
+            ..PartQuery::default()
+        };
+        Ok(self.store.parts(&q)?.pop())
     }
 
     /// The observer that notes when each part starts (until one does: when the batch was

@@ -151,6 +151,33 @@ function drawPushes() {
   });
 }
 
+// The last finished part's time by phase (the finished event's phase_times).
+function drawTimes(t) {
+  const body = $('times').tBodies[0];
+  clear(body);
+  if (!t) return;
+  $('times-note').textContent = `of ${t.serial}: ${fmt(t.time_s, 1)} s, ${t.pushes} push${t.pushes === 1 ? '' : 'es'}`;
+  const focus = t.focus_checks > 0 && t.focus_sweeps === 0 ? 'carried focus checked'
+    : `${t.focus_sweeps} sweep${t.focus_sweeps === 1 ? '' : 's'}${t.focus_checks ? ` after ${t.focus_checks} check${t.focus_checks === 1 ? '' : 's'}` : ''}`;
+  const rows = [
+    ['focus', t.focus_s, focus],
+    ['measure', t.measure_s, `${t.turns} turn${t.turns === 1 ? '' : 's'}`],
+    ['push', t.push_s, ''],
+    ['\u2003align', t.align_s, 'with the servo\u2019s brake'],
+    ['\u2003approach', t.approach_s, ''],
+    ['\u2003stroke', t.stroke_s, ''],
+    ['\u2003retract', t.retract_s, ''],
+  ];
+  for (const [name, v, note] of rows) {
+    const tr = body.insertRow();
+    [[name, 'l'], [fmt(v, 2), ''], [note, 'l muted small']].forEach(([x, cls]) => {
+      const td = tr.insertCell();
+      td.textContent = String(x);
+      if (cls) td.className = cls;
+    });
+  }
+}
+
 function setPhase(p) {
   $('phase').textContent = p;
 }
@@ -220,6 +247,7 @@ function loadState(st) {
   live.image = st.image;
   $('serial').textContent = st.serial || '—';
   setPhase(st.phase);
+  drawTimes(st.last_phase_times);
   drawCTheta();
   drawThumb();
   drawPushes();
@@ -248,7 +276,7 @@ const handlers = {
   turn(d) { live.fitted = d; live.turn = d.turn; drawCTheta(); },
   push(d) { live.pushes.push(d); drawPushes(); },
   image(d) { live.image = d; drawThumb(); },
-  finished() { setPhase('idle'); },
+  finished(d) { setPhase('idle'); drawTimes(d.phase_times); },
   stored() { refreshCounters().catch(report); refreshRecent().catch(report); refreshTiming().catch(report); },
   batch(d) { setPhase('idle'); $('conn').textContent = d.message; },
   resync() { getJSON('/api/live').then(loadState).catch(report); },

@@ -48,6 +48,8 @@ pub struct LiveState {
     /// The last frame image with its detected edges (rendered or camera frames; none at the
     /// simulation's fast fidelity).
     pub image: Option<Value>,
+    /// The phase times of the last finished part ([`phase_times_json`]).
+    pub last_phase_times: Option<Value>,
     /// Events published so far.
     pub events: u64,
 }
@@ -278,6 +280,28 @@ pub fn turn_json(index: usize, t: &TurnRecord, fit: Option<&EccentricityFit>) ->
     })
 }
 
+/// A finished part's time by phase, s: focus (how many checks of the carried focus, how many
+/// sweeps), measure, push, and the push's align (with the servo's brake), approach, stroke and
+/// retract (`null`: not recorded).
+pub fn phase_times_json(r: &PartRecord) -> Value {
+    let t = &r.phase_times;
+    json!({
+        "serial": r.serial,
+        "time_s": num(r.time_s),
+        "pushes": r.pushes,
+        "focus_s": num(t.focus_s),
+        "focus_checks": r.focus_checks,
+        "focus_sweeps": r.focus_sweeps,
+        "measure_s": num(t.measure_s),
+        "turns": r.turns.len(),
+        "push_s": num(t.push_s),
+        "align_s": num(t.align_s),
+        "approach_s": num(t.approach_s),
+        "stroke_s": num(t.stroke_s),
+        "retract_s": num(t.retract_s),
+    })
+}
+
 fn push_json(p: &PushRecord) -> Value {
     json!({
         "e_before_um": num(p.e_before_um),
@@ -342,6 +366,7 @@ impl Observer for LiveObserver {
     }
 
     fn part_finished(&mut self, r: &PartRecord) {
+        let times = phase_times_json(r);
         self.hub.publish(
             "finished",
             json!({
@@ -351,8 +376,12 @@ impl Observer for LiveObserver {
                 "pushes": r.pushes,
                 "time_s": num(r.time_s),
                 "reject_reason": r.reject_reason,
+                "phase_times": times,
             }),
-            |s| s.phase = "idle".into(),
+            |s| {
+                s.phase = "idle".into();
+                s.last_phase_times = Some(times.clone());
+            },
         );
     }
 }

@@ -81,6 +81,16 @@ fn part_body(p: &StoredPart) -> Result<String, String> {
                 num(p.phase_times.push_s, 1)
             ),
         ),
+        (
+            "of the push: align, approach, stroke, retract / s",
+            format!(
+                "{}, {}, {}, {}",
+                num(p.phase_times.align_s, 2),
+                num(p.phase_times.approach_s, 2),
+                num(p.phase_times.stroke_s, 2),
+                num(p.phase_times.retract_s, 2)
+            ),
+        ),
         ("re-measured turns", p.remeasured_turns.to_string()),
         ("software", esc(&p.software_version)),
     ];

@@ -347,6 +347,38 @@ fn print_row(r: &gonio_station::PartRecord) -> Result<()> {
     Ok(())
 }
 
+/// The mean time a part spent in each phase (docs/station-timing.md), and how its focus was
+/// found; `None` without parts.
+fn phase_line<'a>(parts: impl Iterator<Item = &'a gonio_station::PartRecord>) -> Option<String> {
+    let (mut n, mut checks, mut sweeps) = (0usize, 0u32, 0u32);
+    let mut sum = [0.0; 7];
+    for r in parts {
+        let t = &r.phase_times;
+        n += 1;
+        checks += r.focus_checks;
+        sweeps += r.focus_sweeps;
+        for (s, v) in sum.iter_mut().zip([
+            Some(t.focus_s),
+            Some(t.measure_s),
+            Some(t.push_s),
+            t.align_s,
+            t.approach_s,
+            t.stroke_s,
+            t.retract_s,
+        ]) {
+            *s += v.unwrap_or(0.0);
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    let m = sum.map(|s| s / n as f64);
+    Some(format!(
+        "phases, mean a part: focus {:.2} s (carried focus checked {checks} times, swept {sweeps}), measure {:.2} s, push {:.2} s (align {:.2}, approach {:.2}, stroke {:.2}, retract {:.2})",
+        m[0], m[1], m[2], m[3], m[4], m[5], m[6]
+    ))
+}
+
 /// The summary lines (when stdout is not the JSON) and the JSON; the table's rows were
 /// printed as the parts ended.
 fn print_and_write(
@@ -376,6 +408,9 @@ fn print_and_write(
             s.push_inconsistent,
             s.device_errors
         )?;
+        if let Some(line) = phase_line(report.parts.iter().map(|p| &p.record)) {
+            say!("{line}")?;
+        }
         let y = &YU_2024;
         say!(
             "Yu et al., 2024, {} real parts: mean {} s, {} pushes (max {}), final e {} µm; manual: {} µm in {}–{} s; Wang et al.: {:.1} µm in {} s",
@@ -521,6 +556,9 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             s.rejected,
             s.device_errors
         )?;
+        if let Some(line) = phase_line(report.parts.iter().map(|p| &p.record)) {
+            say!("{line}")?;
+        }
         let l = &report.link;
         say!(
             "link: {} requests, round trip p50 {} ms, p99 {} ms; {} frames paired with latched angles, {} skipped as stale",

@@ -376,6 +376,17 @@ impl std::fmt::Debug for SimRenderer {
     }
 }
 
+/// The simulated station's optics for a `width × height` window: the seed's, with the plant's
+/// ring (the default recipe's 20 mm ring, whose chord the twin's columns have too).
+fn station_optics(width: u32, height: u32) -> gonio_vision::Optics {
+    gonio_vision::Optics {
+        window_width_px: width,
+        window_height_px: height,
+        ring_radius_um: gonio_sim::station::PlantConfig::default().ring_radius_um,
+        ..gonio_vision::Optics::default()
+    }
+}
+
 impl SimRenderer {
     /// A renderer of `scene` through the station's optics for the exposures of `rx`.
     ///
@@ -385,7 +396,8 @@ impl SimRenderer {
         rx: mpsc::Receiver<TriggeredExposure>,
         scene: gonio_sim::frames::GratingScene,
     ) -> Result<Self, gonio_sim::SimError> {
-        let optics = gonio_vision::Optics::default();
+        let d = gonio_vision::Optics::default();
+        let optics = station_optics(d.window_width_px, d.window_height_px);
         Ok(SimRenderer {
             rx,
             renderer: gonio_sim::frames::GratingRenderer::new(&optics, scene)?,
@@ -400,8 +412,9 @@ impl SimRenderer {
     }
 
     /// Fills `pixels` (`width × height`, row-major Mono8) with the next triggered exposure;
-    /// blocks until the PLC triggers. A frame of another size, or after the station stopped,
-    /// is left mid-grey with trigger count 0.
+    /// blocks until the PLC triggers. The window follows `width × height` (centred on the
+    /// sensor); a size the optics refuse, or a frame after the station stopped, is left
+    /// mid-grey with trigger count 0.
     pub fn fill(&mut self, width: usize, height: usize, pixels: &mut [u8]) {
         let x = loop {
             match self.rx.recv_timeout(Duration::from_millis(200)) {
@@ -418,6 +431,19 @@ impl SimRenderer {
                 Err(mpsc::RecvTimeoutError::Disconnected) => break None,
             }
         };
+        // The camera renders the window its client asks for (a real camera's ROI), where the
+        // optics allow it.
+        if self.renderer.size() != (width, height) {
+            let optics = station_optics(
+                u32::try_from(width).unwrap_or(u32::MAX),
+                u32::try_from(height).unwrap_or(u32::MAX),
+            );
+            if let Ok(r) =
+                gonio_sim::frames::GratingRenderer::new(&optics, self.renderer.scene().clone())
+            {
+                self.renderer = r;
+            }
+        }
         let (w, h) = self.renderer.size();
         let n = (width * height).min(pixels.len());
         let px = &mut pixels[..n];

@@ -130,11 +130,49 @@ enum Servo {
         v: f64,
         ramp: f64,
     },
+    /// A move commanded while turning: the stop's ramp, then the positioning move from where it
+    /// came to rest.
+    BrakeMove {
+        t0: f64,
+        th0: f64,
+        v: f64,
+        ramp: f64,
+        th1: f64,
+        dur: f64,
+    },
 }
 
 impl Servo {
+    /// A `BrakeMove`'s two parts: the stop, and the move that starts when it ends.
+    fn brake_parts(t0: f64, th0: f64, v: f64, ramp: f64, th1: f64, dur: f64) -> (Servo, Servo) {
+        let stop = Servo::Stop { t0, th0, v, ramp };
+        let rest = th0 + 0.5 * v * ramp;
+        let mv = Servo::Move {
+            t0: t0 + ramp,
+            th0: rest,
+            th1,
+            dur,
+        };
+        (stop, mv)
+    }
+
     fn angle(&self, t: f64) -> f64 {
         match *self {
+            Servo::BrakeMove {
+                t0,
+                th0,
+                v,
+                ramp,
+                th1,
+                dur,
+            } => {
+                let (stop, mv) = Servo::brake_parts(t0, th0, v, ramp, th1, dur);
+                if t < t0 + ramp {
+                    stop.angle(t)
+                } else {
+                    mv.angle(t)
+                }
+            }
             Servo::Hold { th } => th,
             Servo::Move { t0, th0, th1, dur } => {
                 let u = ((t - t0) / dur).clamp(0.0, 1.0);
@@ -156,6 +194,21 @@ impl Servo {
     }
     fn speed(&self, t: f64) -> f64 {
         match *self {
+            Servo::BrakeMove {
+                t0,
+                th0,
+                v,
+                ramp,
+                th1,
+                dur,
+            } => {
+                let (stop, mv) = Servo::brake_parts(t0, th0, v, ramp, th1, dur);
+                if t < t0 + ramp {
+                    stop.speed(t)
+                } else {
+                    mv.speed(t)
+                }
+            }
             Servo::Hold { .. } => 0.0,
             Servo::Move { t0, th0, th1, dur } => {
                 let u = ((t - t0) / dur).clamp(0.0, 1.0);
@@ -743,24 +796,40 @@ impl Plc {
         match cmd {
             Command::None => self.running = Some(run(Some(t))),
             Command::MoveServo => {
-                let th0 = self.servo.angle(t);
-                self.servo = Servo::Move {
-                    t0: t,
-                    th0,
-                    th1: m.angle_deg(arg0),
-                    dur: tm.align_s,
-                };
-                self.running = Some(run(Some(t + tm.align_s)));
+                let (th0, v) = (self.servo.angle(t), self.servo.speed(t));
+                let th1 = m.angle_deg(arg0);
+                if v == 0.0 {
+                    self.servo = Servo::Move {
+                        t0: t,
+                        th0,
+                        th1,
+                        dur: tm.align_s,
+                    };
+                    self.running = Some(run(Some(t + tm.align_s)));
+                } else {
+                    // Commanded while turning: the servo brakes into the move.
+                    let ramp = tm.ramp_at(v);
+                    self.servo = Servo::BrakeMove {
+                        t0: t,
+                        th0,
+                        v,
+                        ramp,
+                        th1,
+                        dur: tm.align_s,
+                    };
+                    self.running = Some(run(Some(t + ramp + tm.align_s)));
+                }
             }
             Command::Turn => {
                 let th0 = self.servo.angle(t);
+                let v = m.speed_deg_per_s(arg0);
                 self.servo = Servo::Turn {
                     t0: t,
                     th0,
-                    v: m.speed_deg_per_s(arg0),
-                    ramp: tm.ramp_s,
+                    v,
+                    ramp: tm.ramp_at(v),
                 };
-                self.running = Some(run(Some(t + tm.spin_up_s)));
+                self.running = Some(run(Some(t + tm.spin_up_at(v))));
             }
             Command::StopServo => {
                 let (th0, v) = (self.servo.angle(t), self.servo.speed(t));
@@ -768,9 +837,9 @@ impl Plc {
                     t0: t,
                     th0,
                     v,
-                    ramp: tm.ramp_s,
+                    ramp: tm.ramp_at(v),
                 };
-                self.running = Some(run(Some(t + tm.stop_s)));
+                self.running = Some(run(Some(t + tm.stop_at(v))));
             }
             Command::MoveFocus => {
                 let (z0, z1, t0, dur) = self.focus;

@@ -159,7 +159,7 @@ pub fn run_batch_observed(
             cfg,
             seed,
             opts,
-            |t| frame_camera(t, cfg.scene.clone()).map_err(setup),
+            |t| frame_camera(t, &cfg.recipe.optics(), cfg.scene.clone()).map_err(setup),
             |r| r,
             on_part,
         ),
@@ -167,7 +167,7 @@ pub fn run_batch_observed(
             cfg,
             seed,
             opts,
-            |t| TappedCamera::new(t, cfg.scene.clone(), tap).map_err(setup),
+            |t| TappedCamera::new(t, &cfg.recipe.optics(), cfg.scene.clone(), tap).map_err(setup),
             |r| r,
             on_part,
         ),
@@ -222,6 +222,9 @@ pub struct RunOptions<'a> {
     /// What the controller had learned before that part (a resumed batch: from the last stored
     /// part; a new batch: nothing).
     pub learned: Learned,
+    /// The focus the part before found (a resumed batch: the last stored part's `focus_um`; a
+    /// new batch: none), where the first part's focus check starts.
+    pub carried_focus_um: Option<f64>,
     /// Told everything the controller does, as it happens (a live view).
     pub observer: Option<&'a mut dyn Observer>,
     /// Run in step with the wall clock (a live view); `None`: as fast as possible.
@@ -239,6 +242,7 @@ impl std::fmt::Debug for RunOptions<'_> {
         f.debug_struct("RunOptions")
             .field("first_part", &self.first_part)
             .field("learned", &self.learned)
+            .field("carried_focus_um", &self.carried_focus_um)
             .field("observed", &self.observer.is_some())
             .field("pace", &self.pace)
             .field("tapped", &self.frame_tap.is_some())
@@ -264,10 +268,10 @@ pub struct PartDone<'a> {
 /// finishes (to commit it to a results store); `on_part` returning [`ControlFlow::Break`] ends
 /// the batch there (the report then holds the parts so far).
 ///
-/// Part `i` depends only on the seed, `i` and the controller's learned state before it (each
-/// part has its own random stream and clock; the station's constants come from the seed), so
-/// a batch resumed at part `i` with the learned state stored with part `i − 1` gives the same
-/// records as an uninterrupted one.
+/// Part `i` depends only on the seed, `i` and the controller's state before it (what it
+/// learned and the focus it carries; each part has its own random stream and clock; the
+/// station's constants come from the seed), so a batch resumed at part `i` with the learned
+/// state and the focus stored with part `i − 1` gives the same records as an uninterrupted one.
 ///
 /// # Errors
 /// As [`run_batch`].
@@ -289,6 +293,11 @@ pub fn run_batch_from<C: Camera, P: PushRod>(
         seed,
     );
     twin.faults = cfg.faults.clone();
+    // A resumed batch: the focus drive where the last stored part's focus left it (a part ends
+    // with its drive at its focus, unless a refocus failed after it).
+    if let Some(z) = opts.carried_focus_um {
+        twin.place_focus(z);
+    }
     if let Some(p) = opts.pace {
         twin.set_pace(p);
     }
@@ -303,6 +312,7 @@ pub fn run_batch_from<C: Camera, P: PushRod>(
     };
     let mut ctl = Controller::new(cfg.recipe.clone(), cfg.strategy);
     ctl.learned = opts.learned;
+    ctl.carried_focus_um = opts.carried_focus_um;
     let mut none = NoObserver;
     let obs: &mut dyn Observer = match opts.observer {
         Some(o) => o,

@@ -80,12 +80,16 @@ impl FrameSource for TwinFrames {
 pub type FrameCamera = DetectorCamera<TwinFrames>;
 
 /// The full-fidelity camera for the twin behind `twin`: `scene` (default: the `realistic` scene)
-/// through the seed's optics.
+/// through `optics` (a recipe's: `Recipe::optics`).
 ///
 /// # Errors
-/// [`SimError::Parameter`] when the scene is invalid.
-pub fn frame_camera(twin: Shared, scene: Option<GratingScene>) -> Result<FrameCamera, SimError> {
-    let optics = Optics::default();
+/// [`SimError::Parameter`] when the scene or the optics are invalid.
+pub fn frame_camera(
+    twin: Shared,
+    optics: &Optics,
+    scene: Option<GratingScene>,
+) -> Result<FrameCamera, SimError> {
+    let optics = optics.clone();
     let scene = scene.unwrap_or_else(|| GratingScene::preset(ScenePreset::Realistic));
     let frames = TwinFrames::new(twin, &optics, scene)?;
     DetectorCamera::new(frames, &optics)
@@ -134,11 +138,12 @@ impl<'a> TappedCamera<'a> {
     /// As [`frame_camera`].
     pub fn new(
         twin: Shared,
+        optics: &Optics,
         scene: Option<GratingScene>,
         tap: FrameTap<'a>,
     ) -> Result<Self, SimError> {
         Ok(TappedCamera {
-            cam: frame_camera(twin, scene)?,
+            cam: frame_camera(twin, optics, scene)?,
             tap,
         })
     }

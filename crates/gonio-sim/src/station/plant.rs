@@ -42,6 +42,10 @@ pub struct PlantConfig {
     pub spring_back_max: f64,
     /// Column of the ring with the grating centred, px.
     pub c_centre_px: f64,
+    /// Radius of the ring, µm (the default recipe's `ring_radius_mm`, which the full fidelity
+    /// renders): the camera sees the ring where its row line crosses it, so an offset across
+    /// that line moves the column by −offset²/2R (the ring's chord).
+    pub ring_radius_um: f64,
     /// Window width, px (a ring outside it is not found).
     pub window_width_px: f64,
     /// Best focus position scatter between parts, µm (standard deviation).
@@ -59,16 +63,21 @@ pub struct PlantConfig {
 /// Durations of the station's actions, s. The defaults add up to the spec's time model:
 /// focus 2.0 s, measurement 2.8 s, 10 s per push cycle (align 1.0 + approach 2.5 + push 2.0 +
 /// retract 1.7 + measurement 2.8), +1.5 s for a slow contact.
+///
+/// The servo's ramps are those of a constant acceleration: `ramp_s` to `ramp_speed_deg_per_s`
+/// (0.2 s to 180°/s, 900°/s²), longer to a faster speed ([`Timing::ramp_at`]); the spin-up and
+/// the stop add their settling (0.1 s, and 0.3 s with the fit) to the ramp.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Timing {
     /// One focus-drive move (a 19-step sweep + final move + 19 frames ≈ 2.0 s).
     pub focus_move_s: f64,
-    /// Servo spin-up to measuring speed.
+    /// Servo spin-up to `ramp_speed_deg_per_s`.
     pub spin_up_s: f64,
     /// Of which the acceleration ramp.
     pub ramp_s: f64,
-    /// Servo stop, settle and fit (with 2.0 s of frames and the spin-up: 2.8 s).
+    /// Servo stop from `ramp_speed_deg_per_s`, settle and fit (with 2.0 s of frames and the
+    /// spin-up: 2.8 s).
     pub stop_s: f64,
     /// Align: a settle-limited positioning move.
     pub align_s: f64,
@@ -82,6 +91,26 @@ pub struct Timing {
     pub push_step_s: f64,
     /// Retract.
     pub retract_s: f64,
+    /// The speed `ramp_s` accelerates to, °/s.
+    pub ramp_speed_deg_per_s: f64,
+}
+
+impl Timing {
+    /// The ramp to or from `speed_deg_per_s`, s (the acceleration of `ramp_s` to
+    /// `ramp_speed_deg_per_s`).
+    pub fn ramp_at(&self, speed_deg_per_s: f64) -> f64 {
+        self.ramp_s * speed_deg_per_s.abs() / self.ramp_speed_deg_per_s
+    }
+
+    /// Spin-up to `speed_deg_per_s`, its settling included, s.
+    pub fn spin_up_at(&self, speed_deg_per_s: f64) -> f64 {
+        self.spin_up_s - self.ramp_s + self.ramp_at(speed_deg_per_s)
+    }
+
+    /// Stop from `speed_deg_per_s`, settling and fit included, s.
+    pub fn stop_at(&self, speed_deg_per_s: f64) -> f64 {
+        self.stop_s - self.ramp_s + self.ramp_at(speed_deg_per_s)
+    }
 }
 
 impl Default for Timing {
@@ -97,6 +126,7 @@ impl Default for Timing {
             push_s: 2.0,
             push_step_s: 0.1,
             retract_s: 1.7,
+            ramp_speed_deg_per_s: 180.0,
         }
     }
 }
@@ -120,6 +150,7 @@ impl Default for PlantConfig {
             contact_error_sd_um: 0.75,
             spring_back_max: 0.03,
             c_centre_px: 720.0,
+            ring_radius_um: 20_000.0,
             window_width_px: 1440.0,
             focus_sd_um: 30.0,
             focus_depth_um: 25.0,
@@ -201,11 +232,20 @@ impl PartTruth {
         self.offset_um[0].hypot(self.offset_um[1])
     }
 
-    /// The ring's true column at servo angle θ (degrees), without noise.
+    /// The ring's true column at servo angle θ (degrees), without noise: the offset's
+    /// projection on the camera's row line, the chord of the ring of radius R crossing it
+    /// (−(perpendicular offset)²/2R, exactly), and the roundness.
     pub fn column_px(&self, p: &PlantConfig, um_per_px: f64, theta_deg: f64) -> f64 {
         let t = theta_deg.to_radians();
         let proj = self.offset_um[0] * t.cos() + self.offset_um[1] * t.sin();
-        let mut c = p.c_centre_px + proj / um_per_px;
+        let across = -self.offset_um[0] * t.sin() + self.offset_um[1] * t.cos();
+        let r = p.ring_radius_um;
+        let chord = if r > across.abs() {
+            (r * r - across * across).sqrt() - r
+        } else {
+            -r
+        };
+        let mut c = p.c_centre_px + (proj + chord) / um_per_px;
         for (j, ph) in self.roundness_phase_deg.iter().enumerate() {
             c += p.roundness_px * ((j as f64 + 2.0) * theta_deg - ph).to_radians().cos();
         }

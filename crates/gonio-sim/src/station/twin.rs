@@ -211,6 +211,12 @@ impl Twin {
         }
     }
 
+    /// Puts the focus drive at `z_um` without a move (no time passes): where the part before
+    /// left it, for a batch resumed after that part.
+    pub fn place_focus(&mut self, z_um: f64) {
+        self.focus_um = z_um;
+    }
+
     /// Runs in step with the wall clock from now on (see [`Pace`]).
     pub fn set_pace(&mut self, pace: Pace) {
         self.pace = Some(pace);
@@ -387,6 +393,30 @@ pub type Shared = Rc<RefCell<Twin>>;
 /// The simulated servo.
 #[derive(Debug, Clone)]
 pub struct SimServo(pub Shared);
+
+impl SimServo {
+    /// Starts a turn from the current angle; `wait`: return once at speed (the spin-up, its
+    /// settling included), else at once (frames may follow during the ramp).
+    fn turn(&mut self, speed_deg_per_s: f64, wait: bool) -> Result<(), SimDeviceError> {
+        let mut t = self.0.borrow_mut();
+        t.call(DeviceId::Servo)?;
+        let now = t.t_s;
+        let theta0 = t.angle(now);
+        let ramp = t.plant.timing.ramp_at(speed_deg_per_s);
+        t.set_motion(Motion {
+            t0: now,
+            theta0,
+            v: speed_deg_per_s,
+            ramp,
+            starting: true,
+        });
+        if wait {
+            t.t_s += t.plant.timing.spin_up_at(speed_deg_per_s);
+            t.advanced();
+        }
+        Ok(())
+    }
+}
 /// The simulated camera at fast fidelity (the column from the geometry); the full fidelity is a
 /// `DetectorCamera` over [`TwinFrames`](super::frames::TwinFrames).
 #[derive(Debug, Clone)]
@@ -434,6 +464,22 @@ impl Servo for SimServo {
                 message: format!("target {target_deg}° is not finite"),
             });
         }
+        // A turning servo brakes into the move: its ramp down, then the settle-limited
+        // positioning move.
+        let now = t.t_s;
+        let v = t.motion_at(now).speed(now);
+        if v != 0.0 {
+            let theta0 = t.angle(now);
+            let ramp = t.plant.timing.ramp_at(v);
+            t.set_motion(Motion {
+                t0: now,
+                theta0,
+                v,
+                ramp,
+                starting: false,
+            });
+            t.t_s += ramp;
+        }
         t.t_s += t.plant.timing.align_s;
         let now = t.t_s;
         t.set_motion(Motion {
@@ -447,28 +493,17 @@ impl Servo for SimServo {
         Ok(())
     }
     fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), SimDeviceError> {
-        let mut t = self.0.borrow_mut();
-        t.call(DeviceId::Servo)?;
-        let now = t.t_s;
-        let theta0 = t.angle(now);
-        let ramp = t.plant.timing.ramp_s;
-        t.set_motion(Motion {
-            t0: now,
-            theta0,
-            v: speed_deg_per_s,
-            ramp,
-            starting: true,
-        });
-        t.t_s += t.plant.timing.spin_up_s;
-        t.advanced();
-        Ok(())
+        self.turn(speed_deg_per_s, true)
+    }
+    fn begin_turn(&mut self, speed_deg_per_s: f64) -> Result<(), SimDeviceError> {
+        self.turn(speed_deg_per_s, false)
     }
     fn stop(&mut self) -> Result<(), SimDeviceError> {
         let mut t = self.0.borrow_mut();
         t.call(DeviceId::Servo)?;
         let now = t.t_s;
         let (theta0, v) = (t.angle(now), t.motion_at(now).speed(now));
-        let ramp = t.plant.timing.ramp_s;
+        let ramp = t.plant.timing.ramp_at(v);
         t.set_motion(Motion {
             t0: now,
             theta0,
@@ -476,7 +511,7 @@ impl Servo for SimServo {
             ramp,
             starting: false,
         });
-        t.t_s += t.plant.timing.stop_s;
+        t.t_s += t.plant.timing.stop_at(v);
         t.advanced();
         Ok(())
     }

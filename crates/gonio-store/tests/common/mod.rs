@@ -2,7 +2,7 @@
 
 use gonio_station::fit::Sample;
 use gonio_station::hal::{ApproachSpeed, DeviceErrorKind};
-use gonio_station::record::{DeviceFault, PushRecord, TurnKind, TurnRecord};
+use gonio_station::record::{DeviceFault, PhaseTimes, PushRecord, TurnKind, TurnRecord};
 use gonio_station::strategy::Learned;
 use gonio_station::{PartRecord, PartResult, Recipe};
 use gonio_store::{BatchStatus, NewBatch, NewPart, PartQuery, Store, StoreError};
@@ -27,6 +27,7 @@ fn turn(e: f64) -> TurnRecord {
         outliers: 1,
         focus_um: Some(-3.5),
         quality: None,
+        carried_roundness: None,
     }
 }
 
@@ -37,6 +38,15 @@ fn record(serial: &str, result: PartResult) -> PartRecord {
     r.result = result;
     r.time_s = Some(15.25);
     r.pushes = 1;
+    r.phase_times = PhaseTimes {
+        focus_s: 0.375,
+        measure_s: 2.75,
+        push_s: 7.5,
+        align_s: Some(1.25),
+        approach_s: Some(2.5),
+        stroke_s: Some(2.0),
+        retract_s: Some(1.75),
+    };
     r.turns = vec![turn(120.0), turn(2.5)];
     r.push_log = vec![PushRecord {
         t_start_s: 4.8,
@@ -135,6 +145,7 @@ pub fn round_trip(loc: &str) {
     );
     assert_eq!(p.turns[0].focus_um, Some(-3.5));
     assert_eq!(p.push_log, a.push_log);
+    assert_eq!(p.phase_times, a.phase_times, "every phase time kept");
     assert_eq!(p.true_initial_e_um, Some(121.0));
     assert!(p.simulated, "stored as the twin's");
     assert_eq!(p.recipe_hash.len(), 64);

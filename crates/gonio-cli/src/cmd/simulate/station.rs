@@ -151,13 +151,16 @@ mod camera {
         let config = gonio_camera::FakeConfig {
             address: addr.to_string(),
             serial: "GONIOSTATION".into(),
-            fps: 200.0,
+            // Above the frame rate of the default recipe's 180-row window (263.7 fps): the
+            // PLC's trigger paces the frames, not the camera.
+            fps: 300.0,
             ..gonio_camera::FakeConfig::default()
         };
         let cam = gonio_camera::FakeGvCamera::start(
             &config,
             move |info: &gonio_camera::FillInfo, px: &mut [u8]| {
                 let (w, h) = (info.width as usize, info.height as usize);
+                r.fill(w, h, px);
                 if !warned && (w, h) != r.size() {
                     warned = true;
                     gonio_cli::note!(
@@ -166,7 +169,6 @@ mod camera {
                         r.size().1
                     );
                 }
-                r.fill(w, h, px)
             },
         )
         .map_err(|e| anyhow!("--camera-addr {addr}: {e}"))?;
