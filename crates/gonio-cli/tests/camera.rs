@@ -299,7 +299,8 @@ fn no_camera_of_that_id_and_exposure_out_of_range_are_one_line_errors() {
             "--frames",
             "3",
             "--exposure-us",
-            "1e12",
+            // Within the flag's bound (1e8 µs), above the fake camera's ExposureTime (10 s).
+            "5e7",
         ])
         .output()
         .unwrap();
