@@ -32,6 +32,8 @@
 //! silent: no frame within the frame timeout, or (a GigE Vision camera) no answer to a register
 //! read within 2 × 0.25 s when it is dropped ([`crate::gvcp::answers`]). Its objects are then
 //! left to the process's end, as Aravis would wait seconds for each of their control requests.
+//! A camera that answered and falls silent during the teardown holds the drop at most 1 s: the
+//! teardown runs in a thread of its own, which finishes after the drop has returned.
 //!
 //! # Errors
 //! Every error names the camera: not found, refused settings, values out of range, a link
@@ -446,6 +448,10 @@ impl AravisSource {
 /// two tries: a camera on a working link answers in milliseconds.
 const TEARDOWN_PROBE: Duration = Duration::from_millis(250);
 
+/// How long the drop waits for the camera's teardown (stop acquisition, release the camera):
+/// milliseconds on a camera that answers; past it the teardown goes on in its own thread.
+const TEARDOWN_WAIT: Duration = Duration::from_secs(1);
+
 impl Drop for AravisSource {
     fn drop(&mut self) {
         // A camera that is gone (its host killed, its cable pulled) or silent is not stopped
@@ -458,12 +464,39 @@ impl Drop for AravisSource {
             self.acquiring = false;
             self.gone = true;
         }
-        self.stop();
         if self.gone {
             // Tearing a lost camera's device down waits for its control channel to time out
             // (seconds): leave the objects to the process's end instead (one lost camera each).
             std::mem::forget(self.stream.clone());
             std::mem::forget(self.camera.clone());
+            return;
+        }
+        // A camera can fall silent after it answered (a simulated camera waiting for a trigger
+        // that no longer comes, a link lost now): the teardown runs in its own thread, which
+        // holds the last references, and the drop waits for it at most TEARDOWN_WAIT.
+        let (camera, stream) = (self.camera.clone(), self.stream.clone());
+        let acquiring = std::mem::take(&mut self.acquiring);
+        let (done, finished) = std::sync::mpsc::channel();
+        let teardown = move || {
+            if acquiring {
+                let _ = camera.stop_acquisition();
+            }
+            drop(stream);
+            drop(camera);
+            let _ = done.send(());
+        };
+        match std::thread::Builder::new()
+            .name("gonio-camera-teardown".into())
+            .spawn(teardown)
+        {
+            Ok(_) => {
+                let _ = finished.recv_timeout(TEARDOWN_WAIT);
+            }
+            // No thread to be had: torn down here, however long that takes.
+            Err(_) => {
+                self.acquiring = acquiring;
+                self.stop();
+            }
         }
     }
 }
