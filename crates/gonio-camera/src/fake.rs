@@ -15,8 +15,10 @@
 //! reads. The watcher needs an IPv4 address in [`FakeConfig::address`]; a camera served on an
 //! interface's name runs without it.
 //!
-//! One GigE Vision camera can listen on an address's port 3956 at a time: tests give each
-//! camera its own network namespace (`unshare -n`, `ip link set lo up`).
+//! One GigE Vision camera can listen on an address's port 3956 at a time: a camera that
+//! answers there already (a GVCP discovery, [`crate::gvcp::discover`]) makes
+//! [`FakeGvCamera::start`] refuse, naming it. Tests give each camera its own network namespace
+//! (`unshare -n`, `ip link set lo up`).
 //!
 //! ```no_run
 //! use gonio_camera::{FakeConfig, FakeGvCamera, FillInfo};
@@ -150,8 +152,9 @@ impl FakeGvCamera {
     /// Starts serving on `config.address` with `fill` drawing every frame.
     ///
     /// # Errors
-    /// [`CameraError::FakeCamera`] when the serial or rate is invalid or the camera cannot listen
-    /// (port 3956 taken, no such interface).
+    /// [`CameraError::FakeCamera`] when the serial or rate is invalid, another GigE Vision
+    /// camera answers on port 3956 of the address (named), or the camera cannot listen (no such
+    /// interface).
     pub fn start(config: &FakeConfig, fill: impl FrameFill) -> Result<Self, CameraError> {
         let bad = |message: String| CameraError::FakeCamera {
             serial: config.serial.clone(),
@@ -178,6 +181,23 @@ impl FakeGvCamera {
                 "this libaravis keeps its buffers in an unexpected layout: frames cannot be drawn"
                     .into(),
             ));
+        }
+        // One GigE Vision camera per address and port: Aravis would start a second one beside
+        // the first (its socket shares the port), which then serves nothing.
+        if let Ok(ip) = config.address.parse::<std::net::IpAddr>() {
+            let at = SocketAddr::new(ip, crate::gvcp::GVCP_PORT);
+            let timeout = std::time::Duration::from_millis(300);
+            let there = crate::gvcp::discover(at, timeout)
+                .map(|c| c.id())
+                .or_else(|| crate::gvcp::answers(at, timeout).then(|| "a device".into()));
+            if let Some(other) = there {
+                return Err(bad(format!(
+                    "{other} already serves port {} of {}: one GigE Vision camera per address and port; stop it, or serve Aravis-Fake-{} on another address",
+                    crate::gvcp::GVCP_PORT,
+                    config.address,
+                    config.serial
+                )));
+            }
         }
         let gv = aravis::GvFakeCamera::new(Some(&config.address), Some(&config.serial));
         if !gv.is_running() {

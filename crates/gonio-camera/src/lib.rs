@@ -25,8 +25,9 @@
 //!   [`FakeGvCamera::frames_served`] tell which id and timestamp each frame got.
 //!
 //! Without the feature the crate holds only what needs no system library: the configuration
-//! types, [`CameraError`] (whose [`CameraError::NotBuilt`] says how to get cameras) and
-//! [`FrameIds`]; [`ENABLED`] says which build this is.
+//! types, [`CameraError`] (whose [`CameraError::NotBuilt`] says how to get cameras),
+//! [`FrameIds`] and [`gvcp`] (whether a GigE Vision camera answers at an address, and which);
+//! [`ENABLED`] says which build this is.
 //!
 //! Units: pixels, µs for exposure, dB for gain, ns for camera timestamps, s for `start_s`.
 //!
@@ -62,6 +63,7 @@
 
 mod config;
 mod error;
+pub mod gvcp;
 mod ids;
 mod wake;
 

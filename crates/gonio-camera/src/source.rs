@@ -27,6 +27,14 @@
 //! missing packets) do not move the offset; frames before the first complete one are mapped
 //! provisionally on themselves. `exposure_s` is the camera's `ExposureTime` read after set-up.
 //!
+//! # Teardown
+//! Dropping the source stops acquisition and releases the camera, unless the camera is gone or
+//! silent: no frame within the frame timeout, or (a GigE Vision camera) no answer to a register
+//! read within 2 × 0.25 s when it is dropped ([`crate::gvcp::answers`]). Its objects are then
+//! left to the process's end, as Aravis would wait seconds for each of their control requests.
+//! A camera that answered and falls silent during the teardown holds the drop at most 1 s: the
+//! teardown runs in a thread of its own, which finishes after the drop has returned.
+//!
 //! # Errors
 //! Every error names the camera: not found, refused settings, values out of range, a link
 //! failure, and no frame within [`CameraConfig::frame_timeout_ms`] (the camera gone).
@@ -39,9 +47,10 @@ use aravis::prelude::*;
 use aravis::{BufferStatus, PixelFormat};
 use gonio_vision::{FrameHeader, FrameSource, FrameStamp};
 use std::collections::BTreeMap;
+use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Most [`FrameMeta`] kept for [`AravisSource::take_meta`] (the oldest go first).
 const MAX_META: usize = 4096;
@@ -73,6 +82,8 @@ pub struct AravisSource {
     /// The camera stopped answering: its objects are not torn down on drop (that would wait for
     /// the control channel's retries).
     gone: bool,
+    /// A GigE Vision camera's control port, asked before the teardown whether it still answers.
+    gvcp: Option<SocketAddr>,
 }
 
 impl std::fmt::Debug for AravisSource {
@@ -103,7 +114,7 @@ impl AravisSource {
     /// [`CameraError::Communication`] when it cannot be reached.
     pub fn open(id: &str, config: &CameraConfig) -> Result<Self, CameraError> {
         let found = crate::list_cameras();
-        if !found.iter().any(|c| c.id == id) {
+        let Some(info) = found.iter().find(|c| c.id == id) else {
             let ids: Vec<_> = found.iter().map(|c| c.id.as_str()).collect();
             return Err(CameraError::NotFound {
                 camera: id.to_string(),
@@ -113,7 +124,11 @@ impl AravisSource {
                     ids.join(", ")
                 },
             });
-        }
+        };
+        let gvcp = (info.protocol == "GigEVision")
+            .then(|| info.address.parse::<IpAddr>().ok())
+            .flatten()
+            .map(|ip| SocketAddr::new(ip, crate::gvcp::GVCP_PORT));
         let camera = aravis::Camera::new(Some(id)).map_err(|e| comm(id, "open", e))?;
         let name = id.to_string();
         let mut src = AravisSource {
@@ -140,6 +155,7 @@ impl AravisSource {
             stop: None,
             acquiring: false,
             gone: false,
+            gvcp,
         };
         let (x, y, w, h) = src
             .camera
@@ -428,14 +444,59 @@ impl AravisSource {
     }
 }
 
+/// How long the teardown waits for a GigE Vision camera to answer one register read, each of
+/// two tries: a camera on a working link answers in milliseconds.
+const TEARDOWN_PROBE: Duration = Duration::from_millis(250);
+
+/// How long the drop waits for the camera's teardown (stop acquisition, release the camera):
+/// milliseconds on a camera that answers; past it the teardown goes on in its own thread.
+const TEARDOWN_WAIT: Duration = Duration::from_secs(1);
+
 impl Drop for AravisSource {
     fn drop(&mut self) {
-        self.stop();
+        // A camera that is gone (its host killed, its cable pulled) or silent is not stopped
+        // and torn down: Aravis would wait for its control channel's retries, seconds each.
+        if self.acquiring
+            && !self.gone
+            && let Some(at) = self.gvcp
+            && !(0..2).any(|_| crate::gvcp::answers(at, TEARDOWN_PROBE))
+        {
+            self.acquiring = false;
+            self.gone = true;
+        }
         if self.gone {
             // Tearing a lost camera's device down waits for its control channel to time out
             // (seconds): leave the objects to the process's end instead (one lost camera each).
             std::mem::forget(self.stream.clone());
             std::mem::forget(self.camera.clone());
+            return;
+        }
+        // A camera can fall silent after it answered (a simulated camera waiting for a trigger
+        // that no longer comes, a link lost now): the teardown runs in its own thread, which
+        // holds the last references, and the drop waits for it at most TEARDOWN_WAIT.
+        let (camera, stream) = (self.camera.clone(), self.stream.clone());
+        let acquiring = std::mem::take(&mut self.acquiring);
+        let (done, finished) = std::sync::mpsc::channel();
+        let teardown = move || {
+            if acquiring {
+                let _ = camera.stop_acquisition();
+            }
+            drop(stream);
+            drop(camera);
+            let _ = done.send(());
+        };
+        match std::thread::Builder::new()
+            .name("gonio-camera-teardown".into())
+            .spawn(teardown)
+        {
+            Ok(_) => {
+                let _ = finished.recv_timeout(TEARDOWN_WAIT);
+            }
+            // No thread to be had: torn down here, however long that takes.
+            Err(_) => {
+                self.acquiring = acquiring;
+                self.stop();
+            }
         }
     }
 }

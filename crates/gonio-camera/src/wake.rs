@@ -10,8 +10,8 @@
 //! most once a period, and only while frames are being filled (a client acquiring). A read sent
 //! when the camera was merely skipping a tick changes nothing: its thread polls on to its time.
 //!
-//! Written here (std's UDP socket, a thread) because no crate does this: it is a workaround of
-//! one library's bug. Times are ns since its [`Fills`] record was made. Errors: only starting the
+//! Written here (std's UDP socket, a thread; the read is [`crate::gvcp`]'s) because no crate
+//! does this: it is a workaround of one library's bug. Times are ns since its [`Fills`] record was made. Errors: only starting the
 //! thread and socket can fail (`std::io::Error`); a failed send is not counted and retried a
 //! period later.
 
@@ -19,6 +19,7 @@
 // default build.
 #![cfg_attr(not(feature = "fake"), allow(dead_code))]
 
+use crate::gvcp::read_version_packet;
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -127,13 +128,6 @@ pub(crate) fn step(now: u64, last_fill: u64, period: u64, last_wake: u64) -> Ste
         period - since_wake
     };
     Step::Sleep(sleep.clamp(MIN_SLEEP_NS, LOOK_NS))
-}
-
-/// GVCP `READREG_CMD` (key 0x42, flags 0, command 0x0080, 4 bytes of payload, request `id`) of
-/// register 0x0000, the device's version.
-pub(crate) fn read_version_packet(id: u16) -> [u8; 12] {
-    let [hi, lo] = id.to_be_bytes();
-    [0x42, 0x00, 0x00, 0x80, 0x00, 0x04, hi, lo, 0, 0, 0, 0]
 }
 
 /// The thread that wakes a stalled fake camera (module docs); stopped and joined when dropped.
@@ -245,20 +239,6 @@ mod tests {
         }
         assert_eq!(fills.period_ns.load(Ordering::Relaxed), 10 * MS);
         assert_eq!(fills.last_fill_ns.load(Ordering::Relaxed), at);
-    }
-
-    #[test]
-    fn the_wake_is_a_gvcp_read_of_the_version_register() {
-        let p = read_version_packet(0x1234);
-        assert_eq!(p[0], 0x42, "GVCP command key");
-        assert_eq!(u16::from_be_bytes([p[2], p[3]]), 0x0080, "READREG_CMD");
-        assert_eq!(u16::from_be_bytes([p[4], p[5]]), 4, "one register address");
-        assert_eq!(u16::from_be_bytes([p[6], p[7]]), 0x1234, "request id");
-        assert_eq!(
-            u32::from_be_bytes([p[8], p[9], p[10], p[11]]),
-            0,
-            "register 0x0000"
-        );
     }
 
     /// A camera that stops being filled gets reads on its port until it has been idle 0.5 s,

@@ -110,6 +110,10 @@ fn main() {
         Command::Camera(c) => cmd::camera::run(c),
     };
     if let Err(e) = result {
+        if let Some(i) = e.downcast_ref::<gonio_cli::output::Interrupted>() {
+            gonio_cli::term::note(&format!("interrupted: {i}"));
+            std::process::exit(128 + i.signal);
+        }
         // One line: the chain of causes joined by ": ", echoed input capped.
         gonio_cli::term::note(&format!("error: {}", gonio_io::input::one_line(&e)));
         std::process::exit(2);

@@ -153,6 +153,13 @@ impl Batch {
         &self.ctl.recipe
     }
 
+    /// Ends the batch safely when `interrupt` is raised (a signal): the part in progress ends
+    /// `interrupted` and is stored, the station is left safe (retract, stop, trigger off within
+    /// the map's `timing.safe_state_ms`), and the batch is stored as stopped.
+    pub fn set_interrupt(&self, interrupt: gonio_plc::Interrupt) {
+        self.station.set_interrupt(interrupt);
+    }
+
     /// Shows every frame the station delivers to the controller to `tap` (replacing any tap
     /// before): a recorder, the live view's thumbnail.
     pub fn set_tap(&self, tap: FrameTap<'static>) {

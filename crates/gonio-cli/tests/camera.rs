@@ -299,7 +299,8 @@ fn no_camera_of_that_id_and_exposure_out_of_range_are_one_line_errors() {
             "--frames",
             "3",
             "--exposure-us",
-            "1e12",
+            // Within the flag's bound (1e8 µs), above the fake camera's ExposureTime (10 s).
+            "5e7",
         ])
         .output()
         .unwrap();
@@ -429,5 +430,96 @@ fn one_turn_served_and_detected_gives_the_served_eccentricity() {
     assert!(
         (e - e_served).abs() < 0.1,
         "e = {e} µm, served {e_served} µm"
+    );
+}
+
+/// A one-line refusal (exit 2, `error: …`) of `gonio args`, run to its end.
+#[allow(dead_code)]
+fn refused(args: &[&str]) -> String {
+    let t = Instant::now();
+    let out = gonio().args(args).stdin(Stdio::null()).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    println!("{args:?} after {:?}: {err}", t.elapsed());
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(t.elapsed() < Duration::from_secs(20), "{:?}", t.elapsed());
+    err
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis, arv-fake-gv-camera-0.8): .ci/cam.sh"
+)]
+fn a_second_fake_camera_on_the_same_address_is_refused_naming_both() {
+    if !in_own_netns("a_second_fake_camera_on_the_same_address_is_refused_naming_both") {
+        return;
+    }
+    // Aravis's own fake camera first: `simulate camera` on its address is refused.
+    let arv = aravis_fake("ARV1", &[]);
+    wait_listed("Aravis-Fake-ARV1");
+    let err = refused(&[
+        "simulate",
+        "camera",
+        "--serial",
+        "SECOND",
+        "--fps",
+        "10",
+        "--speed-deg-s",
+        "360",
+        "--duration-s",
+        "30",
+    ]);
+    assert!(
+        err.contains("Aravis-Fake-ARV1") && err.contains("Aravis-Fake-SECOND"),
+        "{err}"
+    );
+    assert!(
+        err.contains("one GigE Vision camera per address and port"),
+        "{err}"
+    );
+    drop(arv);
+    // gonio's fake camera next: a second one, and a simulated station (whose camera would be
+    // the second), are refused; the first keeps serving.
+    let mut first = Killed(
+        gonio()
+            .args(["simulate", "camera", "--serial", "FIRST"])
+            .args(["--fps", "10", "--speed-deg-s", "360", "--duration-s", "60"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    wait_listed("Aravis-Fake-FIRST");
+    let err = refused(&[
+        "simulate",
+        "camera",
+        "--serial",
+        "SECOND",
+        "--fps",
+        "10",
+        "--speed-deg-s",
+        "360",
+        "--duration-s",
+        "30",
+    ]);
+    assert!(
+        err.contains("Aravis-Fake-FIRST") && err.contains("Aravis-Fake-SECOND"),
+        "{err}"
+    );
+    let err = refused(&["simulate", "station", "--plc", "127.0.0.1:0"]);
+    assert!(
+        err.contains("Aravis-Fake-FIRST") && err.contains("Aravis-Fake-GONIOSTATION"),
+        "{err}"
+    );
+    assert!(
+        first.0.try_wait().unwrap().is_none(),
+        "the first camera ended"
+    );
+    let listed = wait_listed("Aravis-Fake-FIRST");
+    assert!(
+        !listed.to_string().contains("SECOND") && !listed.to_string().contains("GONIOSTATION"),
+        "{listed}"
     );
 }

@@ -6,44 +6,13 @@
 
 mod common;
 
-use common::{Guard, repo, wait_for_line};
-use std::path::PathBuf;
+use common::{Guard, plc_venv_python, repo, wait_for_line};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-/// The test's virtualenv with pymodbus (target/plc-venv, made here when missing).
-fn venv_python() -> PathBuf {
-    let dir = PathBuf::from(repo("target/plc-venv"));
-    let py = dir.join("bin/python");
-    let has = |py: &PathBuf| {
-        Command::new(py)
-            .args(["-c", "import pymodbus"])
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    if !has(&py) {
-        let ok = Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&dir)
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(dir.join("bin/pip"))
-                .args(["install", "--quiet", "pymodbus>=3.10,<4"])
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            ok,
-            "cannot make the virtualenv with pymodbus in {}",
-            dir.display()
-        );
-    }
-    assert!(has(&py), "pymodbus is not importable from {}", py.display());
-    py
-}
-
 #[test]
 fn pymodbus_drives_the_simulated_station_through_the_documented_registers() {
-    let py = venv_python();
+    let py = plc_venv_python();
     let mut child = Command::new(env!("CARGO_BIN_EXE_gonio"))
         .args(["simulate", "station", "--plc", "127.0.0.1:0", "--seed", "3"])
         .stdin(Stdio::null())

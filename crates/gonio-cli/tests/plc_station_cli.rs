@@ -13,6 +13,11 @@ use std::time::{Duration, Instant};
 
 const INSIDE: &str = "GONIO_PLC_TEST_NETNS";
 
+/// When the Ctrl-C comes in a part on the simulated station, s after the mount started: its
+/// first turn is measured by then.
+#[cfg(feature = "genicam")]
+const INTERRUPT_AFTER_S: u64 = 10;
+
 /// Runs test `name` again inside its own network namespace; true in the child.
 fn in_own_netns(name: &str) -> bool {
     if std::env::var_os(INSIDE).is_some() {
@@ -62,6 +67,65 @@ fn station(truth: &std::path::Path) -> (common::Guard, String, String) {
         .expect("camera id")
         .to_string();
     (g, addr, cam)
+}
+
+/// Waits up to `limit` for `child` to exit; its status and how long that took.
+fn exit_within(
+    child: &mut std::process::Child,
+    limit: Duration,
+) -> (std::process::ExitStatus, Duration) {
+    let t = Instant::now();
+    loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            return (s, t.elapsed());
+        }
+        assert!(t.elapsed() < limit, "still running after {limit:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Sends `signal` (`-INT`, `-TERM`) to process `pid`.
+fn kill(signal: &str, pid: u32) {
+    let ok = Command::new("kill")
+        .args([signal, &pid.to_string()])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "kill {signal} {pid}");
+}
+
+/// `gonio simulate camera --serial SERIAL` (ten frames a turn, rendered at once); the child
+/// and the camera's id once it serves.
+#[cfg(feature = "genicam")]
+fn camera(serial: &str) -> (common::Guard, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gonio"))
+        .args(["simulate", "camera", "--serial", serial])
+        .args(["--fps", "10", "--speed-deg-s", "360"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("gonio runs");
+    common::wait_for_line(&mut child, "serving ", Duration::from_secs(30));
+    (common::Guard(child), format!("Aravis-Fake-{serial}"))
+}
+
+/// `gonio mount --plc modbus://ADDR --camera CAM` with `args`, its standard error piped.
+#[cfg(feature = "genicam")]
+fn mount(addr: &str, cam: &str, args: &[&std::ffi::OsStr]) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_gonio"))
+        .args([
+            "mount",
+            "--plc",
+            &format!("modbus://{addr}"),
+            "--camera",
+            cam,
+        ])
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("gonio runs")
 }
 
 #[test]
@@ -306,19 +370,32 @@ fn killing_the_station_mid_part_ends_the_mount_as_a_device_error() {
             .expect("gonio runs");
         std::thread::sleep(Duration::from_secs(6));
         station.0.kill().unwrap();
-        let t = Instant::now();
-        let status = loop {
-            if let Some(s) = mount.try_wait().unwrap() {
-                break s;
-            }
-            assert!(t.elapsed() < Duration::from_secs(15), "the mount hangs");
-            std::thread::sleep(Duration::from_millis(50));
-        };
-        assert_eq!(status.code(), Some(2));
+        let (status, took) = exit_within(&mut mount, Duration::from_secs(15));
+        let err = common::read_stderr(&mut mount);
+        println!("{err}\nexited {took:?} after the kill");
+        assert_eq!(status.code(), Some(2), "{err}");
+        // The link's failure at once, the station's safe stop failing at once on the dead link,
+        // and no wait on the camera that died with the station (it answers no register read).
+        assert!(took < Duration::from_secs(4), "{took:?} after the kill");
         let report: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&m).unwrap()).unwrap();
         let p = &report["parts"][0];
         assert_eq!(p["result"], "rejected_device_error", "{p}");
+        // Named as what happened, never as an unrelated OS error: the PLC's connection closed
+        // (or reset), or, when the part was waiting for a frame as the station died, the
+        // camera gone; the closed connection is then named by the safe stop that follows.
+        let why = p["reject_reason"].as_str().unwrap();
+        let closed =
+            |s: &str| s.contains("closed the connection") || s.contains("connection was reset");
+        assert!(
+            closed(why) || (why.contains(&cam) && why.contains("camera gone")),
+            "{why}"
+        );
+        assert!(closed(&err), "{err}");
+        assert!(
+            !why.contains("os error") && !err.contains("os error"),
+            "{err}"
+        );
         // Stored: in the table and in the JSON (an unmeasured e is null there).
         let db = db.display().to_string();
         let stored = common::ok(&["parts", "--db", &db]).0;
@@ -635,5 +712,229 @@ fn serve_shows_a_device_error_through_the_plc_and_stays_up() {
         let (_, live) = common::http_get(&web, "/api/live");
         let live: serde_json::Value = serde_json::from_str(&live).unwrap();
         assert_eq!(live["phase"], "idle", "{live}");
+    }
+}
+
+/// The commands `plc` took after the first `cmd`, as (word, first argument).
+#[cfg(feature = "genicam")]
+fn taken_after(plc: &common::HostilePlc, cmd: u16) -> Vec<(u16, i64)> {
+    let taken = plc.taken();
+    let i = taken
+        .iter()
+        .position(|t| t.cmd == cmd)
+        .unwrap_or_else(|| panic!("command {cmd} never taken: {taken:?}"));
+    taken[i + 1..].iter().map(|t| (t.cmd, t.arg0)).collect()
+}
+
+/// Waits (at most 60 s) until `plc` has taken command `cmd`.
+#[cfg(feature = "genicam")]
+fn wait_taken(plc: &common::HostilePlc, cmd: u16) {
+    let t = Instant::now();
+    while !plc.taken().iter().any(|c| c.cmd == cmd) {
+        assert!(t.elapsed() < Duration::from_secs(60), "{:?}", plc.taken());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
+fn a_plc_that_stays_busy_ends_the_mount_within_seconds_with_the_part_stored() {
+    #[cfg(feature = "genicam")]
+    {
+        let name = "a_plc_that_stays_busy_ends_the_mount_within_seconds_with_the_part_stored";
+        // The PLC's virtualenv is made (if missing) before the namespace, which has no network.
+        common::plc_venv_python();
+        if !in_own_netns(name) {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let (m, db, map) = (
+            d.path().join("M.json"),
+            d.path().join("r.sqlite"),
+            d.path().join("map.toml"),
+        );
+        std::fs::write(
+            &map,
+            "[timing]\ncommand_timeout_s = 2.0\nsafe_state_ms = 2000\n",
+        )
+        .unwrap();
+        // A PLC (pymodbus) that takes the focus move and then stays busy with every command; it
+        // says it is simulated, so gonio takes gonio's fake camera as the station's.
+        let plc = common::HostilePlc::start(&["--stuck-on", "4", "--simulated"]);
+        let (_camera, cam) = camera("HOSTILE");
+        let t = Instant::now();
+        let mut mount = mount(
+            &plc.addr,
+            &cam,
+            &[
+                "--parts".as_ref(),
+                "2".as_ref(),
+                "--plc-map".as_ref(),
+                map.as_os_str(),
+                "--json".as_ref(),
+                m.as_os_str(),
+                "--db".as_ref(),
+                db.as_os_str(),
+            ],
+        );
+        let (status, _) = exit_within(&mut mount, Duration::from_secs(60));
+        let took = t.elapsed();
+        let err = common::read_stderr(&mut mount);
+        println!("{err}\nexited after {took:?}");
+        assert_eq!(status.code(), Some(2), "{err}");
+        // Start (camera discovery and set-up), the stuck move's 2 s, one 2 s deadline for every
+        // safe-state command: 181 s before, with the default 30 s command timeout.
+        assert!(took < Duration::from_secs(10), "{took:?}");
+        let last = err.lines().last().unwrap_or("");
+        assert!(
+            last.starts_with("error: the batch stopped after part 1 of 2 (PLC-0001)")
+                && last.contains("MoveFocus not done within 2 s"),
+            "{err}"
+        );
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&m).unwrap()).unwrap();
+        assert_eq!(report["parts"][0]["result"], "rejected_device_error");
+        let db = db.display().to_string();
+        let json: serde_json::Value =
+            serde_json::from_str(&common::ok(&["parts", "--db", &db, "--json"]).0).unwrap();
+        assert_eq!(json[0]["serial"], "PLC-0001", "{json}");
+        assert_eq!(json[0]["result"], "rejected_device_error", "{json}");
+        // The safe-state commands were sent all the same.
+        let after = taken_after(&plc, 4);
+        for c in [(8, 0), (3, 0), (11, 0)] {
+            assert!(after.contains(&c), "{c:?} not in {after:?}");
+        }
+    }
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
+fn a_second_ctrl_c_ends_the_safe_stop_at_once_and_leaves_no_output_behind() {
+    #[cfg(feature = "genicam")]
+    {
+        let name = "a_second_ctrl_c_ends_the_safe_stop_at_once_and_leaves_no_output_behind";
+        common::plc_venv_python();
+        if !in_own_netns(name) {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        let m = out.join("M.json");
+        // Every command after the focus move stays busy: the safe stop waits its whole 5 s.
+        let plc = common::HostilePlc::start(&["--stuck-on", "4", "--simulated"]);
+        let (_camera, cam) = camera("CTRLC");
+        let mut mount = mount(
+            &plc.addr,
+            &cam,
+            &[
+                "--parts".as_ref(),
+                "1".as_ref(),
+                "--json".as_ref(),
+                m.as_os_str(),
+            ],
+        );
+        wait_taken(&plc, 4);
+        std::thread::sleep(Duration::from_millis(300));
+        kill("-INT", mount.id());
+        // The first Ctrl-C: the retract is sent at once (and stays busy).
+        let t = Instant::now();
+        while !taken_after(&plc, 4).contains(&(8, 0)) {
+            assert!(t.elapsed() < Duration::from_secs(2), "{:?}", plc.taken());
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert!(
+            mount.try_wait().unwrap().is_none(),
+            "ended at the first Ctrl-C"
+        );
+        kill("-INT", mount.id());
+        let (status, took) = exit_within(&mut mount, Duration::from_secs(10));
+        println!(
+            "{}\nexited {took:?} after the second Ctrl-C",
+            common::read_stderr(&mut mount)
+        );
+        assert_eq!(status.code(), Some(130));
+        assert!(took < Duration::from_millis(1000), "{took:?}");
+        let left: Vec<_> = std::fs::read_dir(&out).unwrap().flatten().collect();
+        assert!(left.is_empty(), "{left:?}");
+    }
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
+fn ctrl_c_mid_part_leaves_the_station_safe_and_stores_the_part_interrupted() {
+    #[cfg(feature = "genicam")]
+    {
+        let name = "ctrl_c_mid_part_leaves_the_station_safe_and_stores_the_part_interrupted";
+        if !in_own_netns(name) {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let truth = d.path().join("T.json");
+        let m = d.path().join("M.json");
+        let db = d.path().join("r.sqlite");
+        let (_station, addr, cam) = station(&truth);
+        let mut mount = mount(
+            &addr,
+            &cam,
+            &[
+                "--parts".as_ref(),
+                "3".as_ref(),
+                "--json".as_ref(),
+                m.as_os_str(),
+                "--db".as_ref(),
+                db.as_os_str(),
+            ],
+        );
+        // Mid-part: the first turn is measured by then.
+        std::thread::sleep(Duration::from_secs(INTERRUPT_AFTER_S));
+        kill("-INT", mount.id());
+        let (status, took) = exit_within(&mut mount, Duration::from_secs(30));
+        let err = common::read_stderr(&mut mount);
+        println!("{err}\nexited {took:?} after Ctrl-C");
+        assert_eq!(status.code(), Some(130), "{err}");
+        // Retract (1.7 s on the simulated station) and stop (0.5 s), then trigger off.
+        assert!(took < Duration::from_secs(5), "{took:?}");
+        let last = err.lines().last().unwrap_or("");
+        assert!(
+            last.starts_with("interrupted: the batch stopped after part 1 of 3 (PLC-0001)")
+                && last.contains("interrupted by SIGINT"),
+            "{err}"
+        );
+        // The station: rod home, servo stopped, trigger off.
+        let map = gonio_plc::RegisterMap::default();
+        let mut link = gonio_plc::Link::connect(&addr, map).expect("the station still answers");
+        let s = link.status().unwrap();
+        println!("station after Ctrl-C: {s:?}");
+        assert_eq!(s.rod_um, 0.0, "{s:?}");
+        assert_eq!(s.speed_deg_per_s, 0.0, "{s:?}");
+        assert!(!s.has(gonio_plc::link::bits::TRIGGERING), "{s:?}");
+        assert!(!s.has(gonio_plc::link::bits::BUSY), "{s:?}");
+        // The part, stored as interrupted with what was measured.
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&m).unwrap()).unwrap();
+        let p = &report["parts"][0];
+        assert_eq!(p["result"], "interrupted", "{p}");
+        assert!(p["device_error"].is_null(), "{p}");
+        let db = db.display().to_string();
+        let json: serde_json::Value =
+            serde_json::from_str(&common::ok(&["parts", "--db", &db, "--json"]).0).unwrap();
+        let stored = json.as_array().unwrap();
+        assert_eq!(stored.len(), 1, "{json}");
+        assert_eq!(stored[0]["serial"], "PLC-0001", "{json}");
+        assert_eq!(stored[0]["result"], "interrupted", "{json}");
+        assert!(
+            !stored[0]["turns"].as_array().unwrap().is_empty(),
+            "what was measured is kept: {json}"
+        );
     }
 }

@@ -54,8 +54,9 @@ pub struct Recording {
 pub struct DirGuard {
     /// Installs the cleanup (called once, after the record directory is made).
     pub install: fn(),
-    /// A directory this run created: removed if the run is interrupted.
-    pub created_dir: fn(&Path),
+    /// Creates a directory with the given function and registers it (removed, if empty, when
+    /// the run is interrupted) as one step: a signal between the two cannot leave it behind.
+    pub created_dir: fn(&Path, &mut dyn FnMut() -> std::io::Result<()>) -> std::io::Result<()>,
     /// Makes a temporary directory with the given function and registers it (removed if the
     /// run is interrupted) as one step: a signal between the two cannot leave it behind.
     pub temporary_dir: fn(&mut TempDirMaker<'_>) -> std::io::Result<tempfile::TempDir>,
@@ -70,7 +71,7 @@ impl DirGuard {
     /// No cleanup: every call does nothing.
     pub const NONE: DirGuard = DirGuard {
         install: || {},
-        created_dir: |_| {},
+        created_dir: |_, make| make(),
         temporary_dir: |make| make(),
         release: |_| {},
     };
@@ -137,11 +138,13 @@ impl Recorder {
             first_missing = Some(d.to_path_buf());
             d = d.parent().unwrap_or(Path::new(""));
         }
-        // Registered before it is made: a signal in between removes it (if it is there).
-        if let Some(d) = &first_missing {
-            (plan.guard.created_dir)(d);
+        // Made and registered as one step: a signal removes it, or finds it not made yet.
+        let mut make = || std::fs::create_dir_all(&plan.dir);
+        match &first_missing {
+            Some(d) => (plan.guard.created_dir)(d, &mut make),
+            None => make(),
         }
-        std::fs::create_dir_all(&plan.dir).with_context(|| {
+        .with_context(|| {
             format!(
                 "--record {}: cannot create the directory",
                 plan.dir.display()

@@ -1,6 +1,8 @@
 //! A batch of parts mounted through the PLC: wait for a part, mount it with the controller,
 //! hand its record to the caller (the store, the terminal), send *part done*; stop at the first
-//! device error (the link is not trusted after one) with the station left safe.
+//! device error (the link is not trusted after one) or interrupt (the part in progress ends
+//! `interrupted` and is handed over like any other) with the station left safe: retract, stop,
+//! trigger off within the map's `timing.safe_state_ms` ([`PlcStation::safe_stop`]).
 //!
 //! ```no_run
 //! use gonio_plc::batch::{run_batch, PartEnd};
@@ -18,7 +20,7 @@ use crate::triggered::TriggeredCamera;
 use gonio_station::observe::{NoObserver, Observer};
 use gonio_station::strategy::Learned;
 use gonio_station::summary::{BatchSummary, SummaryBuilder};
-use gonio_station::{Controller, PartRecord, StationError};
+use gonio_station::{Controller, PartRecord, PartResult, StationError};
 use serde::Serialize;
 use std::time::Duration;
 
@@ -59,7 +61,7 @@ pub struct PlcBatchReport {
     pub learned: Learned,
     /// Every part, with the PLC's part number.
     pub parts: Vec<PlcPart>,
-    /// Why the batch stopped early.
+    /// Why the batch stopped early (and what the safe stop after it could not do).
     pub stopped: Option<String>,
     /// Summary.
     pub summary: BatchSummary,
@@ -126,7 +128,7 @@ pub fn run_batch_observed<C: TriggeredCamera>(
             }
         };
         let record = ctl.mount_observed(&mut devices, &format!("PLC-{part:04}"), observer)?;
-        let failed = record.device_error.is_some();
+        let failed = record.device_error.is_some() || record.result == PartResult::Interrupted;
         let end = on_part(&PlcPartDone {
             index,
             part,
@@ -152,7 +154,14 @@ pub fn run_batch_observed<C: TriggeredCamera>(
             break;
         }
     }
-    station.safe_stop();
+    // Stopped: the link takes no motion command after this.
+    if let Err(e) = station.safe_stop() {
+        let safe = format!("safe stop: {e}");
+        stopped = Some(match stopped {
+            Some(why) => format!("{why}; {safe}"),
+            None => safe,
+        });
+    }
     let summary = summarise(&out);
     Ok(PlcBatchReport {
         plc: station.addr(),

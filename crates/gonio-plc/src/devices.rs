@@ -9,7 +9,7 @@
 //! Errors: [`PlcError`].
 
 use crate::link::{Command, PlcError};
-use crate::station::PlcStation;
+use crate::station::{Inner, PlcStation};
 use crate::triggered::TriggeredCamera;
 use gonio_station::Devices;
 use gonio_station::hal::{ApproachSpeed, Camera, CameraFrame, Clock, FocusDrive, PushRod, Servo};
@@ -84,37 +84,52 @@ impl<C: TriggeredCamera> PlcStation<C> {
     }
 }
 
+/// Runs `f` on the station's state; a device error aborts the sequence to the safe state
+/// ([`Link::abort`](crate::Link::abort)): the controller's safe stop after it, and the batch's,
+/// then share one deadline instead of a command timeout each.
+fn step<C, T>(
+    station: &PlcStation<C>,
+    f: impl FnOnce(&mut Inner<C>) -> Result<T, PlcError>,
+) -> Result<T, PlcError> {
+    let mut i = station.0.borrow_mut();
+    let r = f(&mut i);
+    if r.is_err() {
+        i.link.abort();
+    }
+    r
+}
+
 impl<C: TriggeredCamera> Servo for PlcStation<C> {
     type Error = PlcError;
     fn angle_deg(&mut self) -> Result<f64, PlcError> {
-        Ok(self.0.borrow_mut().link.status()?.angle_deg)
+        step(self, |i| Ok(i.link.status()?.angle_deg))
     }
     fn move_to_deg(&mut self, target_deg: f64) -> Result<(), PlcError> {
-        let mut i = self.0.borrow_mut();
-        let a = i.link.map.angle_counts(target_deg);
-        i.motion(Command::MoveServo, a, 0).map(|_| ())
+        step(self, |i| {
+            let a = i.link.map.angle_counts(target_deg);
+            i.motion(Command::MoveServo, a, 0).map(|_| ())
+        })
     }
     fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), PlcError> {
-        let mut i = self.0.borrow_mut();
-        let v = i.link.map.speed_counts(speed_deg_per_s);
-        i.motion(Command::Turn, v, 0).map(|_| ())
+        step(self, |i| {
+            let v = i.link.map.speed_counts(speed_deg_per_s);
+            i.motion(Command::Turn, v, 0).map(|_| ())
+        })
     }
     fn begin_turn(&mut self, speed_deg_per_s: f64) -> Result<(), PlcError> {
         // The turn command is not waited for: the frames of the ramp count (each has its
         // latched angle); frames triggered before the PLC took it are stale.
-        let mut i = self.0.borrow_mut();
-        let v = i.link.map.speed_counts(speed_deg_per_s);
-        i.link.send(Command::Turn, v, 0)?;
-        let s = i.link.status()?;
-        i.link.check(&s, "turn")?;
-        i.fresh_after_s = s.time_s;
-        Ok(())
+        step(self, |i| {
+            let v = i.link.map.speed_counts(speed_deg_per_s);
+            i.link.send(Command::Turn, v, 0)?;
+            let s = i.link.status()?;
+            i.link.check(&s, "turn")?;
+            i.fresh_after_s = s.time_s;
+            Ok(())
+        })
     }
     fn stop(&mut self) -> Result<(), PlcError> {
-        self.0
-            .borrow_mut()
-            .motion(Command::StopServo, 0, 0)
-            .map(|_| ())
+        step(self, |i| i.motion(Command::StopServo, 0, 0).map(|_| ()))
     }
     fn angle_log(&mut self, since_s: f64) -> Result<Vec<AngleSample>, PlcError> {
         let i = self.0.borrow();
@@ -126,51 +141,54 @@ impl<C: TriggeredCamera> Servo for PlcStation<C> {
 impl<C: TriggeredCamera> Camera for PlcCamera<C> {
     type Error = PlcError;
     fn capture(&mut self) -> Result<CameraFrame, PlcError> {
-        self.station.0.borrow_mut().capture()
+        step(&self.station, Inner::capture)
     }
 }
 
 impl<C: TriggeredCamera> FocusDrive for PlcFocus<C> {
     type Error = PlcError;
     fn position_um(&mut self) -> Result<f64, PlcError> {
-        Ok(self.station.0.borrow_mut().link.status()?.focus_um)
+        step(&self.station, |i| Ok(i.link.status()?.focus_um))
     }
     fn move_to_um(&mut self, z_um: f64) -> Result<(), PlcError> {
-        let mut i = self.station.0.borrow_mut();
-        let z = i.link.map.length_counts(z_um);
-        i.motion(Command::MoveFocus, z, 0).map(|_| ())
+        step(&self.station, |i| {
+            let z = i.link.map.length_counts(z_um);
+            i.motion(Command::MoveFocus, z, 0).map(|_| ())
+        })
     }
 }
 
 impl<C: TriggeredCamera> PushRod for PlcRod<C> {
     type Error = PlcError;
     fn approach(&mut self, speed: ApproachSpeed) -> Result<(), PlcError> {
-        self.station.0.borrow_mut().approach(speed)
+        step(&self.station, |i| i.approach(speed))
     }
     fn push_um(&mut self, d_um: f64) -> Result<(), PlcError> {
-        let mut i = self.station.0.borrow_mut();
-        let d = i.link.map.length_counts(d_um.max(0.0));
-        i.motion(Command::Push, d, 0).map(|_| ())
+        step(&self.station, |i| {
+            let d = i.link.map.length_counts(d_um.max(0.0));
+            i.motion(Command::Push, d, 0).map(|_| ())
+        })
     }
     fn retract(&mut self) -> Result<(), PlcError> {
-        self.station
-            .0
-            .borrow_mut()
-            .motion(Command::Retract, 0, 0)
-            .map(|_| ())
+        step(&self.station, |i| {
+            i.motion(Command::Retract, 0, 0).map(|_| ())
+        })
     }
 }
 
 impl<C: TriggeredCamera> Clock for PlcClock<C> {
     type Error = PlcError;
     fn now_s(&mut self) -> Result<f64, PlcError> {
-        Ok(self.station.0.borrow_mut().link.status()?.time_s)
+        step(&self.station, |i| Ok(i.link.status()?.time_s))
     }
     fn wait_s(&mut self, dt_s: f64) -> Result<(), PlcError> {
         let t0 = Instant::now();
-        let dt = Duration::from_secs_f64(dt_s.clamp(0.0, 3600.0));
+        let dt = gonio_core::bound::saturating_duration_s(dt_s.clamp(0.0, 3600.0));
         while t0.elapsed() < dt {
-            self.station.0.borrow_mut().link.heartbeat(false)?;
+            step(&self.station, |i| {
+                i.link.check_interrupt()?;
+                i.link.heartbeat(false)
+            })?;
             std::thread::sleep((dt - t0.elapsed().min(dt)).min(Duration::from_millis(50)));
         }
         Ok(())

@@ -34,6 +34,22 @@ pub enum PlcError {
         /// The reply timeout.
         timeout_ms: u64,
     },
+    /// The PLC closed the connection.
+    #[error("PLC at {addr}: the PLC closed the connection ({what})")]
+    Closed {
+        /// The PLC's address.
+        addr: String,
+        /// The request.
+        what: String,
+    },
+    /// The connection was reset (the PLC restarted, or the network dropped it).
+    #[error("PLC at {addr}: the connection was reset by the PLC or the network ({what})")]
+    Reset {
+        /// The PLC's address.
+        addr: String,
+        /// The request.
+        what: String,
+    },
     /// The PLC answered with a Modbus exception.
     #[error("PLC at {addr}: Modbus exception {code} on {what}")]
     Exception {
@@ -80,6 +96,32 @@ pub enum PlcError {
         /// The limit.
         timeout_s: f64,
     },
+    /// A safe-state command did not finish before the safe state's deadline.
+    #[error(
+        "PLC at {addr}: {what} not done within the safe state's {budget_ms} ms (sent; the PLC stays busy)"
+    )]
+    SafeStateTimeout {
+        /// The PLC's address.
+        addr: String,
+        /// The command.
+        what: String,
+        /// The time all safe-state commands had together, ms.
+        budget_ms: u64,
+    },
+    /// A motion command after the sequence was aborted to the safe state.
+    #[error("PLC at {addr}: {what} refused: the sequence was aborted to the safe state")]
+    Aborted {
+        /// The PLC's address.
+        addr: String,
+        /// The command.
+        what: String,
+    },
+    /// The run was asked to stop (a signal: Ctrl-C, SIGTERM).
+    #[error("interrupted by {}", crate::abort::signal_name(*signal))]
+    Interrupted {
+        /// The signal's number.
+        signal: i32,
+    },
     /// An earlier failure took the link down.
     #[error("PLC at {addr}: link down after an earlier failure ({first})")]
     LinkDown {
@@ -113,12 +155,17 @@ pub enum PlcError {
 impl DeviceError for PlcError {
     fn kind(&self) -> DeviceErrorKind {
         match self {
-            PlcError::Connect { .. } | PlcError::Io { .. } | PlcError::LinkDown { .. } => {
-                DeviceErrorKind::Communication
-            }
+            PlcError::Connect { .. }
+            | PlcError::Io { .. }
+            | PlcError::Closed { .. }
+            | PlcError::Reset { .. }
+            | PlcError::LinkDown { .. } => DeviceErrorKind::Communication,
             PlcError::NoReply { .. }
             | PlcError::Silent { .. }
-            | PlcError::CommandTimeout { .. } => DeviceErrorKind::Timeout,
+            | PlcError::CommandTimeout { .. }
+            | PlcError::SafeStateTimeout { .. } => DeviceErrorKind::Timeout,
+            PlcError::Interrupted { .. } => DeviceErrorKind::Interrupted,
+            PlcError::Aborted { .. } => DeviceErrorKind::Other,
             PlcError::Fault { .. }
             | PlcError::EStop { .. }
             | PlcError::NoContact { .. }

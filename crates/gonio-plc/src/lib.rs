@@ -7,7 +7,9 @@
 //! - [`map`]: the register map as data (`examples/plc/modbus-map.toml`), units and scaling.
 //! - [`protocol`]: the status word's bits, fault codes, commands and the status block.
 //! - [`link`]: the blocking Modbus TCP link: command word and sequence counter, status word,
-//!   heartbeat both ways with a watchdog; [`round_trips`]: its round-trip times.
+//!   heartbeat both ways with a watchdog; [`round_trips`]: its round-trip times;
+//!   [`transport`]: the connection under it, which tells a closed, reset or silent PLC apart;
+//!   [`abort`]: the safe state after an error or an interrupt, with one deadline.
 //! - [`error`]: [`PlcError`], every error of the station over the wire.
 //! - [`pairing`]: a frame's angle from the latch ring, or interpolated in timestamped samples.
 //! - [`contact`]: contact when the ring's column starts to move.
@@ -39,6 +41,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod abort;
 pub mod batch;
 pub mod contact;
 pub mod devices;
@@ -51,8 +54,10 @@ pub mod round_trips;
 #[cfg(feature = "sim")]
 pub mod sim;
 pub mod station;
+pub mod transport;
 pub mod triggered;
 
+pub use abort::Interrupt;
 pub use error::PlcError;
 pub use link::Link;
 pub use map::RegisterMap;

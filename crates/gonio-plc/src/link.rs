@@ -3,12 +3,19 @@
 //! the sequence and reports busy → done, or a fault), gonio's heartbeat and a watchdog on the
 //! PLC's, and the round-trip times of every request.
 //!
-//! A link that failed once (refused, reset, a reply timed out, the PLC's heartbeat stopped) is
-//! down for good: every later call fails at once with [`PlcError::LinkDown`], so a dead PLC
-//! costs one timeout, not one per call.
+//! A link that failed once (refused, closed or reset by the PLC, a reply timed out, the PLC's
+//! heartbeat stopped) is down for good: every later call fails at once with
+//! [`PlcError::LinkDown`], so a dead PLC costs one timeout, not one per call. A failure names
+//! what happened on the wire ([`crate::transport`]): the PLC closed the connection, reset it,
+//! or did not reply.
+//!
+//! After [`Link::abort`] (a device error, an interrupt, the batch's end) the link is in the safe
+//! state ([`crate::abort`]): only the commands that leave the station safe are sent, all within
+//! `timing.safe_state_ms` together. An [`Interrupt`] set by the caller (a signal) ends every wait
+//! that is not one of those with [`PlcError::Interrupted`] within a poll period.
 //!
 //! Errors: [`PlcError`]; its [`DeviceError::kind`](gonio_station::hal::DeviceError::kind) says
-//! timeout, communication or fault.
+//! timeout, communication, fault or interrupted.
 //!
 //! ```no_run
 //! use gonio_plc::link::{Command, Link};
@@ -23,15 +30,17 @@ pub use crate::error::PlcError;
 pub use crate::protocol::{Command, FaultCode, Status, bits};
 pub use crate::round_trips::RoundTrips;
 
+pub use crate::abort::Interrupt;
+
+use crate::abort::{SafeState, is_safe_command};
 use crate::map::{RegisterMap, STATUS_BLOCK_REGS, i32_words, words_i32, words_u32, words_u64};
+use crate::transport::{Client, Failure};
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::time::{Duration, Instant};
-use tokio_modbus::client::sync::{self, Reader, Writer};
-use tokio_modbus::prelude::SlaveContext;
 
 /// The blocking Modbus TCP link.
 pub struct Link {
-    ctx: sync::Context,
+    ctx: Client,
     addr: String,
     /// The register map.
     pub map: RegisterMap,
@@ -41,6 +50,8 @@ pub struct Link {
     plc_beat: Option<(u16, Instant)>,
     down: Option<String>,
     rtt: RoundTrips,
+    interrupt: Option<Interrupt>,
+    safe: Option<SafeState>,
 }
 
 impl std::fmt::Debug for Link {
@@ -49,6 +60,7 @@ impl std::fmt::Debug for Link {
             .field("addr", &self.addr)
             .field("seq", &self.seq)
             .field("down", &self.down)
+            .field("safe", &self.safe)
             .finish_non_exhaustive()
     }
 }
@@ -70,11 +82,7 @@ impl Link {
             .next()
             .ok_or_else(|| conn("the address resolves to nothing".into()))?;
         let timeout = Duration::from_millis(map.timing.reply_timeout_ms);
-        let mut ctx =
-            sync::tcp::connect_slave_with_timeout(sa, tokio_modbus::Slave(map.unit), Some(timeout))
-                .map_err(|e| conn(e.to_string()))?;
-        ctx.set_timeout(timeout);
-        ctx.set_slave(tokio_modbus::Slave(map.unit));
+        let ctx = Client::connect(sa, map.unit, timeout).map_err(conn)?;
         let mut link = Link {
             ctx,
             addr: addr.to_string(),
@@ -85,6 +93,8 @@ impl Link {
             plc_beat: None,
             down: None,
             rtt: RoundTrips::default(),
+            interrupt: None,
+            safe: None,
         };
         let s = link.status()?;
         link.seq = s.ack;
@@ -122,37 +132,29 @@ impl Link {
     fn wire<T>(
         &mut self,
         what: &str,
-        f: impl FnOnce(&mut sync::Context) -> tokio_modbus::Result<T>,
+        f: impl FnOnce(&mut Client) -> Result<T, Failure>,
     ) -> Result<T, PlcError> {
         self.check_up()?;
         let t = Instant::now();
         let r = f(&mut self.ctx);
         self.rtt.add(t.elapsed().as_secs_f64() * 1e3);
-        match r {
-            Ok(Ok(v)) => Ok(v),
-            Ok(Err(code)) => Err(PlcError::Exception {
-                addr: self.addr.clone(),
-                code: format!("{code:?}"),
-                what: what.to_string(),
-            }),
-            Err(e) => {
-                let err = match e {
-                    tokio_modbus::Error::Transport(io)
-                        if io.kind() == std::io::ErrorKind::TimedOut =>
-                    {
-                        PlcError::NoReply {
-                            addr: self.addr.clone(),
-                            timeout_ms: self.map.timing.reply_timeout_ms,
-                        }
-                    }
-                    other => PlcError::Io {
-                        addr: self.addr.clone(),
-                        message: format!("{what}: {other}"),
-                    },
-                };
-                Err(self.fail(err))
-            }
-        }
+        let (addr, what) = (self.addr.clone(), what.to_string());
+        let err = match r {
+            Ok(v) => return Ok(v),
+            // The PLC answered: the link is fine.
+            Err(Failure::Exception(code)) => return Err(PlcError::Exception { addr, code, what }),
+            Err(Failure::NoReply) => PlcError::NoReply {
+                addr,
+                timeout_ms: self.map.timing.reply_timeout_ms,
+            },
+            Err(Failure::Closed) => PlcError::Closed { addr, what },
+            Err(Failure::Reset) => PlcError::Reset { addr, what },
+            Err(f) => PlcError::Io {
+                addr,
+                message: format!("{what}: {f}"),
+            },
+        };
+        Err(self.fail(err))
     }
 
     /// Reads input registers.
@@ -161,7 +163,7 @@ impl Link {
     /// Link failures.
     pub fn read_input(&mut self, addr: u16, n: u16) -> Result<Vec<u16>, PlcError> {
         self.heartbeat(false)?;
-        let w = self.wire("read input registers", |c| c.read_input_registers(addr, n))?;
+        let w = self.wire("read input registers", |c| c.read_input(addr, n))?;
         if w.len() != n as usize {
             let e = PlcError::Io {
                 addr: self.addr.clone(),
@@ -184,7 +186,7 @@ impl Link {
         self.beat = self.beat.wrapping_add(1);
         let (a, v) = (self.map.holding.heartbeat, self.beat);
         self.last_beat = Instant::now();
-        self.wire("write heartbeat", |c| c.write_single_register(a, v))
+        self.wire("write heartbeat", |c| c.write_one(a, v))
     }
 
     /// Reads the status block and checks the PLC's heartbeat.
@@ -231,8 +233,15 @@ impl Link {
     /// and returns its sequence number, without waiting.
     ///
     /// # Errors
-    /// Link failures.
+    /// Link failures; [`PlcError::Aborted`] for a command that is not a safe-state one after
+    /// [`Link::abort`].
     pub fn send(&mut self, cmd: Command, arg0: i32, arg1: i32) -> Result<u16, PlcError> {
+        if self.safe.is_some() && !is_safe_command(cmd, arg0) {
+            return Err(PlcError::Aborted {
+                addr: self.addr.clone(),
+                what: format!("{cmd:?}"),
+            });
+        }
         let h = self.map.holding.clone();
         self.seq = self.seq.wrapping_add(1);
         if self.seq == 0 {
@@ -255,16 +264,14 @@ impl Link {
         if (hi - lo) as usize + 1 == regs.len() {
             // Contiguous: one write, the sequence taken with its arguments.
             let words: Vec<u16> = regs.iter().map(|r| r.1).collect();
-            self.wire("write command", |c| c.write_multiple_registers(lo, &words))?;
+            self.wire("write command", |c| c.write_many(lo, &words))?;
         } else {
             // Arguments first, the sequence last (the PLC acts when the sequence changes).
             for (a, v) in regs.iter().filter(|r| r.0 != h.sequence) {
                 let (a, v) = (*a, *v);
-                self.wire("write command", |c| c.write_single_register(a, v))?;
+                self.wire("write command", |c| c.write_one(a, v))?;
             }
-            self.wire("write sequence", |c| {
-                c.write_single_register(h.sequence, seq)
-            })?;
+            self.wire("write sequence", |c| c.write_one(h.sequence, seq))?;
         }
         self.last_beat = Instant::now();
         Ok(seq)
@@ -299,10 +306,12 @@ impl Link {
     /// Polls until command `seq` is done; returns the status at done.
     ///
     /// # Errors
-    /// Link failures, e-stop, faults, [`PlcError::CommandTimeout`].
+    /// Link failures, e-stop, faults, [`PlcError::CommandTimeout`]; in the safe state
+    /// [`PlcError::SafeStateTimeout`] at its deadline; [`PlcError::Interrupted`] when the
+    /// caller's [`Interrupt`] came (outside the safe state).
     pub fn wait_done(&mut self, seq: u16, what: &str) -> Result<Status, PlcError> {
         let t0 = Instant::now();
-        let limit = Duration::from_secs_f64(self.map.timing.command_timeout_s);
+        let limit = gonio_core::bound::saturating_duration_s(self.map.timing.command_timeout_s);
         let poll = Duration::from_millis(self.map.timing.poll_ms);
         loop {
             let s = self.status()?;
@@ -310,7 +319,17 @@ impl Link {
             if s.ack == seq && s.has(bits::DONE) && !s.has(bits::BUSY) {
                 return Ok(s);
             }
-            if t0.elapsed() > limit {
+            self.check_interrupt()?;
+            let now = Instant::now();
+            if let Some(safe) = &self.safe {
+                if now >= safe.deadline() {
+                    return Err(PlcError::SafeStateTimeout {
+                        addr: self.addr.clone(),
+                        what: what.to_string(),
+                        budget_ms: safe.budget().as_millis() as u64,
+                    });
+                }
+            } else if now.duration_since(t0) > limit {
                 return Err(PlcError::CommandTimeout {
                     addr: self.addr.clone(),
                     what: what.to_string(),
@@ -327,6 +346,69 @@ impl Link {
     /// As [`Link::send`] and [`Link::wait_done`].
     pub fn command(&mut self, cmd: Command, arg0: i32, arg1: i32) -> Result<Status, PlcError> {
         let seq = self.send(cmd, arg0, arg1)?;
-        self.wait_done(seq, &format!("{cmd:?}"))
+        let s = self.wait_done(seq, &format!("{cmd:?}"))?;
+        if let Some(safe) = self.safe.as_mut() {
+            safe.done(cmd, arg0);
+        }
+        Ok(s)
+    }
+
+    /// Stops every wait of the link when `interrupt` is raised (outside the safe state):
+    /// the wait ends with [`PlcError::Interrupted`] and the link enters the safe state.
+    pub fn set_interrupt(&mut self, interrupt: Interrupt) {
+        self.interrupt = Some(interrupt);
+    }
+
+    /// [`PlcError::Interrupted`] (and the safe state) once the caller's [`Interrupt`] came;
+    /// nothing in the safe state, whose commands are what an interrupt asks for.
+    ///
+    /// # Errors
+    /// [`PlcError::Interrupted`].
+    pub fn check_interrupt(&mut self) -> Result<(), PlcError> {
+        if self.safe.is_some() {
+            return Ok(());
+        }
+        match self.interrupt.as_ref().and_then(Interrupt::signal) {
+            Some(signal) => {
+                self.abort();
+                Err(PlcError::Interrupted { signal })
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Aborts the sequence: from now on only safe-state commands are sent, all of them within
+    /// `timing.safe_state_ms` from now (the first abort's deadline stands).
+    pub fn abort(&mut self) {
+        if self.safe.is_none() {
+            self.safe = Some(SafeState::begin(Duration::from_millis(
+                self.map.timing.safe_state_ms,
+            )));
+        }
+    }
+
+    /// Whether the link is in the safe state ([`Link::abort`]).
+    pub fn aborted(&self) -> bool {
+        self.safe.is_some()
+    }
+
+    /// Leaves the station safe: rod home, servo stopped, trigger off, each unless it was done
+    /// already since the abort, all within the safe state's deadline. Best effort: the first
+    /// failure is returned after every command was tried.
+    ///
+    /// # Errors
+    /// The first command's failure (a dead link fails each at once).
+    pub fn safe_state(&mut self) -> Result<(), PlcError> {
+        self.abort();
+        let mut first = None;
+        for cmd in [Command::Retract, Command::StopServo, Command::Trigger] {
+            if self.safe.as_ref().is_some_and(|s| s.was_done(cmd, 0)) {
+                continue;
+            }
+            if let Err(e) = self.command(cmd, 0, 0) {
+                first.get_or_insert(e);
+            }
+        }
+        first.map_or(Ok(()), Err)
     }
 }

@@ -162,6 +162,9 @@ pub struct Timing {
     pub frame_timeout_ms: u64,
     /// Status poll period while a command is busy, ms.
     pub poll_ms: u64,
+    /// After an abort (a device error, an interrupt, the batch's end), the safe-state commands
+    /// (retract, stop, trigger off) together wait at most this long, ms.
+    pub safe_state_ms: u64,
 }
 
 impl Default for Timing {
@@ -173,6 +176,7 @@ impl Default for Timing {
             command_timeout_s: 30.0,
             frame_timeout_ms: 1000,
             poll_ms: 5,
+            safe_state_ms: 5000,
         }
     }
 }
@@ -314,6 +318,8 @@ pub mod bounds {
     pub const TIMEOUT_MS: Bound = Bound::new(1.0, 600_000.0, "ms");
     /// `timing.poll_ms`.
     pub const POLL_MS: Bound = Bound::new(1.0, 10_000.0, "ms");
+    /// `timing.safe_state_ms`: a minute, for the slowest retract.
+    pub const SAFE_STATE_MS: Bound = Bound::new(1.0, 60_000.0, "ms");
     /// `timing.command_timeout_s`: an hour, for the slowest move.
     pub const COMMAND_TIMEOUT_S: Bound = Bound::new(0.0, 3600.0, "s").lo_excluded();
     /// `scale.*`: counts per unit on the wire.
@@ -497,6 +503,11 @@ impl RegisterMap {
                 TIMEOUT_MS,
             ),
             ("timing.poll_ms", t.poll_ms as f64, POLL_MS),
+            (
+                "timing.safe_state_ms",
+                t.safe_state_ms as f64,
+                SAFE_STATE_MS,
+            ),
             ("rod.gap_centred_um", r.gap_centred_um, TRAVEL_UM),
             ("rod.centre_column_px", r.centre_column_px, COLUMN_PX),
             ("rod.margin_um", r.margin_um, MARGIN_UM),
@@ -658,6 +669,16 @@ mod tests {
                 "at most 600000 ms",
             ),
             ("[timing]\npoll_ms = 0\n", "poll_ms = 0", "at least 1 ms"),
+            (
+                "[timing]\nsafe_state_ms = 3600000\n",
+                "safe_state_ms = 3600000",
+                "at most 60000 ms",
+            ),
+            (
+                "[timing]\nsafe_state_ms = 0\n",
+                "safe_state_ms = 0",
+                "at least 1 ms",
+            ),
             (
                 "[timing]\nwatchdog_ms = 100000000\n",
                 "watchdog_ms",

@@ -153,7 +153,8 @@ impl<C: TriggeredCamera> PlcStation<C> {
     /// Waits up to `timeout` for a part on the shaft; returns its number.
     ///
     /// # Errors
-    /// Link failures, faults, [`PlcError::CommandTimeout`] when no part came.
+    /// Link failures, faults, [`PlcError::CommandTimeout`] when no part came,
+    /// [`PlcError::Interrupted`].
     pub fn wait_part(&self, timeout: Duration) -> Result<u32, PlcError> {
         let t0 = Instant::now();
         let mut i = self.0.borrow_mut();
@@ -163,6 +164,7 @@ impl<C: TriggeredCamera> PlcStation<C> {
             if s.has(bits::PART_PRESENT) && s.part > 0 {
                 return Ok(s.part);
             }
+            i.link.check_interrupt()?;
             if t0.elapsed() > timeout {
                 return Err(PlcError::CommandTimeout {
                     addr: i.link.addr().to_string(),
@@ -186,12 +188,28 @@ impl<C: TriggeredCamera> PlcStation<C> {
         Ok(())
     }
 
-    /// Leaves the station safe: rod home, servo stopped, trigger off (best effort).
-    pub fn safe_stop(&self) {
-        let mut i = self.0.borrow_mut();
-        let _ = i.link.command(Command::Retract, 0, 0);
-        let _ = i.link.command(Command::StopServo, 0, 0);
-        let _ = i.link.command(Command::Trigger, 0, 0);
+    /// Leaves the station safe: rod home, servo stopped, trigger off, each unless the
+    /// controller did it already after the abort, all within the map's `timing.safe_state_ms`
+    /// ([`Link::safe_state`](crate::Link::safe_state)). Best effort: the link takes no motion
+    /// command after it.
+    ///
+    /// # Errors
+    /// The first safe-state command that failed (all were tried).
+    pub fn safe_stop(&self) -> Result<(), PlcError> {
+        self.0.borrow_mut().link.safe_state()
+    }
+
+    /// Ends every wait of the station when `interrupt` is raised: the part in progress ends
+    /// `interrupted` (the device's error is [`PlcError::Interrupted`]) and the station goes to
+    /// its safe state.
+    pub fn set_interrupt(&self, interrupt: crate::Interrupt) {
+        self.0.borrow_mut().link.set_interrupt(interrupt);
+    }
+
+    /// Aborts the sequence to the safe state ([`Link::abort`](crate::Link::abort)): after a
+    /// device error, only safe-state commands go out, within one deadline.
+    pub fn abort(&self) {
+        self.0.borrow_mut().link.abort();
     }
 
     /// The link's round-trip times, p50 and p99, ms, and the requests timed.
@@ -299,6 +317,7 @@ impl<C: TriggeredCamera> Inner<C> {
         let pairing = self.link.map.pairing;
         let t0 = Instant::now();
         loop {
+            self.link.check_interrupt()?;
             self.link.heartbeat(false)?;
             let f = self
                 .camera

@@ -26,7 +26,9 @@
 //! while e is above `push.live_aim_fraction` of it and pushes and time remain) or rejected (max
 //! pushes, ring lost, focus failure, timeout). A device error ends the part `rejected_device_error` with its record
 //! kept (the device, its message, every turn and push so far); the controller then tries to
-//! leave the station safe (rod retracted, servo stopped).
+//! leave the station safe (rod retracted, servo stopped). A device that reports the run
+//! interrupted ([`DeviceErrorKind::Interrupted`]: a signal) ends the part `interrupted`, with
+//! what was measured and the same safe stop.
 //!
 //! ```
 //! use gonio_station::{Controller, Recipe, Strategy};
@@ -35,7 +37,9 @@
 //! ```
 
 use crate::fit::EccentricityFit;
-use crate::hal::{Camera, CameraFrame, Clock, DeviceError, FocusDrive, PushRod, Servo};
+use crate::hal::{
+    Camera, CameraFrame, Clock, DeviceError, DeviceErrorKind, FocusDrive, PushRod, Servo,
+};
 use crate::observe::{LiveFrame, NoObserver, Observer, Phase};
 pub use crate::record::{
     DeviceFault, PartRecord, PartResult, PhaseTimes, PushRecord, TurnKind, TurnRecord,
@@ -127,7 +131,9 @@ impl Controller {
     /// A device error ends the part `rejected_device_error` with the device and its message in
     /// [`PartRecord::device_error`] (and [`PartRecord::device_error()`] as a
     /// [`StationError::Device`] for callers that want the error); the caller decides whether to
-    /// go on with the next part ([`crate::recipe::DeviceErrorPolicy`]).
+    /// go on with the next part ([`crate::recipe::DeviceErrorPolicy`]). A device that reports
+    /// the run interrupted ([`DeviceErrorKind::Interrupted`]) ends the part `interrupted`, with
+    /// what was measured until then and no device error.
     ///
     /// # Errors
     /// [`StationError::RecipeValue`] when the recipe is invalid (nothing is moved).
@@ -180,6 +186,20 @@ impl Controller {
                 rec.result = result;
                 rec.reject_reason = reason;
                 rec.time_s = d.clock.now_s().ok().map(|t| t - t0);
+            }
+            Err(StationError::Device {
+                device,
+                kind: DeviceErrorKind::Interrupted,
+                message,
+            }) => {
+                // Not a failure: the run was asked to stop. What was measured stays.
+                rec.result = PartResult::Interrupted;
+                rec.reject_reason = Some(format!("{device}: {message}"));
+                let _ = d.rod.retract();
+                let _ = d.servo.stop();
+                if let Ok(t0) = t0 {
+                    rec.time_s = d.clock.now_s().ok().map(|t| t - t0);
+                }
             }
             Err(StationError::Device {
                 device,

@@ -23,6 +23,9 @@ pub enum DeviceErrorKind {
     Fault,
     /// Anything else.
     Other,
+    /// Not a failure: the run was asked to stop (a signal, the operator) while the device
+    /// worked; the part ends `interrupted`.
+    Interrupted,
 }
 
 /// An error of a device: describes itself and says what kind it is.

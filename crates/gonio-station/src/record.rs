@@ -31,6 +31,9 @@ pub enum PartResult {
     PushInconsistent,
     /// A device failed during the part ([`PartRecord::device_error`] says which and why).
     RejectedDeviceError,
+    /// The run was asked to stop during the part (Ctrl-C, SIGTERM): the station was left safe
+    /// and the part keeps what was measured until then.
+    Interrupted,
 }
 
 impl PartResult {
@@ -45,6 +48,7 @@ impl PartResult {
             PartResult::MeasurementUntrusted => "measurement_untrusted",
             PartResult::PushInconsistent => "push_inconsistent",
             PartResult::RejectedDeviceError => "rejected_device_error",
+            PartResult::Interrupted => "interrupted",
         }
     }
 }

@@ -19,7 +19,7 @@ pub(crate) struct SqlStore {
 }
 
 /// The result names a `--verdict` may name besides `pass` and `reject`.
-pub const RESULT_NAMES: [&str; 8] = [
+pub const RESULT_NAMES: [&str; 9] = [
     "accepted",
     "rejected_max_pushes",
     "rejected_ring_lost",
@@ -28,6 +28,7 @@ pub const RESULT_NAMES: [&str; 8] = [
     "measurement_untrusted",
     "push_inconsistent",
     "rejected_device_error",
+    "interrupted",
 ];
 
 fn corrupt(
@@ -135,7 +136,7 @@ fn part_filter(q: &PartQuery) -> Result<(String, Vec<Value>), StoreError> {
                 return Err(StoreError::Invalid {
                     what: "verdict",
                     value: v,
-                    expected: "pass, reject, or a result: accepted, rejected_max_pushes, rejected_ring_lost, rejected_focus_failure, rejected_timeout, measurement_untrusted, push_inconsistent, rejected_device_error",
+                    expected: "pass, reject, or a result: accepted, rejected_max_pushes, rejected_ring_lost, rejected_focus_failure, rejected_timeout, measurement_untrusted, push_inconsistent, rejected_device_error, interrupted",
                 });
             }
         }

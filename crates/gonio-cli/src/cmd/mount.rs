@@ -71,11 +71,14 @@ Examples:
   gonio mount --plc modbus://plc.line3:502 --camera Basler-acA1440-220um-40123456 --station-name line-3 --parts 50 --db results.sqlite
   gonio mount --plc modbus://plc.line3:502 --camera Basler-acA1440-220um-40123456 --station-name line-3 --record rejects --record-parts 7,12
 
-Through --plc a device error (the PLC refused, reset or silent, its watchdog, a drive fault,
-the e-stop, the camera lost, a frame without a latched angle) ends the part
-rejected_device_error naming the device, leaves the station safe (rod retracted where the link
-allows, servo stopped) and stops the batch with exit code 2. In --json a value that was never
-measured (a part that ended before its first turn) is null.")]
+Through --plc a device error (the PLC refused, closed or reset the connection or went silent,
+its watchdog, a drive fault, the e-stop, a command that stays busy past the map's
+command_timeout_s, the camera lost, a frame without a latched angle) ends the part
+rejected_device_error naming the device, leaves the station safe (rod retracted, servo stopped,
+trigger off where the link allows, all within the map's safe_state_ms) and stops the batch with
+exit code 2. Ctrl-C (or SIGTERM) does the same for the part in progress, which is stored as
+interrupted with what was measured, and exits with 130 (143); a second Ctrl-C exits at once.
+In --json a value that was never measured (a part that ended before its first turn) is null.")]
 pub struct Args {
     /// Use the simulated station (the digital twin with the default plant).
     #[arg(long, conflicts_with = "plc")]
@@ -465,6 +468,9 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     let to_stdout = outputs.to_stdout(json);
     let station_name = station::station_name(a.station_name.as_deref(), false);
     let strategy = a.strategy.into();
+    // From here the first Ctrl-C (or SIGTERM) ends the batch safely; a second exits at once.
+    let interrupt = gonio_plc::Interrupt::new();
+    let _deferred = gonio_cli::output::defer_interrupts(interrupt.flag());
     let batch = crate::plc::open(
         crate::plc::Request {
             url: url.to_string(),
@@ -477,7 +483,17 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             station_name: station_name.clone(),
         },
         None,
-    )?;
+    )
+    .map_err(|e| match interrupt.signal() {
+        // Interrupted while the station was being opened: nothing was mounted.
+        Some(signal) => gonio_cli::output::Interrupted {
+            signal,
+            message: format!("before the station was open ({e})"),
+        }
+        .into(),
+        None => e,
+    })?;
+    batch.set_interrupt(interrupt.clone());
     let recorder = start_recording(
         &a,
         record_parts,
@@ -569,6 +585,16 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
         outputs.json_with_nulls(j, &named)?;
     }
     outputs.commit()?;
+    if let Some(signal) = interrupt.signal() {
+        return Err(gonio_cli::output::Interrupted {
+            signal,
+            message: format!(
+                "the batch {}; the records so far are kept",
+                report.stopped.as_deref().unwrap_or("stopped")
+            ),
+        }
+        .into());
+    }
     if let Some(why) = &report.stopped {
         bail!("the batch {why}; the records so far are kept");
     }

@@ -1,6 +1,7 @@
 //! Helpers shared by the CLI tests (and the `serve_load` bench): running `gonio`, the
 //! examples' paths, JSON key paths, and for the dashboard a child process killed when dropped,
-//! a line awaited on its standard error, plain HTTP GETs on loopback.
+//! a line awaited on its standard error, plain HTTP GETs on loopback; for the PLC tests the
+//! pymodbus virtualenv and a hostile PLC on it.
 #![allow(dead_code)] // each test uses some of them
 
 use serde_json::Value;
@@ -147,6 +148,15 @@ impl Drop for Guard {
     }
 }
 
+/// The rest of `child`'s standard error (piped and not taken yet), once it has exited.
+pub fn read_stderr(child: &mut Child) -> String {
+    let mut err = String::new();
+    if let Some(mut e) = child.stderr.take() {
+        let _ = e.read_to_string(&mut err);
+    }
+    err
+}
+
 /// The first line of `child`'s standard error that contains `marker`, within `limit`; the
 /// rest of its standard error is drained in the background (and kept for messages).
 pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -> String {
@@ -163,6 +173,132 @@ pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -
     });
     rx.recv_timeout(limit)
         .unwrap_or_else(|_| panic!("no line with {marker:?} within {limit:?}"))
+}
+
+/// The PLC tests' virtualenv with pymodbus (target/plc-venv, made here when missing): the
+/// client of `examples/plc/pymodbus_check.py` and the server of `tests/plc/hostile_plc.py`.
+pub fn plc_venv_python() -> PathBuf {
+    let dir = PathBuf::from(repo("target/plc-venv"));
+    let py = dir.join("bin/python");
+    // The hostile PLC's server needs pymodbus's SimDevice with its `action` (3.16 on).
+    let has = |py: &PathBuf| {
+        std::process::Command::new(py)
+            .args([
+                "-c",
+                "import pymodbus.client; from pymodbus.simulator import SimDevice; \
+                 assert 'action' in SimDevice.__dataclass_fields__",
+            ])
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !has(&py) {
+        let ok = std::process::Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&dir)
+            .status()
+            .is_ok_and(|s| s.success())
+            && std::process::Command::new(dir.join("bin/pip"))
+                .args(["install", "--quiet", "pymodbus>=3.16,<4"])
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            ok,
+            "cannot make the virtualenv with pymodbus in {}",
+            dir.display()
+        );
+    }
+    assert!(
+        has(&py),
+        "pymodbus ≥ 3.16 is not importable from {}",
+        py.display()
+    );
+    py
+}
+
+/// A hostile PLC (`tests/plc/hostile_plc.py` on pymodbus) in its own process, on 127.0.0.1
+/// with a free port, killed when dropped; its log of the commands it took.
+pub struct HostilePlc {
+    /// The process.
+    pub child: Guard,
+    /// `127.0.0.1:PORT`.
+    pub addr: String,
+    lines: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+}
+
+/// A command the hostile PLC took: its word, sequence number, first argument, and its time
+/// (s since the PLC started).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Taken {
+    /// The command word.
+    pub cmd: u16,
+    /// The sequence number.
+    pub seq: u16,
+    /// The first argument.
+    pub arg0: i64,
+    /// When, s since the PLC started.
+    pub t_s: f64,
+}
+
+impl HostilePlc {
+    /// Starts the hostile PLC with `args` (`--stuck-on 4`, `--slow 4=30`, `--simulated`).
+    pub fn start(args: &[&str]) -> HostilePlc {
+        let py = plc_venv_python();
+        let mut child = std::process::Command::new(py)
+            .arg(repo("crates/gonio-cli/tests/plc/hostile_plc.py"))
+            .args(args)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("python runs");
+        let out = child.stdout.take().expect("stdout piped");
+        let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let (tx, rx) = mpsc::channel();
+        let keep = lines.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                if let Some(addr) = line.strip_prefix("hostile PLC on ") {
+                    let _ = tx.send(addr.to_string());
+                } else {
+                    keep.lock().unwrap().push(line);
+                }
+            }
+        });
+        let child = Guard(child);
+        let addr = rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("the hostile PLC listens within 30 s");
+        HostilePlc { child, addr, lines }
+    }
+
+    /// The commands taken so far, in order.
+    pub fn taken(&self) -> Vec<Taken> {
+        self.lines
+            .lock()
+            .unwrap()
+            .iter()
+            .map(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                assert!(w.len() == 8 && w[0] == "command", "hostile PLC: {l:?}");
+                Taken {
+                    cmd: w[1].parse().unwrap(),
+                    seq: w[3].parse().unwrap(),
+                    arg0: w[5].parse().unwrap(),
+                    t_s: w[7].parse().unwrap(),
+                }
+            })
+            .collect()
+    }
+
+    /// Sends the process `signal` (`-STOP`, `-KILL`).
+    pub fn signal(&self, signal: &str) {
+        let ok = std::process::Command::new("kill")
+            .args([signal, &self.child.0.id().to_string()])
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "kill {signal} the hostile PLC");
+    }
 }
 
 /// Sends `GET path` to `addr` (`host:port`) over plain HTTP/1.1 and reads the response's head:

@@ -369,13 +369,13 @@ impl Outputs {
                     }
                     first_missing = p.to_path_buf();
                 }
-                std::fs::create_dir_all(dir).map_err(|e| {
-                    anyhow!(
-                        "{flag} {shown}: cannot create the directory: {}",
-                        os_message(&e)
-                    )
-                })?;
-                pending::guard_created_dir(&first_missing);
+                pending::guard_created_dir(&first_missing, &mut || std::fs::create_dir_all(dir))
+                    .map_err(|e| {
+                        anyhow!(
+                            "{flag} {shown}: cannot create the directory: {}",
+                            os_message(&e)
+                        )
+                    })?;
                 self.created.push(first_missing);
             }
         }

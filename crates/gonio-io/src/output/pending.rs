@@ -9,8 +9,7 @@
 //! use gonio_io::output::pending;
 //! let d = tempfile::tempdir().unwrap();
 //! let made = d.path().join("run");
-//! std::fs::create_dir(&made).unwrap();
-//! pending::guard_created_dir(&made);
+//! pending::guard_created_dir(&made, &mut || std::fs::create_dir(&made)).unwrap();
 //! pending::release_dir(&made); // kept: an interruption no longer removes it
 //! assert!(made.is_dir());
 //! ```
@@ -60,10 +59,21 @@ pub fn guard_temporary_dir(
     Ok(dir)
 }
 
-/// Registers the directory `dir` that the command has just created: if the process is
-/// interrupted before [`release_dir`], it is removed if it is empty.
-pub fn guard_created_dir(dir: &Path) {
-    dirs().push(Dir::Created(dir.to_path_buf()));
+/// Creates the directory `dir` (the first missing one of a path) with `make` and registers it
+/// as one step: if the process is interrupted before [`release_dir`], it is removed if it is
+/// empty. The registry is locked while it is made, so a signal's cleanup runs before it exists
+/// or after it is registered, never between.
+///
+/// # Errors
+/// Those of `make` (nothing is registered then).
+pub fn guard_created_dir(
+    dir: &Path,
+    make: &mut dyn FnMut() -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let mut dirs = dirs();
+    make()?;
+    dirs.push(Dir::Created(dir.to_path_buf()));
+    Ok(())
 }
 
 /// The directory `dir` is kept (or already removed): an interruption no longer removes it.
