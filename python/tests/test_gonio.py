@@ -307,6 +307,18 @@ def test_argument_errors_are_gonio_errors_never_overflow_errors(data):
                {"coverage": 10**400}, {"coverage": 1.5}, {"monte_carlo": -5}):
         with pytest.raises(gonio.GonioError):
             gonio.budget(TABLE3_BUDGET, **kw)
+    # The calibrations' counts: checked by the module, never the binding's OverflowError.
+    lab, poly, heads = data / "lab" / "readings.csv", data / "poly" / "readings.csv", data / "heads" / "readings.csv"
+    for kw in ({"faces": -1}, {"faces": 2**70}, {"check_order": -2}, {"check_order": 2**40}):
+        with pytest.raises(gonio.GonioError, match="^" + next(iter(kw)) + "="):
+            gonio.shift_angle(lab, **kw)
+    for order in (-1, 2**40):
+        with pytest.raises(gonio.GonioError, match=r"^max_order="):
+            gonio.selfcal(heads, max_order=order)
+    for kw in ({"faces": -24}, {"faces": 2**70}, {"max_order": -1}, {"blind_max_order": 2**64}):
+        kw = {"faces": 24, **kw}
+        with pytest.raises(gonio.GonioError):
+            gonio.joint(poly, heads, **kw)
     # A huge thread count never reaches the interpreter's allocator (it aborted Python).
     code = ("import gonio, numpy as np\n"
             "try:\n"

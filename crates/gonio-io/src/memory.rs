@@ -59,8 +59,9 @@ mod tests {
         let (v, grew) = measured(|| std::hint::black_box(vec![1u8; 64 << 20]));
         assert_eq!(v.len(), 64 << 20);
         let grew = grew.unwrap();
-        // At least the vector (another test's thread may map its own arena meanwhile).
-        assert!(grew >= 64 << 20, "{grew}");
+        // The vector, give or take what the other tests' threads map and unmap meanwhile (their
+        // stacks and buffers: kB to a few MiB; one run saw 12 kB less than the vector).
+        assert!(grew >= 60 << 20, "{grew}");
         assert!(available(1 << 20));
         assert!(!available(u64::MAX));
         assert_eq!(mib(1), 1);

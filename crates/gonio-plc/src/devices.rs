@@ -113,7 +113,9 @@ impl<C: TriggeredCamera> Servo for PlcStation<C> {
     fn start_turn(&mut self, speed_deg_per_s: f64) -> Result<(), PlcError> {
         step(self, |i| {
             let v = i.link.map.speed_counts(speed_deg_per_s);
-            i.motion(Command::Turn, v, 0).map(|_| ())
+            i.motion(Command::Turn, v, 0)?;
+            i.camera.restart_tracking();
+            Ok(())
         })
     }
     fn begin_turn(&mut self, speed_deg_per_s: f64) -> Result<(), PlcError> {
@@ -125,6 +127,7 @@ impl<C: TriggeredCamera> Servo for PlcStation<C> {
             let s = i.link.status()?;
             i.link.check(&s, "turn")?;
             i.fresh_after_s = s.time_s;
+            i.camera.restart_tracking();
             Ok(())
         })
     }

@@ -336,6 +336,7 @@ impl<C: TriggeredCamera> Inner<C> {
                 // Not a trigger's frame (trigger counts start at 1): a frame the camera took
                 // before the trigger ran.
                 self.counts.stale += 1;
+                self.camera.restart_tracking();
                 if t0.elapsed() > 4 * timeout {
                     return Err(PlcError::Camera {
                         message: "no triggered frame (only frames numbered 0)".into(),
@@ -390,6 +391,7 @@ impl<C: TriggeredCamera> Inner<C> {
             };
             let Some((t_mid, theta)) = paired.filter(|&(t, _)| t > self.fresh_after_s) else {
                 self.counts.stale += 1;
+                self.camera.restart_tracking();
                 if t0.elapsed() > 4 * timeout {
                     return Err(PlcError::Camera {
                         message: format!(

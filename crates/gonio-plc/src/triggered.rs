@@ -40,6 +40,11 @@ pub trait TriggeredCamera {
     fn seen(&self) -> Option<SeenFrame<'_>> {
         None
     }
+
+    /// The frames that follow start anew (a turn begins, or the last frame was discarded): a
+    /// camera that tracks the ring from frame to frame forgets it, so that a turn's results
+    /// depend on the turn's own frames, as `gonio replay` reproduces them.
+    fn restart_tracking(&mut self) {}
 }
 
 /// A `FrameSource` (e.g. a GigE Vision camera) through the streaming detector: frame numbers
@@ -88,6 +93,10 @@ where
         };
         self.last = Some((d.stamp, d.result));
         Ok(Some(frame))
+    }
+
+    fn restart_tracking(&mut self) {
+        self.det.restart_tracking();
     }
 
     fn seen(&self) -> Option<SeenFrame<'_>> {

@@ -16,6 +16,11 @@ use gonio_io::results;
 use pyo3::prelude::*;
 use std::str::FromStr;
 
+/// A count (faces, an order): a whole number from 0 to 2³² − 1, checked by the module (a
+/// negative or huge int is `GonioError`, never the binding's `OverflowError`); what the
+/// calibration accepts of it is the calibration's own check, as on the command line.
+const COUNT: gonio_core::bound::Bound = gonio_core::bound::Bound::new(0.0, u32::MAX as f64, "");
+
 /// A choice by name (`"least-squares"`); the error names the argument and the choices
 /// (`method="magic": expected least-squares or paper`).
 fn choice<T: FromStr<Err: std::fmt::Display>>(arg: &str, value: &str) -> PyResult<T> {
@@ -94,7 +99,7 @@ fn heads_table(obj: &Bound<'_, PyAny>, arg: &str, m: usize, raw: bool) -> PyResu
 ///     cert = gonio.shift_angle("lab/readings.csv", sigma=0.05)
 ///     alpha = [(p["angle_deg"], p["value_arcsec"]) for p in cert["encoder_errors"]]
 #[pyfunction]
-#[pyo3(signature = (readings, method="least-squares", sigma=None, instrument=None, coverage=None, faces=None, check_order=2, meta=None))]
+#[pyo3(signature = (readings, method="least-squares", sigma=None, instrument=None, coverage=None, faces=None, check_order=None, meta=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn shift_angle<'py>(
     py: Python<'py>,
@@ -103,10 +108,12 @@ pub fn shift_angle<'py>(
     sigma: Option<f64>,
     instrument: Option<&Bound<'py, PyAny>>,
     coverage: Option<f64>,
-    faces: Option<usize>,
-    check_order: u32,
+    faces: Option<&Bound<'py, PyAny>>,
+    check_order: Option<&Bound<'py, PyAny>>,
     meta: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let faces = convert::opt_whole::<usize>(faces, "faces", COUNT)?;
+    let check_order = convert::opt_whole::<u32>(check_order, "check_order", COUNT)?.unwrap_or(2);
     let method: Method = choice("method", method)?;
     let instrument = opt_document(instrument, "instrument")?;
     let meta = opt_document(meta, "meta")?;
@@ -160,7 +167,7 @@ fn reference(obj: Option<&Bound<'_, PyAny>>) -> PyResult<String> {
 ///     cert = gonio.selfcal("heads/readings.csv", heads="selfa12")
 ///     print(cert["uncertainty"]["coverage"], len(cert["errors"]))
 #[pyfunction]
-#[pyo3(signature = (readings, heads="selfa12", method="fourier", raw=false, noise_model="readings", reference=None, max_order=360, instrument=None, coverage=None, meta=None))]
+#[pyo3(signature = (readings, heads="selfa12", method="fourier", raw=false, noise_model="readings", reference=None, max_order=None, instrument=None, coverage=None, meta=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn selfcal<'py>(
     py: Python<'py>,
@@ -170,11 +177,12 @@ pub fn selfcal<'py>(
     raw: bool,
     noise_model: &str,
     reference: Option<&Bound<'py, PyAny>>,
-    max_order: u32,
+    max_order: Option<&Bound<'py, PyAny>>,
     instrument: Option<&Bound<'py, PyAny>>,
     coverage: Option<f64>,
     meta: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let max_order = convert::opt_whole::<u32>(max_order, "max_order", COUNT)?.unwrap_or(360);
     let method: SelfcalMethod = choice("method", method)?;
     let noise_model: NoiseModel = choice("noise_model", noise_model)?;
     let reference = self::reference(reference)?;
@@ -213,13 +221,13 @@ pub fn selfcal<'py>(
 ///     cert = gonio.joint("poly/readings.csv", "heads/readings.csv", faces=24, heads="selfa12")
 ///     print(cert["joint"]["chi2"])
 #[pyfunction]
-#[pyo3(signature = (readings, heads_readings, faces, heads="selfa12", raw=false, sigma_polygon=None, sigma_heads=None, noise_model="readings", head_angles="measured", interpolation="linear", max_order=360, blind_max_order=None, instrument=None, coverage=None, meta=None))]
+#[pyo3(signature = (readings, heads_readings, faces, heads="selfa12", raw=false, sigma_polygon=None, sigma_heads=None, noise_model="readings", head_angles="measured", interpolation="linear", max_order=None, blind_max_order=None, instrument=None, coverage=None, meta=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn joint<'py>(
     py: Python<'py>,
     readings: &Bound<'py, PyAny>,
     heads_readings: &Bound<'py, PyAny>,
-    faces: usize,
+    faces: &Bound<'py, PyAny>,
     heads: &str,
     raw: bool,
     sigma_polygon: Option<f64>,
@@ -227,12 +235,16 @@ pub fn joint<'py>(
     noise_model: &str,
     head_angles: &str,
     interpolation: &str,
-    max_order: u32,
-    blind_max_order: Option<u32>,
+    max_order: Option<&Bound<'py, PyAny>>,
+    blind_max_order: Option<&Bound<'py, PyAny>>,
     instrument: Option<&Bound<'py, PyAny>>,
     coverage: Option<f64>,
     meta: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let faces = convert::opt_whole::<usize>(Some(faces), "faces", COUNT)?
+        .ok_or_else(|| refuse("faces=None: expected the polygon's number of faces"))?;
+    let max_order = convert::opt_whole::<u32>(max_order, "max_order", COUNT)?.unwrap_or(360);
+    let blind_max_order = convert::opt_whole::<u32>(blind_max_order, "blind_max_order", COUNT)?;
     let noise_model: NoiseModel = choice("noise_model", noise_model)?;
     let head_angles: HeadAngles = choice("head_angles", head_angles)?;
     let interpolation: Interpolation = choice("interpolation", interpolation)?;

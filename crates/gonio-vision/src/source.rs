@@ -96,6 +96,16 @@ impl<S: FrameSource> SourceDetector<S> {
         self.tracker = on.then(|| Tracker::from_params(self.detector.params().clone()));
     }
 
+    /// Forgets the ring being tracked (when frames are tracked): the next frame is measured
+    /// whole, as the first. For a new sequence of frames (a station's next turn), or after a
+    /// frame the caller discards, so that what follows depends on the frames kept only (what
+    /// a replay of them reproduces).
+    pub fn restart_tracking(&mut self) {
+        if let Some(t) = self.tracker.as_mut() {
+            t.reset();
+        }
+    }
+
     /// The tracked detector's state and counts, when frames are tracked.
     pub fn tracker(&self) -> Option<&Tracker> {
         self.tracker.as_ref()

@@ -17,7 +17,7 @@ use crate::formats::json_error;
 use crate::input::Inputs;
 use anyhow::{Context, Result, anyhow, bail};
 use gonio_station::hal::{CameraFrame, DeviceError, DeviceErrorKind};
-use gonio_station::replay::RecordedTurn;
+use gonio_station::replay::{CameraStamp, RecordedTurn};
 use gonio_station::{PartRecord, Recipe, Strategy};
 use gonio_vision::{FrameHeader, FrameSource, FrameStamp, Optics, RawFrames, RawFramesError};
 use serde::{Deserialize, Serialize};
@@ -197,26 +197,40 @@ impl DeviceError for RecordedFramesError {
 }
 
 /// A turn's raw frames, each stamped with the time it was taken (from the turn's data): what
-/// the camera's detector runs on again in a replay.
+/// the camera's detector runs on again in a replay. Frames are numbered as the camera numbered
+/// them when the record has its frame ids (counted from the turn's first), so that the tracked
+/// detector sees the same gaps as it did live; else 0, 1, 2, …
 pub struct RecordedFrames<R> {
     raw: RawFrames<R>,
     path: PathBuf,
     stamps: Vec<(f64, f64)>,
+    ids: Vec<u64>,
 }
 
 impl<R: Read> RecordedFrames<R> {
-    /// Frames of `width` × `height` from `reader` (the file `path`), stamped by `frames`.
+    /// Frames of `width` × `height` from `reader` (the file `path`), stamped by `frames`,
+    /// numbered by `camera`'s frame ids when it has one per frame.
     pub fn new(
         reader: R,
         path: &Path,
         width: usize,
         height: usize,
         frames: &[CameraFrame],
+        camera: &[CameraStamp],
     ) -> Self {
+        let ids = if camera.len() == frames.len()
+            && camera.windows(2).all(|w| w[0].frame_id < w[1].frame_id)
+        {
+            let first = camera.first().map_or(0, |c| c.frame_id);
+            camera.iter().map(|c| c.frame_id - first).collect()
+        } else {
+            Vec::new()
+        };
         RecordedFrames {
             raw: RawFrames::new(reader, width, height),
             path: path.to_path_buf(),
             stamps: frames.iter().map(|f| (f.start_s, f.exposure_s)).collect(),
+            ids,
         }
     }
 }
@@ -242,6 +256,7 @@ impl<R: Read> FrameSource for RecordedFrames<R> {
         })?;
         Ok(Some(FrameHeader {
             stamp: FrameStamp {
+                index: self.ids.get(i).copied().unwrap_or(h.stamp.index),
                 start_s: Some(start_s),
                 exposure_s: Some(exposure_s),
                 ..h.stamp
@@ -280,5 +295,6 @@ pub fn open_raw(
         part.width,
         part.height,
         &rec.frames,
+        &rec.camera,
     ))
 }
