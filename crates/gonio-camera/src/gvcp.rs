@@ -197,7 +197,7 @@ mod tests {
                     let mut regs = vec![0u8; DISCOVERY_PAYLOAD];
                     regs[0x48..0x48 + 6].copy_from_slice(b"Aravis");
                     regs[0x68..0x68 + 4].copy_from_slice(b"Fake");
-                    regs[0xD8..0xD8 + 12].copy_from_slice(b"GONIOSTATION");
+                    regs[0xD8..0xD8 + 12].copy_from_slice(b"TESTCAMERA01");
                     (DISCOVERY_ACK, regs)
                 } else {
                     (READREG_ACK, vec![0, 1, 0, 2])
@@ -211,7 +211,7 @@ mod tests {
             }
         });
         let c = discover(at, Duration::from_secs(5)).expect("the device answers");
-        assert_eq!(c.id(), "Aravis-Fake-GONIOSTATION");
+        assert_eq!(c.id(), "Aravis-Fake-TESTCAMERA01");
         assert_eq!(c.user_name, "");
         assert!(answers(at, Duration::from_secs(5)));
         device.join().unwrap();
