@@ -8,11 +8,11 @@
 //! removes the pending outputs and exits at once.
 
 use gonio_io::output::pending;
+pub use gonio_io::output::pending::Interrupted;
 pub use gonio_io::output::{OutId, os_message};
 use std::path::Path;
+use std::sync::Arc;
 use std::sync::atomic::AtomicI32;
-use std::sync::atomic::Ordering::SeqCst;
-use std::sync::{Arc, Mutex};
 
 /// The outputs of one command, written as a set; every method of
 /// [`gonio_io::output::Outputs`] through `Deref`.
@@ -78,11 +78,7 @@ pub fn install_signal_cleanup() {
             {
                 std::thread::spawn(move || {
                     for sig in signals.forever() {
-                        if sig != SIGHUP
-                            && deferred()
-                                .as_ref()
-                                .is_some_and(|f| f.compare_exchange(0, sig, SeqCst, SeqCst).is_ok())
-                        {
+                        if sig != SIGHUP && pending::hand_over_interrupt(sig) {
                             continue;
                         }
                         pending::clean_up_interrupted();
@@ -94,51 +90,11 @@ pub fn install_signal_cleanup() {
     });
 }
 
-/// The flag of the command that ends itself on the first SIGINT or SIGTERM ([`defer_interrupts`]).
-static DEFERRED: Mutex<Option<Arc<AtomicI32>>> = Mutex::new(None);
-
-fn deferred() -> std::sync::MutexGuard<'static, Option<Arc<AtomicI32>>> {
-    DEFERRED.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// While held, interrupts are the command's to handle ([`defer_interrupts`]).
-#[derive(Debug)]
-#[must_use = "interrupts are deferred only while this is held"]
-pub struct DeferredInterrupts(());
-
-impl Drop for DeferredInterrupts {
-    fn drop(&mut self) {
-        deferred().take();
-    }
-}
-
-/// Hands the first SIGINT or SIGTERM to the command: its number is stored in `flag` (which
-/// must hold 0), and the command ends itself, leaving its devices safe; a second signal (or
-/// SIGHUP) removes the pending outputs and exits at once with 128 + the signal. Until the
-/// guard is dropped.
-pub fn defer_interrupts(flag: Arc<AtomicI32>) -> DeferredInterrupts {
+/// [`pending::defer_interrupts`] with the signal handler installed.
+pub fn defer_interrupts(flag: Arc<AtomicI32>) -> pending::DeferredInterrupts {
     install_signal_cleanup();
-    *deferred() = Some(flag);
-    DeferredInterrupts(())
+    pending::defer_interrupts(flag)
 }
-
-/// A command that ended because it was interrupted (SIGINT, SIGTERM) after leaving its
-/// devices safe: the binary prints the message and exits with 128 + the signal.
-#[derive(Debug)]
-pub struct Interrupted {
-    /// The signal's number.
-    pub signal: i32,
-    /// What was done (one line).
-    pub message: String,
-}
-
-impl std::fmt::Display for Interrupted {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.message)
-    }
-}
-
-impl std::error::Error for Interrupted {}
 
 /// [`pending::guard_temporary_dir`] with the signal handler installed.
 ///

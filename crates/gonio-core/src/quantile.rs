@@ -32,6 +32,33 @@ pub fn quantile(samples: &mut [f64], q: f64) -> Option<f64> {
     quantile_sorted(samples, q)
 }
 
+/// The median, 99th percentile and largest of a set of samples (nearest rank), and how many:
+/// what a timing report prints.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// The median (the lower middle sample of an even count).
+    pub median: f64,
+    /// The 99th percentile.
+    pub p99: f64,
+    /// The largest sample.
+    pub max: f64,
+    /// How many samples.
+    pub n: usize,
+}
+
+impl Spread {
+    /// The spread of `samples` in any order, sorting them in place (`None`: no samples).
+    pub fn of(samples: &mut [f64]) -> Option<Spread> {
+        samples.sort_by(f64::total_cmp);
+        Some(Spread {
+            median: quantile_sorted(samples, 0.5)?,
+            p99: quantile_sorted(samples, 0.99)?,
+            max: quantile_sorted(samples, 1.0)?,
+            n: samples.len(),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -57,5 +84,8 @@ mod tests {
         assert_eq!(rank(1, 0.5), 0);
         assert_eq!(rank(7, f64::NAN), 0);
         assert_eq!(rank(7, 2.0), 6);
+        let s = Spread::of(&mut [4.0, 1.0, 3.0, 2.0]).unwrap();
+        assert_eq!((s.median, s.p99, s.max, s.n), (2.0, 4.0, 4.0, 4));
+        assert_eq!(Spread::of(&mut []), None);
     }
 }

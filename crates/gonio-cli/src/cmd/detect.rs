@@ -5,7 +5,7 @@ use anyhow::{Result, anyhow, bail};
 use gonio_cli::flag;
 use gonio_cli::output::{OutId, Outputs};
 use gonio_core::bound::Bound;
-use gonio_core::quantile::quantile_sorted;
+use gonio_core::quantile::Spread;
 use gonio_io::formats::angles::{self, FrameAngles as Angles};
 use gonio_io::formats::csv::CsvTable;
 use gonio_io::formats::frames::{FileFrames, list_frames, load_optics, parse_raw_size};
@@ -499,54 +499,44 @@ fn thread_cpu_s() -> f64 {
 /// `--timing`: the detector's CPU time per frame (of the calling thread) and, for frames split
 /// across two threads, its wall time, on standard error.
 fn report_timing(cpu_s: &mut [f64], wall_s: &mut [f64], split: bool) {
-    if cpu_s.is_empty() {
+    let (Some(cpu), Some(wall)) = (Spread::of(cpu_s), Spread::of(wall_s)) else {
         gonio_cli::note!("detector timing: no frames");
         return;
-    }
-    // Nearest-rank quantiles (gonio_core::quantile); `v` is not empty.
-    let quantiles = |v: &mut [f64]| {
-        v.sort_by(f64::total_cmp);
-        let q = |p: f64| quantile_sorted(v, p).unwrap_or(f64::NAN) * 1e3;
-        (q(0.5), q(0.99), q(1.0), v.len())
     };
-    let (median, p99, max, n) = quantiles(cpu_s);
     gonio_cli::note!(
-        "detector alone (crop + detect, CPU time of the thread): median {median:.3} ms/frame, \
-         99th percentile {p99:.3} ms, max {max:.3} ms over {n} frames"
+        "detector alone (crop + detect, CPU time of the thread): {}",
+        ms(&cpu)
     );
-    let (median, p99, max, _) = quantiles(wall_s);
     gonio_cli::note!(
-        "detector alone, each frame on {} (crop + detect, wall time): median {median:.3} \
-         ms/frame, 99th percentile {p99:.3} ms, max {max:.3} ms",
-        if split { "two threads" } else { "one thread" }
+        "detector alone, each frame on {} (crop + detect, wall time): {}",
+        if split { "two threads" } else { "one thread" },
+        ms(&wall)
     );
+}
+
+/// A timing spread in seconds as the report's milliseconds.
+fn ms(s: &Spread) -> String {
+    format!(
+        "median {:.3} ms/frame, 99th percentile {:.3} ms, max {:.3} ms over {} frames",
+        s.median * 1e3,
+        s.p99 * 1e3,
+        s.max * 1e3,
+        s.n
+    )
 }
 
 /// `--timing` with tracking: the detector's CPU time per frame for the frames measured in the
 /// band and for those measured whole, apart, and why frames were measured whole.
 fn report_modes(cpu_s: &[f64], tracked: &[bool], t: &gonio_vision::track::Tracker) {
     for (mode, in_band) in [("tracked (measured in the band)", true), ("whole", false)] {
-        let mut v: Vec<f64> = cpu_s
-            .iter()
-            .zip(tracked)
+        let mut v: Vec<f64> = (cpu_s.iter().zip(tracked))
             .filter(|&(_, &b)| b == in_band)
             .map(|(&x, _)| x)
             .collect();
-        if v.is_empty() {
-            gonio_cli::note!("{mode} frames: none");
-            continue;
+        match Spread::of(&mut v) {
+            Some(s) => gonio_cli::note!("{mode} frames (CPU time of the thread): {}", ms(&s)),
+            None => gonio_cli::note!("{mode} frames: none"),
         }
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        let median = (v[(n - 1) / 2] + v[n / 2]) / 2.0;
-        let p99 = v[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1];
-        gonio_cli::note!(
-            "{mode} frames (CPU time of the thread): median {:.3} ms/frame, 99th percentile \
-             {:.3} ms, max {:.3} ms over {n} frames",
-            median * 1e3,
-            p99 * 1e3,
-            v[n - 1] * 1e3
-        );
     }
     let why: Vec<String> = t
         .fallbacks()

@@ -1,7 +1,7 @@
 //! `gonio mount`: mount a batch of gratings on the (simulated) automatic mounting station.
 
 use crate::station::{self, FidelityArg, StrategyArg};
-use crate::table::fixed;
+use crate::table::{self, fixed};
 use anyhow::{Result, bail};
 use gonio_cli::output::{OutId, Outputs};
 use gonio_cli::say;
@@ -227,7 +227,7 @@ pub fn run(a: Args) -> Result<()> {
     // in memory (a million parts in a few MB).
     let table = !to_stdout;
     if table {
-        say!("{}", table_header())?;
+        say!("{}", table::mount::HEADER)?;
     }
     let mut printed: Result<()> = Ok(());
     let report = station::run(
@@ -321,62 +321,9 @@ fn finish_recording(recorder: Option<Recorder>, dir: Option<&std::path::Path>) -
     Ok(())
 }
 
-/// The table's heading line.
-fn table_header() -> String {
-    format!(
-        "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  result",
-        "serial", "initial e/µm", "final e/µm", "pushes", "remeasured", "time/s"
-    )
-}
-
 /// One part's row of the table (and why it was rejected, on a line of its own).
 fn print_row(r: &gonio_station::PartRecord) -> Result<()> {
-    say!(
-        "{:<14} {:>12} {:>12} {:>7} {:>11} {:>8}  {}",
-        r.serial,
-        fixed(r.initial_e_um, 1),
-        fixed(r.final_e_um, 2),
-        r.pushes,
-        r.remeasured_turns,
-        fixed(r.time_s, 1),
-        r.result.name()
-    )?;
-    if let Some(why) = &r.reject_reason {
-        say!("{:<14} why: {why}", "")?;
-    }
-    Ok(())
-}
-
-/// The mean time a part spent in each phase (docs/station-timing.md), and how its focus was
-/// found; `None` without parts.
-fn phase_line<'a>(parts: impl Iterator<Item = &'a gonio_station::PartRecord>) -> Option<String> {
-    let (mut n, mut checks, mut sweeps) = (0usize, 0u32, 0u32);
-    let mut sum = [0.0; 7];
-    for r in parts {
-        let t = &r.phase_times;
-        n += 1;
-        checks += r.focus_checks;
-        sweeps += r.focus_sweeps;
-        for (s, v) in sum.iter_mut().zip([
-            Some(t.focus_s),
-            Some(t.measure_s),
-            Some(t.push_s),
-            t.align_s,
-            t.approach_s,
-            t.stroke_s,
-            t.retract_s,
-        ]) {
-            *s += v.unwrap_or(0.0);
-        }
-    }
-    if n == 0 {
-        return None;
-    }
-    let m = sum.map(|s| s / n as f64);
-    Some(format!(
-        "phases, mean a part: focus {:.2} s (carried focus checked {checks} times, swept {sweeps}), measure {:.2} s, push {:.2} s (align {:.2}, approach {:.2}, stroke {:.2}, retract {:.2})",
-        m[0], m[1], m[2], m[3], m[4], m[5], m[6]
-    ))
+    say!("{}", table::mount::row(r))
 }
 
 /// The summary lines (when stdout is not the JSON) and the JSON; the table's rows were
@@ -408,7 +355,7 @@ fn print_and_write(
             s.push_inconsistent,
             s.device_errors
         )?;
-        if let Some(line) = phase_line(report.parts.iter().map(|p| &p.record)) {
+        if let Some(line) = table::mount::phase_line(report.parts.iter().map(|p| &p.record)) {
             say!("{line}")?;
         }
         let y = &YU_2024;
@@ -516,7 +463,7 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
     );
     let table = !to_stdout;
     if table {
-        say!("{}", table_header())?;
+        say!("{}", table::mount::HEADER)?;
     }
     let mut printed: Result<()> = Ok(());
     let observer: &mut dyn gonio_station::observe::Observer = match observer.as_mut() {
@@ -556,7 +503,7 @@ fn run_plc(a: Args, url: &str) -> Result<()> {
             s.rejected,
             s.device_errors
         )?;
-        if let Some(line) = phase_line(report.parts.iter().map(|p| &p.record)) {
+        if let Some(line) = table::mount::phase_line(report.parts.iter().map(|p| &p.record)) {
             say!("{line}")?;
         }
         let l = &report.link;

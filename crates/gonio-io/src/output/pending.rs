@@ -3,7 +3,9 @@
 //! the directories the command created. A process-wide registry, because the one who removes
 //! them is a signal handler: the binary installs it (SIGINT, SIGTERM, SIGHUP) and calls
 //! [`clean_up_interrupted`] before it exits; this module never installs a handler, prints or
-//! exits.
+//! exits. A command that drives devices takes the first SIGINT or SIGTERM itself
+//! ([`defer_interrupts`]: the handler asks [`hand_over_interrupt`]) to leave them safe and end
+//! with [`Interrupted`].
 //!
 //! ```
 //! use gonio_io::output::pending;
@@ -15,7 +17,9 @@
 //! ```
 
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::atomic::AtomicI32;
+use std::sync::atomic::Ordering::SeqCst;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Temporary files not yet renamed into place.
 static FILES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -107,4 +111,58 @@ pub fn clean_up_interrupted() {
     // Locks held on purpose: nothing renames or creates after this.
     std::mem::forget(dirs);
     std::mem::forget(p);
+}
+
+/// The flag of the command that ends itself on the first SIGINT or SIGTERM ([`defer_interrupts`]).
+static DEFERRED: Mutex<Option<Arc<AtomicI32>>> = Mutex::new(None);
+
+fn deferred() -> MutexGuard<'static, Option<Arc<AtomicI32>>> {
+    DEFERRED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// While held, interrupts are the command's to handle ([`defer_interrupts`]).
+#[derive(Debug)]
+#[must_use = "interrupts are deferred only while this is held"]
+pub struct DeferredInterrupts(());
+
+impl Drop for DeferredInterrupts {
+    fn drop(&mut self) {
+        deferred().take();
+    }
+}
+
+/// Hands the first SIGINT or SIGTERM to the command: its number is stored in `flag` (which
+/// must hold 0), and the command ends itself, leaving its devices safe; a second signal (or
+/// SIGHUP) removes the pending outputs and exits at once with 128 + the signal. Until the
+/// guard is dropped.
+pub fn defer_interrupts(flag: Arc<AtomicI32>) -> DeferredInterrupts {
+    *deferred() = Some(flag);
+    DeferredInterrupts(())
+}
+
+/// A command that ended because it was interrupted (SIGINT, SIGTERM) after leaving its
+/// devices safe: the binary prints the message and exits with 128 + the signal.
+#[derive(Debug)]
+pub struct Interrupted {
+    /// The signal's number.
+    pub signal: i32,
+    /// What was done (one line).
+    pub message: String,
+}
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
+/// For the binary's signal handler: hands SIGINT or SIGTERM `sig` to the command that defers
+/// interrupts, if one does and has not had one yet (`true`: the handler leaves the process
+/// running); `false`: the handler cleans up and exits.
+pub fn hand_over_interrupt(sig: i32) -> bool {
+    deferred()
+        .as_ref()
+        .is_some_and(|f| f.compare_exchange(0, sig, SeqCst, SeqCst).is_ok())
 }

@@ -12,6 +12,7 @@
 //! ```
 
 pub mod budget;
+pub mod mount;
 
 /// Longest row or budget name shown whole in a table; longer names are cut with `…` (the CSV and
 /// JSON outputs keep every name whole).
