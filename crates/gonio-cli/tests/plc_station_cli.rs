@@ -875,9 +875,26 @@ fn a_second_ctrl_c_ends_the_safe_stop_at_once_and_leaves_no_output_behind() {
     ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
 )]
 fn ctrl_c_mid_part_leaves_the_station_safe_and_stores_the_part_interrupted() {
+    interrupted_mid_part(
+        "ctrl_c_mid_part_leaves_the_station_safe_and_stores_the_part_interrupted",
+        "INT",
+    );
+}
+
+#[test]
+#[cfg_attr(
+    not(feature = "genicam"),
+    ignore = "needs the genicam feature (libaravis): .ci/cam.sh"
+)]
+fn sigterm_mid_part_does_the_same_and_exits_143() {
+    interrupted_mid_part("sigterm_mid_part_does_the_same_and_exits_143", "TERM");
+}
+
+/// The station interrupted by SIG`sig` mid-part: safe, the part stored, exit 128 + the signal.
+#[allow(unused_variables)]
+fn interrupted_mid_part(name: &str, sig: &str) {
     #[cfg(feature = "genicam")]
     {
-        let name = "ctrl_c_mid_part_leaves_the_station_safe_and_stores_the_part_interrupted";
         if !in_own_netns(name) {
             return;
         }
@@ -900,17 +917,18 @@ fn ctrl_c_mid_part_leaves_the_station_safe_and_stores_the_part_interrupted() {
         );
         // Mid-part: the first turn is measured by then.
         std::thread::sleep(Duration::from_secs(INTERRUPT_AFTER_S));
-        kill("-INT", mount.id());
+        kill(&format!("-{sig}"), mount.id());
         let (status, took) = exit_within(&mut mount, Duration::from_secs(30));
         let err = common::read_stderr(&mut mount);
-        println!("{err}\nexited {took:?} after Ctrl-C");
-        assert_eq!(status.code(), Some(130), "{err}");
+        println!("{err}\nexited {took:?} after SIG{sig}");
+        let code = if sig == "INT" { 130 } else { 143 };
+        assert_eq!(status.code(), Some(code), "{err}");
         // Retract (1.7 s on the simulated station) and stop (0.5 s), then trigger off.
         assert!(took < Duration::from_secs(5), "{took:?}");
         let last = err.lines().last().unwrap_or("");
         assert!(
             last.starts_with("interrupted: the batch stopped after part 1 of 3 (PLC-0001)")
-                && last.contains("interrupted by SIGINT"),
+                && last.contains(&format!("interrupted by SIG{sig}")),
             "{err}"
         );
         // The station: rod home, servo stopped, trigger off.
