@@ -39,7 +39,7 @@
 //! assert_eq!(v[6].from_deg, 360.0);
 //! ```
 
-use crate::plan::{MAX_PLANNED_READINGS, ModeRule, PlanError};
+use crate::plan::{MAX_PLANNED_READINGS, ModeRule, PlanError, sign_and_mode};
 use crate::readings::Row;
 use crate::sequence::{CheckKind, Sequence};
 use gonio_calib::axis::{Direction, MAX_RUNS, MAX_TARGET_DEG, TargetKey};
@@ -298,26 +298,7 @@ impl AxisPlan {
                 Some(r)
             }
         };
-        let x_sign = match &raw.x_sign {
-            None => 1.0,
-            Some(v) => match *v.get_ref() {
-                1 => 1.0,
-                -1 => -1.0,
-                x => return Err(at(v.span(), format!("x_sign = {x}: expected 1 or -1"))),
-            },
-        };
-        let mode = match &raw.mode {
-            None => ModeRule::Any,
-            Some(v) => ModeRule::parse(v.get_ref()).ok_or_else(|| {
-                at(
-                    v.span(),
-                    format!(
-                        "mode = {:?}: expected \"absolute\", \"relative\" or \"any\"",
-                        v.get_ref()
-                    ),
-                )
-            })?,
-        };
+        let (x_sign, mode) = sign_and_mode(raw.x_sign.as_ref(), raw.mode.as_ref(), &at)?;
         let total = targets_deg.len() as u64 * u64::from(runs) * directions.len() as u64;
         if total > MAX_PLANNED_READINGS {
             return Err(at(

@@ -422,26 +422,7 @@ impl Plan {
                 [levels[0], levels[1], levels[2], levels[3]]
             }
         };
-        let x_sign = match &raw.x_sign {
-            None => 1.0,
-            Some(v) => match *v.get_ref() {
-                1 => 1.0,
-                -1 => -1.0,
-                x => return Err(at(v.span(), format!("x_sign = {x}: expected 1 or -1"))),
-            },
-        };
-        let mode = match &raw.mode {
-            None => ModeRule::Any,
-            Some(v) => ModeRule::parse(v.get_ref()).ok_or_else(|| {
-                at(
-                    v.span(),
-                    format!(
-                        "mode = {:?}: expected \"absolute\", \"relative\" or \"any\"",
-                        v.get_ref()
-                    ),
-                )
-            })?,
-        };
+        let (x_sign, mode) = sign_and_mode(raw.x_sign.as_ref(), raw.mode.as_ref(), &at)?;
         let closure = u64::from(raw.closure.unwrap_or(false));
         let total: u64 = shifts
             .iter()
@@ -613,6 +594,36 @@ impl Plan {
         }
         s
     }
+}
+
+/// A plan's `x_sign` (1 or −1; default 1) and `mode` rule (default any), each located by `at`
+/// when it is neither: shared by the shift-angle plan and the axis test cycle.
+pub(crate) fn sign_and_mode(
+    x_sign: Option<&Spanned<i64>>,
+    mode: Option<&Spanned<String>>,
+    at: &dyn Fn(std::ops::Range<usize>, String) -> PlanError,
+) -> std::result::Result<(f64, ModeRule), PlanError> {
+    let x_sign = match x_sign {
+        None => 1.0,
+        Some(v) => match *v.get_ref() {
+            1 => 1.0,
+            -1 => -1.0,
+            x => return Err(at(v.span(), format!("x_sign = {x}: expected 1 or -1"))),
+        },
+    };
+    let mode = match mode {
+        None => ModeRule::Any,
+        Some(v) => ModeRule::parse(v.get_ref()).ok_or_else(|| {
+            at(
+                v.span(),
+                format!(
+                    "mode = {:?}: expected \"absolute\", \"relative\" or \"any\"",
+                    v.get_ref()
+                ),
+            )
+        })?,
+    };
+    Ok((x_sign, mode))
 }
 
 #[cfg(test)]
