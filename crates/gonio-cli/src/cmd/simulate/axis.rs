@@ -119,20 +119,7 @@ pub fn parse_targets(flag: &str, s: &str) -> Result<Vec<f64>> {
             )
         })?
     } else {
-        s.split(',')
-            .map(|p| {
-                p.trim()
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .with_context(|| {
-                        format!(
-                            "{flag} {shown:?}: {:?} is not a number of degrees",
-                            gonio_core::text::short(p)
-                        )
-                    })
-            })
-            .collect::<Result<_>>()?
+        super::degrees_list(flag, &shown, s)?
     };
     if let Some(t) = v.iter().find(|t| t.abs() > MAX_TARGET_DEG) {
         bail!(

@@ -97,3 +97,23 @@ fn lab(
     };
     Ok((files, model))
 }
+
+/// A comma-separated list of angles in degrees given to `flag` (the whole value `shown` in the
+/// message): every item a finite number, or a one-line error naming the item.
+fn degrees_list(flag: &str, shown: &str, s: &str) -> anyhow::Result<Vec<f64>> {
+    use anyhow::Context;
+    s.split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .with_context(|| {
+                    format!(
+                        "{flag} {shown:?}: {:?} is not a number of degrees",
+                        gonio_core::text::short(p)
+                    )
+                })
+        })
+        .collect()
+}

@@ -97,20 +97,7 @@ pub fn parse_shifts(s: &str) -> Result<Vec<f64>> {
             )
         })?
     } else {
-        s.split(',')
-            .map(|p| {
-                p.trim()
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .with_context(|| {
-                        format!(
-                            "--shifts {shown:?}: {:?} is not a number of degrees",
-                            gonio_core::text::short(p)
-                        )
-                    })
-            })
-            .collect::<Result<_>>()?
+        super::degrees_list("--shifts", &shown, s)?
     };
     if let Some((x, e)) = v.iter().find_map(|&x| {
         gonio_calib::shift_angle::SHIFT_DEG
