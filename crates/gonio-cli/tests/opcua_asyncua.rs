@@ -10,48 +10,17 @@ use common::{gonio, repo, stderr};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The test's virtualenv with asyncua and argon2-cffi (made once for all the tests).
+/// The test's virtualenv with asyncua and argon2-cffi (target/opcua-venv, made once).
 fn venv_python() -> PathBuf {
     static VENV: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
-    VENV.get_or_init(make_venv).clone()
-}
-
-fn make_venv() -> PathBuf {
-    let dir = PathBuf::from(repo("target/opcua-venv"));
-    let py = dir.join("bin/python");
-    let has = |py: &PathBuf| {
-        Command::new(py)
-            .args(["-c", "import asyncua, argon2"])
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    if !has(&py) {
-        let ok = Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&dir)
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(dir.join("bin/pip"))
-                .args([
-                    "install",
-                    "--quiet",
-                    "asyncua>=1.1,<3",
-                    "argon2-cffi>=21,<26",
-                ])
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            ok,
-            "cannot make the virtualenv with asyncua and argon2-cffi in {}",
-            dir.display()
-        );
-    }
-    assert!(
-        has(&py),
-        "asyncua or argon2-cffi is not importable from {}",
-        py.display()
-    );
-    py
+    VENV.get_or_init(|| {
+        common::venv_python(
+            "opcua-venv",
+            "import asyncua, argon2",
+            &["asyncua>=1.1,<3", "argon2-cffi>=21,<26"],
+        )
+    })
+    .clone()
 }
 
 /// Runs tests/opcua/mes_check.py in `mode` against the store `db` (working files in `work`),

@@ -175,45 +175,68 @@ pub fn wait_for_line(child: &mut Child, marker: &'static str, limit: Duration) -
         .unwrap_or_else(|_| panic!("no line with {marker:?} within {limit:?}"))
 }
 
-/// The PLC tests' virtualenv with pymodbus (target/plc-venv, made here when missing): the
-/// client of `examples/plc/pymodbus_check.py` and the server of `tests/plc/hostile_plc.py`.
-pub fn plc_venv_python() -> PathBuf {
-    let dir = PathBuf::from(repo("target/plc-venv"));
+/// A test virtualenv under target/ (`target/NAME`) whose Python passes `check` (a `-c`
+/// program), made here with `pip install PACKAGES` when it does not. Tests of one binary run in
+/// parallel and test binaries may run side by side: the making is serialised by a lock within the
+/// process and a file lock (`target/NAME.lock`) between processes, so two tests never run
+/// `python3 -m venv` on the same directory at once.
+pub fn venv_python(name: &str, check: &str, packages: &[&str]) -> PathBuf {
+    static MAKING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let dir = PathBuf::from(repo(&format!("target/{name}")));
     let py = dir.join("bin/python");
-    // The hostile PLC's server needs pymodbus's SimDevice with its `action` (3.16 on).
     let has = |py: &PathBuf| {
-        std::process::Command::new(py)
-            .args([
-                "-c",
-                "import pymodbus.client; from pymodbus.simulator import SimDevice; \
-                 assert 'action' in SimDevice.__dataclass_fields__",
-            ])
+        Command::new(py)
+            .args(["-c", check])
             .stderr(std::process::Stdio::null())
             .status()
             .is_ok_and(|s| s.success())
     };
+    let _in_process = MAKING.lock().unwrap_or_else(|e| e.into_inner());
+    let lock_path = PathBuf::from(repo(&format!("target/{name}.lock")));
+    if let Some(parent) = lock_path.parent() {
+        std::fs::create_dir_all(parent).expect("target/ can be made");
+    }
+    let lock = std::fs::File::create(&lock_path)
+        .unwrap_or_else(|e| panic!("cannot open the lock {}: {e}", lock_path.display()));
+    lock.lock()
+        .unwrap_or_else(|e| panic!("cannot lock {}: {e}", lock_path.display()));
     if !has(&py) {
-        let ok = std::process::Command::new("python3")
+        let ok = Command::new("python3")
             .args(["-m", "venv"])
             .arg(&dir)
             .status()
             .is_ok_and(|s| s.success())
-            && std::process::Command::new(dir.join("bin/pip"))
-                .args(["install", "--quiet", "pymodbus>=3.16,<4"])
+            && Command::new(&py)
+                .args(["-m", "pip", "install", "--quiet"])
+                .args(packages)
                 .status()
                 .is_ok_and(|s| s.success());
         assert!(
             ok,
-            "cannot make the virtualenv with pymodbus in {}",
+            "cannot make the virtualenv with {} in {}",
+            packages.join(", "),
             dir.display()
         );
     }
     assert!(
         has(&py),
-        "pymodbus ≥ 3.16 is not importable from {}",
+        "{} not importable from {} (check: {check})",
+        packages.join(", "),
         py.display()
     );
     py
+}
+
+/// The PLC tests' virtualenv with pymodbus (target/plc-venv, made here when missing): the
+/// client of `examples/plc/pymodbus_check.py` and the server of `tests/plc/hostile_plc.py`.
+pub fn plc_venv_python() -> PathBuf {
+    // The hostile PLC's server needs pymodbus's SimDevice with its `action` (3.16 on).
+    venv_python(
+        "plc-venv",
+        "import pymodbus.client; from pymodbus.simulator import SimDevice; \
+         assert 'action' in SimDevice.__dataclass_fields__",
+        &["pymodbus>=3.16,<4"],
+    )
 }
 
 /// A hostile PLC (`tests/plc/hostile_plc.py` on pymodbus) in its own process, on 127.0.0.1
