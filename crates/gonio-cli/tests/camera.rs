@@ -205,6 +205,33 @@ fn twenty_percent_packet_loss_ends_cleanly_with_no_valid_frame() {
     // Every line is a frame (complete, incomplete) or a missing one, with its reason.
     assert!(l.iter().all(|x| x["reason"].is_string()));
     assert!(err.contains("packets resent"), "{err}");
+    // Slots 0 … 29 in order; an incomplete frame keeps the detector's fields but no column; a
+    // missing one has no detector fields and no timestamp; the lines agree with the summary.
+    for (i, x) in l.iter().enumerate() {
+        assert_eq!(x["frame"], i, "{x}");
+        assert!(x["c_px"].is_null() && x["c_um"].is_null(), "{x}");
+    }
+    let with = |reason: &str| -> Vec<&serde_json::Value> {
+        l.iter().filter(|x| x["reason"] == reason).collect()
+    };
+    let (incomplete, missing) = (with("incomplete_frame"), with("missing_frame"));
+    assert!(
+        incomplete
+            .iter()
+            .all(|x| x["focus"].is_number() && x["frame_id"].is_u64())
+    );
+    assert!(
+        missing
+            .iter()
+            .all(|x| x.get("focus").is_none() && x["timestamp_ns"].is_null())
+    );
+    let counted = format!(" incomplete), {} missing", missing.len());
+    assert!(
+        err.contains(&format!("{} incomplete), ", incomplete.len())) && err.contains(&counted),
+        "{} incomplete and {} missing lines, but: {err}",
+        incomplete.len(),
+        missing.len()
+    );
 }
 
 #[test]

@@ -24,6 +24,11 @@ pub enum InvalidReason {
     InconsistentEdges,
     /// Two ring candidates score too close to call (see [`FrameResult::margin`]).
     Ambiguous,
+    /// The camera delivered the frame's buffer incomplete (packets lost on the way): whatever
+    /// the detector saw in it, c is not trusted.
+    IncompleteFrame,
+    /// The frame never arrived: a gap in the camera's frame ids.
+    MissingFrame,
 }
 
 impl InvalidReason {
@@ -37,6 +42,8 @@ impl InvalidReason {
             InvalidReason::OutOfFocus => "out_of_focus",
             InvalidReason::InconsistentEdges => "inconsistent_edges",
             InvalidReason::Ambiguous => "ambiguous",
+            InvalidReason::IncompleteFrame => "incomplete_frame",
+            InvalidReason::MissingFrame => "missing_frame",
         }
     }
 }
@@ -113,6 +120,16 @@ pub struct FrameResult {
     /// True when the frame was measured in a band of columns around the ring's predicted
     /// column ([`crate::track`]), false when over the whole frame.
     pub tracked: bool,
+}
+
+impl FrameResult {
+    /// Marks the result invalid for `reason` (e.g. [`InvalidReason::IncompleteFrame`]): no c,
+    /// `valid` false; what the detector measured otherwise (edges, score, focus …) stays.
+    pub fn invalidate(&mut self, reason: InvalidReason) {
+        self.c_px = None;
+        self.valid = false;
+        self.reason = Some(reason);
+    }
 }
 
 /// A run of saturated pixels (value 255) in one row of the raw frame.

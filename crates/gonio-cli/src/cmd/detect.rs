@@ -278,17 +278,9 @@ pub(crate) struct Sink {
 }
 
 impl Sink {
-    /// Writes one JSON value as a line (a camera's line, patched).
-    #[cfg_attr(not(feature = "genicam"), allow(dead_code))]
-    pub(crate) fn value(&mut self, frame: u64, v: &serde_json::Value) -> Result<()> {
-        gonio_io::json::check_finite(v).map_err(|e| anyhow!("frame {frame}: {e}"))?;
-        let mut b = serde_json::to_vec(v)?;
-        b.push(b'\n');
-        self.out.write(self.id, &b)
-    }
-
-    fn line(&mut self, l: &Line) -> Result<()> {
-        gonio_io::json::check_finite(l).map_err(|e| anyhow!("frame {}: {e}", l.frame))?;
+    /// Writes one line (a frame's [`Line`] or a camera's missing frame) as JSON.
+    pub(crate) fn line<L: serde::Serialize>(&mut self, frame: u64, l: &L) -> Result<()> {
+        gonio_io::json::check_finite(l).map_err(|e| anyhow!("frame {frame}: {e}"))?;
         let mut v = serde_json::to_vec(l)?;
         v.push(b'\n');
         self.out.write(self.id, &v)
@@ -393,14 +385,17 @@ where
         let (theta, time) = angles.at(k as usize)?;
         done.valid += d.result.valid as usize;
         done.frames += 1;
-        sink.line(&Line::new(
-            k as usize,
-            file_of(src, k),
-            theta,
-            time,
-            &d.result,
-            um_per_px,
-        ))
+        sink.line(
+            k,
+            &Line::new(
+                k as usize,
+                file_of(src, k),
+                theta,
+                time,
+                &d.result,
+                um_per_px,
+            ),
+        )
     };
     // What a failed frame or source means for the run.
     let failed = |src: &S, e: SourceError<S::Error>, done: &mut Detected| -> Result<()> {
@@ -596,10 +591,11 @@ mod camera_run {
         AravisSource, CameraConfig, CameraError, FrameMeta, StreamOptions, Trigger,
     };
     use gonio_core::quantile::quantile_sorted;
+    use gonio_io::results::detect::MissingLine;
     use gonio_vision::{
-        DetectInOrderError, Detection, Optics, SourceDetector, SourceError, detect_in_order,
+        DetectInOrderError, Detection, InvalidReason, Optics, SourceDetector, SourceError,
+        detect_in_order,
     };
-    use serde_json::{Value, json};
     use std::sync::Arc;
     use std::sync::atomic::AtomicBool;
     use std::time::Instant;
@@ -610,21 +606,10 @@ mod camera_run {
         t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
     }
 
-    /// A line for a frame missing from the camera's id sequence.
-    fn missing_line(angles: &Angles, slot: u64, frame_id: u64) -> Result<Value> {
+    /// The line of slot `slot`, missing from the camera's id sequence.
+    fn missing_line(angles: &Angles, slot: u64, frame_id: Option<u64>) -> Result<MissingLine> {
         let (theta, time) = angles.at(slot as usize)?;
-        Ok(json!({
-            "frame": slot,
-            "frame_id": frame_id,
-            "timestamp_ns": null,
-            "theta_deg": theta,
-            "time_s": time,
-            "c_um": null,
-            "c_px": null,
-            "valid": false,
-            "reason": "missing_frame",
-            "tracked": false,
-        }))
+        Ok(MissingLine::new(slot, frame_id, theta, time))
     }
 
     /// Streams the camera `id` through the detector (see `gonio detect --help`).
@@ -690,26 +675,19 @@ mod camera_run {
                     .take_meta(k)
                     .ok_or_else(|| anyhow!("camera {id}: frame {k} came without its id"))?;
                 for (slot, fid) in meta.missing() {
-                    sink.value(slot, &missing_line(angles, slot, fid)?)?;
+                    sink.line(slot, &missing_line(angles, slot, Some(fid))?)?;
                     done.frames += 1;
                 }
                 let (theta, time) = angles.at(k as usize)?;
-                let mut v = serde_json::to_value(Line::new(
-                    k as usize, None, theta, time, &d.result, um_per_px,
-                ))?;
-                if let Value::Object(m) = &mut v {
-                    m.insert("frame_id".into(), json!(meta.frame_id));
-                    m.insert("timestamp_ns".into(), json!(meta.timestamp_ns));
-                    if !meta.complete {
-                        m.insert("valid".into(), json!(false));
-                        m.insert("reason".into(), json!("incomplete_frame"));
-                        m.insert("c_px".into(), Value::Null);
-                        m.insert("c_um".into(), Value::Null);
-                    }
+                let mut result = d.result;
+                if !meta.complete {
+                    result.invalidate(InvalidReason::IncompleteFrame);
                 }
-                done.valid += (d.result.valid && meta.complete) as usize;
+                let line = Line::new(k as usize, None, theta, time, &result, um_per_px)
+                    .with_camera(meta.frame_id, meta.timestamp_ns);
+                done.valid += result.valid as usize;
                 done.frames += 1;
-                sink.value(k, &v)?;
+                sink.line(k, &line)?;
                 latency_s.push(meta.arrival.elapsed().as_secs_f64());
                 Ok(())
             };
@@ -751,9 +729,7 @@ mod camera_run {
             let n = a.frame_count.unwrap_or(0);
             for slot in n - trailing..n {
                 // Their ids are not known (no later frame came): null.
-                let mut v = missing_line(angles, slot, 0)?;
-                v["frame_id"] = Value::Null;
-                sink.value(slot, &v)?;
+                sink.line(slot, &missing_line(angles, slot, None)?)?;
                 done.frames += 1;
             }
         }
