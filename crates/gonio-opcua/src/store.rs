@@ -2,27 +2,16 @@
 //! a blocking thread (SQLite and the PostgreSQL client block; neither may run on the server's
 //! tasks), at most [`MAX_IDLE`] connections kept.
 
+use gonio_store::pool::Pool;
 use gonio_store::{Store, StoreError};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// Idle connections kept for reuse.
 const MAX_IDLE: usize = 4;
 
 /// Connections to one store.
 pub(crate) struct Stores {
-    location: String,
-    idle: Mutex<Vec<Box<dyn Store>>>,
-}
-
-impl Drop for Stores {
-    /// Closes the idle connections on a thread of their own: a PostgreSQL connection closes
-    /// through a runtime of its own, which cannot run on the server's.
-    fn drop(&mut self) {
-        let idle = self.idle.get_mut().map(std::mem::take).unwrap_or_default();
-        if !idle.is_empty() {
-            let _ = std::thread::spawn(move || drop(idle)).join();
-        }
-    }
+    pool: Pool,
 }
 
 impl Stores {
@@ -30,8 +19,7 @@ impl Stores {
     pub(crate) fn open(location: &str) -> Result<Arc<Stores>, StoreError> {
         let first = gonio_store::open_existing(location)?;
         Ok(Arc::new(Stores {
-            location: location.to_string(),
-            idle: Mutex::new(vec![first]),
+            pool: Pool::new(location, first, MAX_IDLE),
         }))
     }
 
@@ -57,18 +45,6 @@ impl Stores {
         &self,
         f: impl FnOnce(&mut dyn Store) -> Result<T, StoreError>,
     ) -> Result<T, StoreError> {
-        let cached = self.idle.lock().ok().and_then(|mut v| v.pop());
-        let mut s = match cached {
-            Some(s) => s,
-            None => gonio_store::open(&self.location)?,
-        };
-        let r = f(s.as_mut());
-        if r.is_ok()
-            && let Ok(mut v) = self.idle.lock()
-            && v.len() < MAX_IDLE
-        {
-            v.push(s);
-        }
-        r
+        self.pool.with(f)
     }
 }

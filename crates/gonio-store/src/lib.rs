@@ -23,6 +23,7 @@ mod error;
 pub mod migrate;
 pub mod new_store;
 mod pg;
+pub mod pool;
 pub mod record;
 pub mod scratch;
 mod sql;

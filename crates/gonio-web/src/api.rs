@@ -1,7 +1,7 @@
 //! The routes: the read-only JSON API, the server-sent events and the pages.
 
 use crate::live::Hub;
-use crate::state::{AppState, Pool, blocking, error, parse_id};
+use crate::state::{AppState, blocking, error, parse_id};
 use crate::{WebError, assets, pages};
 use axum::Router;
 use axum::body::{Body, Bytes};
@@ -11,6 +11,7 @@ use axum::http::{StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
+use gonio_store::pool::Pool;
 use gonio_store::{PartQuery, Store, StoreError};
 use serde::Deserialize;
 use serde_json::json;
@@ -291,7 +292,7 @@ async fn method_not_allowed() -> Response {
 /// [`WebError::Store`] when the store cannot be opened (it is opened once here, migrating it).
 pub fn router(store_location: &str, hub: Arc<Hub>) -> Result<Router, WebError> {
     let first = gonio_store::open(store_location)?;
-    let pool = Arc::new(Pool::new(store_location, first));
+    let pool = Arc::new(Pool::new(store_location, first, 8));
     let state = AppState {
         pool,
         hub,

@@ -5,58 +5,10 @@
 use crate::live::Hub;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use gonio_store::pool::Pool;
 use gonio_store::{Store, StoreError};
 use serde_json::json;
-use std::sync::{Arc, Mutex};
-
-/// Connections to the store, reused between requests (each request runs on a blocking thread
-/// with one connection of its own).
-pub(crate) struct Pool {
-    location: String,
-    idle: Mutex<Vec<Box<dyn Store>>>,
-}
-
-impl Pool {
-    /// A pool for the store at `location`, holding `first`, a connection already open.
-    pub(crate) fn new(location: &str, first: Box<dyn Store>) -> Pool {
-        Pool {
-            location: location.to_string(),
-            idle: Mutex::new(vec![first]),
-        }
-    }
-
-    /// Runs `f` with a connection (an idle one, else a new one; kept for reuse when `f`
-    /// succeeds).
-    pub(crate) fn with<T>(
-        &self,
-        f: impl FnOnce(&mut dyn Store) -> Result<T, StoreError>,
-    ) -> Result<T, StoreError> {
-        let cached = self.idle.lock().ok().and_then(|mut v| v.pop());
-        let mut s = match cached {
-            Some(s) => s,
-            None => gonio_store::open(&self.location)?,
-        };
-        let r = f(s.as_mut());
-        if r.is_ok()
-            && let Ok(mut v) = self.idle.lock()
-            && v.len() < 8
-        {
-            v.push(s);
-        }
-        r
-    }
-}
-
-impl Drop for Pool {
-    /// Closes the idle connections on a thread of their own: a PostgreSQL connection closes
-    /// through a runtime of its own, which cannot run on the server's.
-    fn drop(&mut self) {
-        let idle = self.idle.get_mut().map(std::mem::take).unwrap_or_default();
-        if !idle.is_empty() {
-            let _ = std::thread::spawn(move || drop(idle)).join();
-        }
-    }
-}
+use std::sync::Arc;
 
 /// What every handler shares: the store's connections, the live view's hub, and the permits
 /// of the part arrays streamed at once.
