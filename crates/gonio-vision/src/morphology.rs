@@ -785,16 +785,15 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
         let mid_end = (y + nb - 1 + r).min(n - 1);
         let (from, to) = (c.fed1, mid_end + r + 1);
         if from < to {
-            let ins: Vec<&[u8]> = (from..to)
-                .map(|m| {
-                    if m < n {
-                        let s = m % rdepth * rs;
-                        &self.raw[s..s + rs]
-                    } else {
-                        &c.neutral1[..]
-                    }
-                })
-                .collect();
+            let (ins, k) = chain_rows(from..to, |m| {
+                if m < n {
+                    let s = m % rdepth * rs;
+                    &self.raw[s..s + rs]
+                } else {
+                    &c.neutral1[..]
+                }
+            });
+            let ins = &ins[..k];
             let skip = r.saturating_sub(from);
             c.mid_from = from.max(r) - r;
             let out = vbmi_kernel::Out {
@@ -805,22 +804,21 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
                 mfirst: 0,
                 mstride: 0,
             };
-            vbmi_kernel::feed::<F, false>(r, &mut c.state1, &ins, out, skip, w);
+            vbmi_kernel::feed::<F, false>(r, &mut c.state1, ins, out, skip, w);
             c.fed1 = to;
         }
         // The second operation's rows y … y + nb − 1.
         let (from, to) = (c.fed2, y + nb + r);
         debug_assert_eq!(from.max(r) - r, y);
-        let ins: Vec<&[u8]> = (from..to)
-            .map(|m| {
-                if m < n {
-                    let s = (m - c.mid_from) * rs;
-                    &c.mid[s..s + rs]
-                } else {
-                    &c.neutral2[..]
-                }
-            })
-            .collect();
+        let (ins, k) = chain_rows(from..to, |m| {
+            if m < n {
+                let s = (m - c.mid_from) * rs;
+                &c.mid[s..s + rs]
+            } else {
+                &c.neutral2[..]
+            }
+        });
+        let ins = &ins[..k];
         let skip = r.saturating_sub(from);
         self.direct = into.is_some();
         let (buf, first, stride) = match into {
@@ -843,9 +841,9 @@ impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
             mstride: rs,
         };
         if SUB {
-            vbmi_kernel::feed::<S, true>(r, &mut c.state2, &ins, out, skip, w);
+            vbmi_kernel::feed::<S, true>(r, &mut c.state2, ins, out, skip, w);
         } else {
-            vbmi_kernel::feed::<S, false>(r, &mut c.state2, &ins, out, skip, w);
+            vbmi_kernel::feed::<S, false>(r, &mut c.state2, ins, out, skip, w);
         }
         c.fed2 = to;
         self.done_from = y;
@@ -980,6 +978,28 @@ impl<const F: bool, const S: bool, const SUB: bool> RowStage for MorphPair<F, S,
             buf: &mut self.raw,
         })
     }
+}
+
+/// Input rows the register chain is fed at once, at most: a batch and both operations' reach
+/// (the first batch of a frame; later ones feed a batch).
+#[cfg(target_arch = "x86_64")]
+const CHAIN_INS: usize = CHAIN_BATCH + 2 * vbmi_kernel::MAX_RADIUS;
+
+/// The rows `m` of `range` (`row(m)`) for the register chain, in an array on the stack: a batch
+/// is fed without an allocation. The count is the second value.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn chain_rows<'a>(
+    range: std::ops::Range<usize>,
+    row: impl Fn(usize) -> &'a [u8],
+) -> ([&'a [u8]; CHAIN_INS], usize) {
+    let k = range.len();
+    assert!(k <= CHAIN_INS, "{k} rows fed to the register chain at once");
+    let mut ins: [&[u8]; CHAIN_INS] = [&[]; CHAIN_INS];
+    for (slot, m) in ins.iter_mut().zip(range) {
+        *slot = row(m);
+    }
+    (ins, k)
 }
 
 impl<const F: bool, const S: bool, const SUB: bool> MorphPair<F, S, SUB> {
