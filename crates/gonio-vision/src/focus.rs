@@ -22,7 +22,8 @@
 //! row's maximum (a row that reaches 255 is then counted): ten vector operations, one
 //! `vpdpbusd` accumulator each (the instruction adds into its destination). The dot products
 //! are combined in their lanes into the three numbers the rows need (this row's, the next
-//! row's, the row after next's), so a row takes three reductions of them. The end columns a
+//! row's, the row after next's), and these and both Σ|x − y| are reduced together, in 32-bit
+//! lanes, by one transposing reduction (blocks of 8192 columns keep them exact). The end columns a
 //! pair leaves out are subtracted in scalar code. This is written by hand (no crate computes
 //! these sums); the plain definition is the reference the tests hold it to.
 //!
@@ -273,7 +274,7 @@ mod tests {
     /// Both ways through [`RowFocus`] (the direct sums at the level in use, and the VNNI
     /// identity where the CPU has it) against the definition: frames of random, all-0,
     /// all-255 and 0/255 striped rows, widths 2 … 200 and wider ones that cross the 64-column
-    /// steps every way.
+    /// steps every way and the VNNI kernel's blocks of 8192 columns, up to the widest window.
     #[test]
     fn row_focus_gives_the_defined_sums() {
         let mut s = 0x2545_f491_4f6c_dd1du64;
@@ -283,7 +284,9 @@ mod tests {
             s ^= s << 17;
             (s >> 24) as u8
         };
-        let widths = (2..200).chain([255, 256, 257, 1439, 1440, 1441, 4097]);
+        let widths = (2..200).chain([
+            255, 256, 257, 1439, 1440, 1441, 4097, 8193, 8194, 20000, 32768,
+        ]);
         for w in widths {
             let mut rows: Vec<Vec<u8>> = (0..5).map(|_| (0..w).map(|_| byte()).collect()).collect();
             rows.push(vec![0; w]);
