@@ -58,6 +58,83 @@ fn totals(v: [__m512i; 8]) -> [i32; 8] {
     ]
 }
 
+/// One step's loads [x, x, x two columns on, a] at column i (the second x is the one the
+/// horizontal pair's Σ|x − y| takes, masked at its end in the tail).
+///
+/// # Safety
+/// Columns i … i + 65 of `pr` and i … i + 63 of `pa` must be inside their rows.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn plain(pr: *const u8, pa: *const u8, i: usize) -> [__m512i; 4] {
+    // SAFETY: the caller keeps the columns inside the rows.
+    unsafe {
+        let x = _mm512_loadu_si512(pr.add(i).cast());
+        [
+            x,
+            x,
+            _mm512_loadu_si512(pr.add(i + 2).cast()),
+            _mm512_loadu_si512(pa.add(i).cast()),
+        ]
+    }
+}
+
+/// The lanes of one set of sums over a block of steps: S, D, H, V (`vpdpbusd`, 32-bit
+/// lanes) and both Σ|x − y| (`vpsadbw`, each lane's total in its low 32 bits).
+#[derive(Clone, Copy)]
+struct Sums([__m512i; 6]);
+
+impl Sums {
+    /// All lanes 0.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn new() -> Sums {
+        Sums([_mm512_setzero_si512(); 6])
+    }
+
+    /// Adds one step's loads [`plain`] gives (x, x for the horizontal Σ|x − y|, x two
+    /// columns on, a), and x to the row's maximum `top`.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
+    fn step(&mut self, top: &mut __m512i, [x, xh, x2, a]: [__m512i; 4]) {
+        let [s, d, h, v, sh, sv] = &mut self.0;
+        let xf = _mm512_xor_si512(x, _mm512_set1_epi8(i8::MIN));
+        *top = _mm512_max_epu8(*top, x);
+        *s = _mm512_dpbusd_epi32(*s, x, _mm512_set1_epi8(1));
+        *d = _mm512_dpbusd_epi32(*d, x, xf);
+        *h = _mm512_dpbusd_epi32(*h, x2, xf);
+        *v = _mm512_dpbusd_epi32(*v, a, xf);
+        *sh = _mm512_add_epi32(*sh, _mm512_sad_epu8(xh, x2));
+        *sv = _mm512_add_epi32(*sv, _mm512_sad_epu8(x, a));
+    }
+
+    /// Both sets' lanes added.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn plus(self, other: Sums) -> Sums {
+        Sums(std::array::from_fn(|k| {
+            _mm512_add_epi32(self.0[k], other.0[k])
+        }))
+    }
+
+    /// The block's `now`, `next`, `after` and both Σ|x − y| of [`RowSums`] (then three 0s).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn totals(self) -> [i32; 8] {
+        let [s, d, h, v, sh, sv] = self.0;
+        let (s7, zero) = (_mm512_slli_epi32::<7>(s), _mm512_setzero_si512());
+        totals([
+            _mm512_sub_epi32(_mm512_add_epi32(d, s7), _mm512_add_epi32(v, v)),
+            _mm512_slli_epi32::<1>(_mm512_sub_epi32(d, h)),
+            _mm512_sub_epi32(d, s7),
+            sh,
+            sv,
+            zero,
+            zero,
+            zero,
+        ])
+    }
+}
+
 /// What one pass over a row x (w columns) with the row a two above it gives [`crate::focus`]
 /// (D = Σx(x − 128), H = Σ_{c < w − 2} x[c + 2](x[c] − 128), V = Σ a(x − 128), S = Σx, each
 /// over the whole row unless said): the parts of the squared central differences, each
@@ -96,65 +173,44 @@ unsafe fn kernel(row: &[u8], above: Option<&[u8]>) -> RowSums {
     // The horizontal pairs (x[c], x[c + 2]) cover c < w − 2.
     let m = w.saturating_sub(2);
     let (pr, pa) = (row.as_ptr(), a.as_ptr());
-    let (zero, flip, ones) = (
-        _mm512_setzero_si512(),
-        _mm512_set1_epi8(i8::MIN),
-        _mm512_set1_epi8(1),
-    );
-    let mut top = zero;
+    let mut top = _mm512_setzero_si512();
     let (mut now, mut next, mut after, mut h_abs, mut v_abs) = (0i64, 0i64, 0i64, 0u64, 0u64);
     let mut i = 0;
     while i < w {
         let end = (i + 64 * FLUSH).min(w);
-        let (mut s, mut d, mut h, mut v, mut sh, mut sv) = (zero, zero, zero, zero, zero, zero);
+        // Two sets of sums, for steps two at a time: each `vpdpbusd` accumulator takes
+        // every other step, not a chain of one step's latency after the other.
+        let (mut p, mut q) = (Sums::new(), Sums::new());
+        // SAFETY (both loops): plain loads when columns i … i + 65 (i + 129 two at a time)
+        // are inside the rows; masked loads otherwise, each covering only columns inside its
+        // row (x and a: i … w − 1; x[c + 2]: c in i … m − 1).
+        while i + 128 <= end.min(m) {
+            let (l0, l1) = unsafe { (plain(pr, pa, i), plain(pr, pa, i + 64)) };
+            p.step(&mut top, l0);
+            q.step(&mut top, l1);
+            i += 128;
+        }
         while i < end {
-            // SAFETY: plain loads when columns i … i + 65 are inside the rows; masked loads
-            // otherwise, each covering only columns inside its row (x and a: i … w − 1;
-            // x[c + 2]: c in i … m − 1).
-            let (x, xh, x2, ai) = unsafe {
+            let loads = unsafe {
                 if i + 64 <= m {
-                    let x = _mm512_loadu_si512(pr.add(i).cast());
-                    (
-                        x,
-                        x,
-                        _mm512_loadu_si512(pr.add(i + 2).cast()),
-                        _mm512_loadu_si512(pa.add(i).cast()),
-                    )
+                    plain(pr, pa, i)
                 } else {
                     let (kr, kp) = (mask(i, w), mask(i.min(m), m));
                     // (`wrapping_add`: with an empty mask the address may lie past
                     // the row; it is never dereferenced.)
                     let x = _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast());
-                    (
+                    [
                         x,
                         _mm512_maskz_mov_epi8(kp, x),
                         _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 2).cast()),
                         _mm512_maskz_loadu_epi8(kr, pa.wrapping_add(i).cast()),
-                    )
+                    ]
                 }
             };
-            let xf = _mm512_xor_si512(x, flip);
-            top = _mm512_max_epu8(top, x);
-            s = _mm512_dpbusd_epi32(s, x, ones);
-            d = _mm512_dpbusd_epi32(d, x, xf);
-            h = _mm512_dpbusd_epi32(h, x2, xf);
-            v = _mm512_dpbusd_epi32(v, ai, xf);
-            // (A `vpsadbw` lane holds at most 8 · 255 in its low 32 bits.)
-            sh = _mm512_add_epi32(sh, _mm512_sad_epu8(xh, x2));
-            sv = _mm512_add_epi32(sv, _mm512_sad_epu8(x, ai));
+            p.step(&mut top, loads);
             i += 64;
         }
-        let s7 = _mm512_slli_epi32::<7>(s);
-        let t = totals([
-            _mm512_sub_epi32(_mm512_add_epi32(d, s7), _mm512_add_epi32(v, v)),
-            _mm512_slli_epi32::<1>(_mm512_sub_epi32(d, h)),
-            _mm512_sub_epi32(d, s7),
-            sh,
-            sv,
-            zero,
-            zero,
-            zero,
-        ]);
+        let t = p.plus(q).totals();
         now += i64::from(t[0]);
         next += i64::from(t[1]);
         after += i64::from(t[2]);
