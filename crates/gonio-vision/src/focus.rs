@@ -13,17 +13,19 @@
 //!
 //! $$\sum (x - y)^2 = \sum x^2 + \sum y^2 - 2 \sum x y,$$
 //!
-//! exact in integers: each row's Σx and Σx² are taken once when it arrives (`vpsadbw` against
-//! zero and `vpdpbusd` of x with x − 128, together with the `vpcmpeqb` count of 255s) and kept for
-//! the two rows that pair with it; a pair then costs `vpsadbw` for Σ|x − y| and one `vpdpbusd`
-//! for Σx(y − 128) = Σxy − 128 Σx, four vector operations per 64 columns instead of ten per 32.
-//! One pass over the rows takes each row's totals and, from row 2 on, both pairs' cross
-//! terms, each pair's sums added together (only their total is used): one loop and one set of
-//! reductions a row instead of three, and three independent `vpdpbusd` accumulators (the
-//! instruction adds into its destination; one accumulator a loop made it a chain of its latency).
-//! The end columns a pair leaves out are subtracted from the row totals in scalar code. This is
-//! written by hand (no crate computes these sums); the plain definition is the reference the
-//! tests hold it to.
+//! exact in integers, every row read once, when it arrives. One pass over its columns (with the
+//! row two above it, a) gives its share of the pairs it belongs to: its vertical pair with a,
+//! its own horizontal pair (x[c], x[c + 2]) for the next row, and what the row two below needs
+//! of it. A step of 64 columns loads x, x two columns on and a, flips x once into x − 128 (a
+//! signed byte) and takes Σx, Σx(x − 128), Σx[c + 2](x[c] − 128) and Σa(x − 128) by four
+//! `vpdpbusd` (Σxy = Σy(x − 128) + 128 Σy), the pairs' Σ|x − y| by two `vpsadbw`, and the
+//! row's maximum (a row that reaches 255 is then counted): ten vector operations, one
+//! `vpdpbusd` accumulator each (the instruction adds into its destination). The dot products
+//! are combined in their lanes into the three numbers the rows need (this row's, the next
+//! row's, the row after next's), and these and both Σ|x − y| are reduced together, in 32-bit
+//! lanes, by one transposing reduction (blocks of 8192 columns keep them exact). The end columns a
+//! pair leaves out are subtracted in scalar code. This is written by hand (no crate computes
+//! these sums); the plain definition is the reference the tests hold it to.
 //!
 //! ```
 //! use gonio_vision::focus::abs_diff_sums;
@@ -55,11 +57,15 @@ pub struct RowStats {
     pub sq_sum: u64,
 }
 
-/// A row's Σx and Σx² (the VNNI path's per-row totals).
+/// What the VNNI path keeps of a row for the two rows after it ([`crate::simd::vnni::RowSums`]).
 #[derive(Debug, Clone, Copy, Default)]
-struct Totals {
-    sum: i64,
-    sq: i64,
+struct Kept {
+    /// Its share of its own horizontal pair's Σ(difference)², without the end columns.
+    next: i64,
+    /// Its share of the vertical pair it is the upper row of, without the end columns.
+    after: i64,
+    /// Its horizontal pair's Σ|difference|.
+    h_abs: u64,
 }
 
 /// The streaming raw-row statistics of a frame: the saturated pixels of each row and the central
@@ -82,8 +88,9 @@ struct Totals {
 /// ```
 #[derive(Debug, Clone, Default)]
 pub struct RowFocus {
-    /// Totals of the last two rows, at index y % 2 (VNNI path only).
-    totals: [Totals; 2],
+    /// What the last two rows leave to the rows after them, at index y % 2 (VNNI path
+    /// only).
+    kept: [Kept; 2],
     /// Whether this frame takes the VNNI path: latched at row 0, since the ring
     /// above holds the VNNI path's state only (the SIMD level may change between
     /// frames, never within one).
@@ -135,34 +142,36 @@ impl RowFocus {
         row: &[u8],
         prev: Option<(&[u8], &[u8])>,
     ) -> RowStats {
-        // One pass over the rows: row y's totals and, from row 2 on, both pairs' cross sums,
-        // the two pairs' Σ|x − y| and Σx(y − 128) added together (only their sums are used).
-        let ((sum, sq), saturated, sad, dot) = crate::simd::vnni::row_sums(cpu, row, prev);
-        let t = Totals { sum, sq };
-        // Row y − 2's totals sit where row y's go.
-        let (ta, tb) = (self.totals[y % 2], self.totals[(y + 1) % 2]);
-        self.totals[y % 2] = t;
+        // One pass over the row: its share of its vertical pair (with row y − 2), of its own
+        // horizontal pair (used by row y + 1) and of the vertical pair of row y + 2.
+        let r = crate::simd::vnni::row_sums(cpu, row, prev.map(|(a, _)| a));
+        // Row y − 2's share sits where row y's goes.
+        let (ka, kb) = (self.kept[y % 2], self.kept[(y + 1) % 2]);
+        self.kept[y % 2] = Kept {
+            next: r.next,
+            after: r.after,
+            h_abs: r.h_abs,
+        };
         let Some((a, b)) = prev else {
             return RowStats {
-                saturated,
+                saturated: r.saturated,
                 ..RowStats::default()
             };
         };
         let w = row.len();
-        let sq = |v: u8| i64::from(v) * i64::from(v);
-        let one = |v: u8| i64::from(v);
-        // Horizontal: x = b[0 .. w − 2], y = b[2 .. w].
-        let sum_xh = tb.sum - one(b[w - 2]) - one(b[w - 1]);
-        let sq_xh = tb.sq - sq(b[w - 2]) - sq(b[w - 1]);
-        let sq_yh = tb.sq - sq(b[0]) - sq(b[1]);
-        // Vertical: x = row[1 .. w − 1], y = a[1 .. w − 1].
-        let sum_xv = t.sum - one(row[0]) - one(row[w - 1]);
-        let sq_xv = t.sq - sq(row[0]) - sq(row[w - 1]);
-        let sq_yv = ta.sq - sq(a[0]) - sq(a[w - 1]);
-        let sq_sum = sq_xh + sq_yh + sq_xv + sq_yv - 2 * (dot + 128 * (sum_xh + sum_xv));
+        assert!(w >= 2 && b.len() == w, "rows of one width ≥ 2");
+        let v = |k: usize| i64::from(row[k]);
+        let (av, bv) = (|k: usize| i64::from(a[k]), |k: usize| i64::from(b[k]));
+        // The end columns the pairs leave out: b[0], b[1] of the horizontal x = b[0 .. w − 2]
+        // and b[w − 2], b[w − 1] of y = b[2 .. w] (their Σy shifted by 128 in `next`), and
+        // columns 0 and w − 1 of the vertical pair.
+        let ends_h = bv(0) * bv(0) + bv(1) * bv(1) + bv(w - 2) * bv(w - 2) + bv(w - 1) * bv(w - 1)
+            - 256 * (bv(0) + bv(1));
+        let (d0, d1) = (v(0) - av(0), v(w - 1) - av(w - 1));
+        let sq_sum = kb.next - ends_h + r.now + ka.after - d0 * d0 - d1 * d1;
         RowStats {
-            saturated,
-            abs_sum: sad,
+            saturated: r.saturated,
+            abs_sum: kb.h_abs + r.v_abs - d0.unsigned_abs() - d1.unsigned_abs(),
             sq_sum: sq_sum as u64,
         }
     }
@@ -265,7 +274,7 @@ mod tests {
     /// Both ways through [`RowFocus`] (the direct sums at the level in use, and the VNNI
     /// identity where the CPU has it) against the definition: frames of random, all-0,
     /// all-255 and 0/255 striped rows, widths 2 … 200 and wider ones that cross the 64-column
-    /// steps every way.
+    /// steps every way and the VNNI kernel's blocks of 8192 columns, up to the widest window.
     #[test]
     fn row_focus_gives_the_defined_sums() {
         let mut s = 0x2545_f491_4f6c_dd1du64;
@@ -275,7 +284,9 @@ mod tests {
             s ^= s << 17;
             (s >> 24) as u8
         };
-        let widths = (2..200).chain([255, 256, 257, 1439, 1440, 1441, 4097]);
+        let widths = (2..200).chain([
+            255, 256, 257, 1439, 1440, 1441, 4097, 8193, 8194, 20000, 32768,
+        ]);
         for w in widths {
             let mut rows: Vec<Vec<u8>> = (0..5).map(|_| (0..w).map(|_| byte()).collect()).collect();
             rows.push(vec![0; w]);

@@ -4,9 +4,11 @@
 use crate::simd::Vnni;
 use std::arch::x86_64::*;
 
-/// Steps between flushes of the 32-bit dot-product lanes: a step adds at most
-/// 4 · 255 · 128 < 2^17 to a lane, so 2^13 steps stay below 2^30.
-const FLUSH: usize = 1 << 13;
+/// Steps between reductions of the lanes: a step adds less than 2^19 to a lane of each sum
+/// [`RowSums`] reduces (a `vpdpbusd` adds at most 4 · 255 · 128 < 2^17, and `now`, the largest
+/// combination, less than 4 such terms), so the 16 lanes of 2^7 steps total less than 2^30 and
+/// are reduced in 32-bit lanes (a row of 1440 columns is one block of 23 steps).
+const FLUSH: usize = 1 << 7;
 
 /// The 64-byte mask of columns i … n − 1 (all 64 when that many remain).
 #[inline(always)]
@@ -14,114 +16,245 @@ fn mask(i: usize, n: usize) -> __mmask64 {
     crate::simd::first_lanes(n - i)
 }
 
-/// The sixteen signed 32-bit lanes of `v`, summed as 64-bit.
+/// Per 128-bit lane: [a0 + a2, b0 + b2, a1 + a3, b1 + b3] of lanes [a0 … a3] and [b0 … b3].
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn lanes_i64(v: __m512i) -> i64 {
-    let lo = _mm512_cvtepi32_epi64(_mm512_castsi512_si256(v));
-    let hi = _mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64::<1>(v));
-    _mm512_reduce_add_epi64(_mm512_add_epi64(lo, hi))
+fn pairs(a: __m512i, b: __m512i) -> __m512i {
+    _mm512_add_epi32(_mm512_unpacklo_epi32(a, b), _mm512_unpackhi_epi32(a, b))
 }
 
-/// The row's (Σx, Σx²), its count of 255s and, with `prev` = (a, b), added together,
-/// Σ|x − y| and Σx(y − 128) of the two pairs (b[0 .. w − 2], b[2 .. w]) and
-/// (row[1 .. w − 1], a[1 .. w − 1]) (0 and 0 without `prev`), in one pass over the rows:
-/// one loop and one set of reductions a row instead of one per sum.
+/// Per 128-bit lane: the sums of the four vectors [`pairs`] made `x` (of a and b) and `y` (of
+/// c and d), as [a, b, c, d].
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn quads(x: __m512i, y: __m512i) -> __m512i {
+    _mm512_add_epi32(_mm512_unpacklo_epi64(x, y), _mm512_unpackhi_epi64(x, y))
+}
+
+/// The totals of the sixteen 32-bit lanes of each of `v` (each total and each partial sum of
+/// its lanes within `i32`), in one transposing reduction: 21 vector operations for the
+/// eight, where one reduction each takes about ten.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn totals(v: [__m512i; 8]) -> [i32; 8] {
+    let abcd = quads(pairs(v[0], v[1]), pairs(v[2], v[3]));
+    let efgh = quads(pairs(v[4], v[5]), pairs(v[6], v[7]));
+    // [abcd 0 + 1, abcd 2 + 3, efgh 0 + 1, efgh 2 + 3], then each half's total in its lanes.
+    let x = _mm512_add_epi32(
+        _mm512_shuffle_i32x4::<0b10_00_10_00>(abcd, efgh),
+        _mm512_shuffle_i32x4::<0b11_01_11_01>(abcd, efgh),
+    );
+    let y = _mm512_add_epi32(x, _mm512_shuffle_i32x4::<0b10_11_00_01>(x, x));
+    let (lo, hi) = (_mm512_castsi512_si128(y), _mm512_extracti32x4_epi32::<2>(y));
+    [
+        _mm_cvtsi128_si32(lo),
+        _mm_extract_epi32::<1>(lo),
+        _mm_extract_epi32::<2>(lo),
+        _mm_extract_epi32::<3>(lo),
+        _mm_cvtsi128_si32(hi),
+        _mm_extract_epi32::<1>(hi),
+        _mm_extract_epi32::<2>(hi),
+        _mm_extract_epi32::<3>(hi),
+    ]
+}
+
+/// One step's loads [x, x, x two columns on, a] at column i (the second x is the one the
+/// horizontal pair's Σ|x − y| takes, masked at its end in the tail).
+///
+/// # Safety
+/// Columns i … i + 65 of `pr` and i … i + 63 of `pa` must be inside their rows.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn plain(pr: *const u8, pa: *const u8, i: usize) -> [__m512i; 4] {
+    // SAFETY: the caller keeps the columns inside the rows.
+    unsafe {
+        let x = _mm512_loadu_si512(pr.add(i).cast());
+        [
+            x,
+            x,
+            _mm512_loadu_si512(pr.add(i + 2).cast()),
+            _mm512_loadu_si512(pa.add(i).cast()),
+        ]
+    }
+}
+
+/// The lanes of one set of sums over a block of steps: S, D, H, V (`vpdpbusd`, 32-bit
+/// lanes) and both Σ|x − y| (`vpsadbw`, each lane's total in its low 32 bits).
+#[derive(Clone, Copy)]
+struct Sums([__m512i; 6]);
+
+impl Sums {
+    /// All lanes 0.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn new() -> Sums {
+        Sums([_mm512_setzero_si512(); 6])
+    }
+
+    /// Adds one step's loads [`plain`] gives (x, x for the horizontal Σ|x − y|, x two
+    /// columns on, a), and x to the row's maximum `top`.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
+    fn step(&mut self, top: &mut __m512i, [x, xh, x2, a]: [__m512i; 4]) {
+        let [s, d, h, v, sh, sv] = &mut self.0;
+        let xf = _mm512_xor_si512(x, _mm512_set1_epi8(i8::MIN));
+        *top = _mm512_max_epu8(*top, x);
+        *s = _mm512_dpbusd_epi32(*s, x, _mm512_set1_epi8(1));
+        *d = _mm512_dpbusd_epi32(*d, x, xf);
+        *h = _mm512_dpbusd_epi32(*h, x2, xf);
+        *v = _mm512_dpbusd_epi32(*v, a, xf);
+        *sh = _mm512_add_epi32(*sh, _mm512_sad_epu8(xh, x2));
+        *sv = _mm512_add_epi32(*sv, _mm512_sad_epu8(x, a));
+    }
+
+    /// Both sets' lanes added.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn plus(self, other: Sums) -> Sums {
+        Sums(std::array::from_fn(|k| {
+            _mm512_add_epi32(self.0[k], other.0[k])
+        }))
+    }
+
+    /// The block's `now`, `next`, `after` and both Σ|x − y| of [`RowSums`] (then three 0s).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn totals(self) -> [i32; 8] {
+        let [s, d, h, v, sh, sv] = self.0;
+        let (s7, zero) = (_mm512_slli_epi32::<7>(s), _mm512_setzero_si512());
+        totals([
+            _mm512_sub_epi32(_mm512_add_epi32(d, s7), _mm512_add_epi32(v, v)),
+            _mm512_slli_epi32::<1>(_mm512_sub_epi32(d, h)),
+            _mm512_sub_epi32(d, s7),
+            sh,
+            sv,
+            zero,
+            zero,
+            zero,
+        ])
+    }
+}
+
+/// What one pass over a row x (w columns) with the row a two above it gives [`crate::focus`]
+/// (D = Σx(x − 128), H = Σ_{c < w − 2} x[c + 2](x[c] − 128), V = Σ a(x − 128), S = Σx, each
+/// over the whole row unless said): the parts of the squared central differences, each
+/// combined in the lanes before the one reduction it takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) struct RowSums {
+    /// Pixels at 255.
+    pub saturated: u32,
+    /// D + 128 S − 2 V = Σx² − 2 Σax + 256 Σa: this row's share of its vertical pair.
+    pub now: i64,
+    /// 2 D − 2 H: the row's share of its own horizontal pair (x[c], x[c + 2]).
+    pub next: i64,
+    /// D − 128 S = Σx² − 256 S: the row's share of the vertical pair it is the upper row of.
+    pub after: i64,
+    /// Σ_{c < w − 2} |x[c] − x[c + 2]|.
+    pub h_abs: u64,
+    /// Σ|x − a| over the whole row.
+    pub v_abs: u64,
+}
+
+/// [`RowSums`] of `row` and the row `above` it (`row` itself without one: the vertical sums
+/// are then of no use, and computed anyway, to keep one loop), in one pass over the columns:
+/// a step loads x[i …], x[i + 2 …] and a[i …], flips x once into x − 128 and takes the six
+/// sums from them (four `vpdpbusd` for S, D, H and V, two `vpsadbw`).
 ///
 /// # Safety
 /// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
 ///
 /// # Panics
-/// If `prev` is given and the rows' lengths differ or are below 2.
+/// If the rows' lengths differ.
 #[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
-unsafe fn kernel(row: &[u8], prev: Option<(&[u8], &[u8])>) -> ((i64, i64), u32, u64, i64) {
+unsafe fn kernel(row: &[u8], above: Option<&[u8]>) -> RowSums {
     let w = row.len();
-    // The pairs cover w − 2 columns (b from 0 and 2, row and a from 1), none without
-    // `prev` (their loads then read no byte).
-    let (a, b, m) = match prev {
-        Some((a, b)) => {
-            assert!(
-                w >= 2 && a.len() == w && b.len() == w,
-                "rows of one width ≥ 2"
-            );
-            (a, b, w - 2)
-        }
-        None => (row, row, 0),
-    };
-    let (pr, pa, pb) = (row.as_ptr(), a.as_ptr(), b.as_ptr());
-    let (zero, flip, full) = (
-        _mm512_setzero_si512(),
-        _mm512_set1_epi8(i8::MIN),
-        _mm512_set1_epi8(-1),
-    );
-    let (mut sum, mut sad, mut sat) = (zero, zero, 0u32);
-    let (mut sq, mut dot) = (0i64, 0i64);
+    let a = above.unwrap_or(row);
+    assert_eq!(a.len(), w, "rows of one width");
+    // The horizontal pairs (x[c], x[c + 2]) cover c < w − 2.
+    let m = w.saturating_sub(2);
+    let (pr, pa) = (row.as_ptr(), a.as_ptr());
+    let mut top = _mm512_setzero_si512();
+    let (mut now, mut next, mut after, mut h_abs, mut v_abs) = (0i64, 0i64, 0i64, 0u64, 0u64);
     let mut i = 0;
     while i < w {
         let end = (i + 64 * FLUSH).min(w);
-        let (mut acc, mut dh, mut dv) = (zero, zero, zero);
+        // Two sets of sums, for steps two at a time: each `vpdpbusd` accumulator takes
+        // every other step, not a chain of one step's latency after the other.
+        let (mut p, mut q) = (Sums::new(), Sums::new());
+        // SAFETY (both loops): plain loads when columns i … i + 65 (i + 129 two at a time)
+        // are inside the rows; masked loads otherwise, each covering only columns inside its
+        // row (x and a: i … w − 1; x[c + 2]: c in i … m − 1).
+        while i + 128 <= end.min(m) {
+            let (l0, l1) = unsafe { (plain(pr, pa, i), plain(pr, pa, i + 64)) };
+            p.step(&mut top, l0);
+            q.step(&mut top, l1);
+            i += 128;
+        }
         while i < end {
-            // SAFETY: plain loads when columns i … i + 63 of the row and i … i + 65 of
-            // the pairs' reads are inside the rows; masked loads otherwise, each covering
-            // only its own slice's columns (the row's i … w − 1; the pairs' i … m − 1).
-            let (x, hx, hy, vx, vy) = unsafe {
+            let loads = unsafe {
                 if i + 64 <= m {
-                    (
-                        _mm512_loadu_si512(pr.add(i).cast()),
-                        _mm512_loadu_si512(pb.add(i).cast()),
-                        _mm512_loadu_si512(pb.add(i + 2).cast()),
-                        _mm512_loadu_si512(pr.add(i + 1).cast()),
-                        _mm512_loadu_si512(pa.add(i + 1).cast()),
-                    )
+                    plain(pr, pa, i)
                 } else {
                     let (kr, kp) = (mask(i, w), mask(i.min(m), m));
                     // (`wrapping_add`: with an empty mask the address may lie past
                     // the row; it is never dereferenced.)
-                    (
-                        _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast()),
-                        _mm512_maskz_loadu_epi8(kp, pb.wrapping_add(i).cast()),
-                        _mm512_maskz_loadu_epi8(kp, pb.wrapping_add(i + 2).cast()),
-                        _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 1).cast()),
-                        _mm512_maskz_loadu_epi8(kp, pa.wrapping_add(i + 1).cast()),
-                    )
+                    let x = _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast());
+                    [
+                        x,
+                        _mm512_maskz_mov_epi8(kp, x),
+                        _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 2).cast()),
+                        _mm512_maskz_loadu_epi8(kr, pa.wrapping_add(i).cast()),
+                    ]
                 }
             };
-            sat += _mm512_cmpeq_epi8_mask(x, full).count_ones();
-            sum = _mm512_add_epi64(sum, _mm512_sad_epu8(x, zero));
-            acc = _mm512_dpbusd_epi32(acc, x, _mm512_xor_si512(x, flip));
-            sad = _mm512_add_epi64(
-                sad,
-                _mm512_add_epi64(_mm512_sad_epu8(hx, hy), _mm512_sad_epu8(vx, vy)),
-            );
-            dh = _mm512_dpbusd_epi32(dh, hx, _mm512_xor_si512(hy, flip));
-            dv = _mm512_dpbusd_epi32(dv, vx, _mm512_xor_si512(vy, flip));
+            p.step(&mut top, loads);
             i += 64;
         }
-        sq += lanes_i64(acc);
-        dot += lanes_i64(dh) + lanes_i64(dv);
+        let t = p.plus(q).totals();
+        now += i64::from(t[0]);
+        next += i64::from(t[1]);
+        after += i64::from(t[2]);
+        h_abs += t[3] as u64;
+        v_abs += t[4] as u64;
     }
-    let sum = _mm512_reduce_add_epi64(sum);
-    (
-        (sum, sq + 128 * sum),
-        sat,
-        _mm512_reduce_add_epi64(sad) as u64,
-        dot,
-    )
+    RowSums {
+        saturated: if _mm512_cmpeq_epi8_mask(top, _mm512_set1_epi8(-1)) == 0 {
+            0
+        } else {
+            saturated(row)
+        },
+        now,
+        next,
+        after,
+        h_abs,
+        v_abs,
+    }
 }
 
-/// [`kernel`] on a CPU that has the features (`_cpu` proves it): the row's (Σx, Σx²), its count
-/// of 255s and, with `prev` = (a, b), the two pairs' Σ|x − y| and Σx(y − 128).
+/// The pixels of `row` at 255 (the rows that have any: [`kernel`] finds them by the row's
+/// maximum, one operation a step, and counts only there).
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw,popcnt")]
+fn saturated(row: &[u8]) -> u32 {
+    let full = _mm512_set1_epi8(-1);
+    let mut n = 0;
+    for i in (0..row.len()).step_by(64) {
+        // SAFETY: the mask covers columns i … min(i + 64, w) − 1, inside the row.
+        let x = unsafe { _mm512_maskz_loadu_epi8(mask(i, row.len()), row.as_ptr().add(i).cast()) };
+        n += _mm512_cmpeq_epi8_mask(x, full).count_ones();
+    }
+    n
+}
+
+/// [`kernel`] on a CPU that has the features (`_cpu` proves it): the [`RowSums`] of `row` and
+/// the row two above it.
 ///
 /// # Panics
-/// If `prev` is given and the rows' lengths differ or are below 2.
+/// If `above` is given and the rows' lengths differ.
 #[inline]
-pub(crate) fn row_sums(
-    _cpu: Vnni,
-    row: &[u8],
-    prev: Option<(&[u8], &[u8])>,
-) -> ((i64, i64), u32, u64, i64) {
+pub(crate) fn row_sums(_cpu: Vnni, row: &[u8], above: Option<&[u8]>) -> RowSums {
     // SAFETY: `vnni` is true only when the CPU has AVX-512 F/BW and VNNI
     // (`is_x86_feature_detected!` in `simd::detected` and `simd::vnni`; `_cpu` proves it);
     // `kernel` checks the lengths.
-    unsafe { kernel(row, prev) }
+    unsafe { kernel(row, above) }
 }
