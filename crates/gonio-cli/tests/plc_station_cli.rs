@@ -572,7 +572,15 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
         assert!(finished < stored, "{names:?}");
         let t = &events[turn].1;
         assert!(t["e_um"].as_f64().is_some_and(|e| e > 0.0), "{t}");
-        assert!(t["valid_frames"].as_u64().is_some_and(|n| n > 100), "{t}");
+        // How many frames a turn gets depends on how many the machine keeps up with (a loaded
+        // one misses some); what must hold is the recipe's gate: at least half of the frames
+        // taken valid (`measure.min_valid_fraction`, 0.5 by default) and a trusted fit.
+        let (valid, taken) = (t["valid_frames"].as_u64(), t["frames_taken"].as_u64());
+        assert!(
+            valid.zip(taken).is_some_and(|(v, n)| v >= 3 && 2 * v >= n),
+            "{t}"
+        );
+        assert_eq!(t["trusted"], true, "{t}");
         let f = &events[finished].1;
         assert_eq!(f["serial"], "PLC-0001", "{f}");
         assert_eq!(f["result"], "accepted", "{f}");
@@ -651,8 +659,14 @@ fn serve_shows_a_part_through_the_plc_live_and_stores_it() {
         let p50 = plc["round_trip_p50_ms"].as_f64().unwrap_or(0.0);
         let p99 = plc["round_trip_p99_ms"].as_f64().unwrap_or(0.0);
         assert!(p50 > 0.0 && p99 >= p50, "{st}");
+        // Every frame a turn took was paired with its trigger first.
+        let taken: u64 = events
+            .iter()
+            .filter(|(n, _)| n == "turn")
+            .filter_map(|(_, v)| v["frames_taken"].as_u64())
+            .sum();
         let paired = plc["frames_paired"].as_u64().unwrap_or(0);
-        assert!(paired > 100, "{st}");
+        assert!(taken > 0 && paired >= taken, "{taken} frames taken: {st}");
         assert!(plc["frames_stale"].is_u64(), "{st}");
     }
 }
