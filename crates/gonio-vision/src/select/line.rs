@@ -195,7 +195,8 @@ pub(super) fn parabola(c: &Component, height: usize) -> bool {
 /// A deterministic RANSAC line through pixels whose columns are first reduced by the curvature
 /// `q` (px per u²): pairs of pixels from the upper and lower halves (in raster order) at least
 /// `min_fragment_rows` rows apart, slope within the baseline filter's tolerance, the line with
-/// most pixels within `gate` px. Returns (row, reduced column, slope) of the line.
+/// most pixels within `gate` px. Returns (row, reduced column, slope) of the line; when it
+/// does, `rows` and `cols` hold each pixel's row and reduced column.
 pub(super) fn ransac(
     px: &[EdgePixel],
     q: f64,

@@ -60,7 +60,11 @@
 //! linking scan reads one compact list of the open tracks per polarity (last row, mean row,
 //! curve, its column at the last row) instead of the tracks; the moments' exact integer
 //! expansion runs in i64 when a guard proves it cannot overflow (i128 otherwise); the refit's
-//! row means are computed once, the rows it drops marked. None of this changes a value: the
+//! row means are computed once for both edges, the rows it drops marked; its kept sets are
+//! also flags over the gathered pixels (each pixel's column and u computed once), so that a
+//! re-fit's filter and its comparison with the pixels kept before are one pass whose steps do
+//! not wait on each other (a walk along the old list did, pixel by pixel); the clean
+//! majority reads RANSAC's reduced columns. None of this changes a value: the
 //! same sums (integers) and the same floating-point expressions in the same order
 //! (the passes over the selection in BENCHMARKS.md's git history).
 //!

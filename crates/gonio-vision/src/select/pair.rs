@@ -2,7 +2,7 @@
 //! parallel curves, the pixels that stray from them dropped ([`refit_pair`]).
 
 use super::line::{Curve, median, moments, ransac, solve_n};
-use super::tracks::{Track, diff, resum};
+use super::tracks::{Track, resum};
 use crate::label::{Component, EdgeList, EdgePixel, EdgeRows, component_of};
 use crate::optics::Params;
 
@@ -216,6 +216,7 @@ pub(super) fn joint_fit(
 
 /// Row-wise mean column of a pixel set (NaN where a row has none), into `mean` (`n`: the
 /// counts).
+#[cfg(test)]
 pub(super) fn row_means(px: &[EdgePixel], h: usize, mean: &mut Vec<f64>, n: &mut Vec<u32>) {
     mean.clear();
     mean.resize(h, 0.0);
@@ -227,6 +228,77 @@ pub(super) fn row_means(px: &[EdgePixel], h: usize, mean: &mut Vec<f64>, n: &mut
     }
     for (s, &k) in mean.iter_mut().zip(n.iter()) {
         *s = if k > 0 { *s / k as f64 } else { f64::NAN };
+    }
+}
+
+/// Whether each pixel (column, u) lies within 0.75 px of the curve a + b·u + q·u², into `keep`
+/// ([`PairFit::at`]'s expression, term by term).
+pub(super) fn near_flags(pos: &[(f64, f64)], a: f64, b: f64, q: f64, keep: &mut Vec<bool>) {
+    keep.clear();
+    keep.extend(
+        pos.iter()
+            .map(|&(x, u)| (x - (a + b * u + q * u * u)).abs() <= 0.75),
+    );
+}
+
+/// The pixels of `all` flagged in `is`, into `new`, and how they differ from those flagged in
+/// `was`: the pixels flagged before and not now into `gone`, those flagged now and not before
+/// into `came` (both in `all`'s order); true when nothing changed. The same lists as
+/// filtering `all` both ways and comparing with [`diff`](super::tracks::diff), in one pass
+/// over `all` whose steps do not wait on each other.
+pub(super) fn filter_diff(
+    all: &[EdgePixel],
+    was: &[bool],
+    is: &[bool],
+    new: &mut Vec<EdgePixel>,
+    gone: &mut Vec<EdgePixel>,
+    came: &mut Vec<EdgePixel>,
+) -> bool {
+    new.clear();
+    gone.clear();
+    came.clear();
+    for ((e, &was), &is) in all.iter().zip(was).zip(is) {
+        if is {
+            new.push(*e);
+        }
+        if was && !is {
+            gone.push(*e);
+        } else if is && !was {
+            came.push(*e);
+        }
+    }
+    gone.is_empty() && came.is_empty()
+}
+
+/// [`row_means`] of both edges (`ml`, `mr`), with the finite row-wise widths `mr − ml` in row
+/// order into `widths`: the same values, one pass over the rows for both.
+pub(super) fn row_widths(
+    lk: &[EdgePixel],
+    rk: &[EdgePixel],
+    h: usize,
+    (ml, mr): (&mut Vec<f64>, &mut Vec<f64>),
+    (nl, nr): (&mut Vec<u32>, &mut Vec<u32>),
+    widths: &mut Vec<f64>,
+) {
+    for (px, mean, n) in [(lk, &mut *ml, &mut *nl), (rk, &mut *mr, &mut *nr)] {
+        mean.clear();
+        mean.resize(h, 0.0);
+        n.clear();
+        n.resize(h, 0);
+        for e in px {
+            mean[e.row as usize] += e.col32() as f64 / 32.0;
+            n[e.row as usize] += 1;
+        }
+    }
+    widths.clear();
+    let div = |s: f64, k: u32| if k > 0 { s / k as f64 } else { f64::NAN };
+    for y in 0..h {
+        let (l, r) = (div(ml[y], nl[y]), div(mr[y], nr[y]));
+        (ml[y], mr[y]) = (l, r);
+        let w = r - l;
+        if w.is_finite() {
+            widths.push(w);
+        }
     }
 }
 
@@ -249,37 +321,45 @@ pub(super) struct RefitScratch {
     ml: Vec<f64>,
     mr: Vec<f64>,
     count: Vec<u32>,
+    count_r: Vec<u32>,
+    /// The gathered pixels' (column, u) and whether each is near its curve.
+    lpos: Vec<(f64, f64)>,
+    rpos: Vec<(f64, f64)>,
+    keep: Vec<bool>,
+    /// Whether each gathered pixel is in the kept set `lk` (`rk`).
+    lin: Vec<bool>,
+    rin: Vec<bool>,
     widths: Vec<f64>,
     near_l: Vec<bool>,
     near_r: Vec<bool>,
 }
 
 /// An edge's clean majority (step 2 of [`refit_pair`]): the pixels within 0.75 px of a RANSAC
-/// curve (the frame's curvature, else the track's), all of them without one; into `out`.
+/// curve (the frame's curvature, else the track's), all of them without one; into `out`, and
+/// whether each pixel of `px` is one of them into `kept`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn clean_majority(
     px: &[EdgePixel],
     t: &Track,
     q_frame: Option<f64>,
     p: &Params,
-    rows: &mut Vec<f64>,
-    cols: &mut Vec<f64>,
+    (rows, cols): (&mut Vec<f64>, &mut Vec<f64>),
     out: &mut Vec<EdgePixel>,
+    kept: &mut Vec<bool>,
 ) {
-    let h = p.height;
     let q = q_frame.unwrap_or(t.curve.q);
-    let red = |e: &EdgePixel| {
-        let u = 2.0 * e.row as f64 - (h as f64 - 1.0);
-        e.col32() as f64 / 32.0 - q * u * u
-    };
-    out.clear();
+    kept.clear();
     match ransac(px, q, 0.75, p, rows, cols) {
-        Some((r0, c0, slope)) => out.extend(
-            px.iter()
-                .filter(|e| (red(e) - c0 - slope * (e.row as f64 - r0)).abs() <= 0.75),
+        // `rows` and `cols` hold each pixel's row and column reduced by q·u² (RANSAC's).
+        Some((r0, c0, slope)) => kept.extend(
+            rows.iter()
+                .zip(cols.iter())
+                .map(|(r, c)| (*c - c0 - slope * (*r - r0)).abs() <= 0.75),
         ),
-        None => out.extend_from_slice(px),
+        None => kept.resize(px.len(), true),
     }
+    out.clear();
+    out.extend(px.iter().zip(kept.iter()).filter(|x| *x.1).map(|x| *x.0));
 }
 
 /// Re-fits a ring candidate's two edges from the frame's pixels (`None` when the frame's edge
@@ -345,8 +425,9 @@ pub(super) fn refit_pair_with(
     // 2. Clean majorities, then the joint parallel curves.
     let (lpx, rpx) = (&s.lpx, &s.rpx);
     let (lk, rk) = (&mut s.lk, &mut s.rk);
-    clean_majority(lpx, l, q_frame, p, &mut s.rows, &mut s.cols, lk);
-    clean_majority(rpx, r, q_frame, p, &mut s.rows, &mut s.cols, rk);
+    let (lin, rin) = (&mut s.lin, &mut s.rin);
+    clean_majority(lpx, l, q_frame, p, (&mut s.rows, &mut s.cols), lk, lin);
+    clean_majority(rpx, r, q_frame, p, (&mut s.rows, &mut s.cols), rk, rin);
     // The sums of `lk` and `rk` as they stand and their free joint fit, when known: a step
     // that keeps every pixel of an edge keeps that edge's sums (the same pixels give the same
     // sums), and one that keeps both keeps the fit (the same sums give the same fit); a step
@@ -356,23 +437,31 @@ pub(super) fn refit_pair_with(
     let mut fit: Option<PairFit> = None;
     let (ln, rn) = (&mut s.lnext, &mut s.rnext);
     let (gone, came) = (&mut s.gone, &mut s.came);
+    // Each gathered pixel's column and u, once: `PairFit::at`'s u, the same values.
+    let (lpos, rpos, keep) = (&mut s.lpos, &mut s.rpos, &mut s.keep);
+    for (px, pos) in [(lpx, &mut *lpos), (rpx, &mut *rpos)] {
+        pos.clear();
+        pos.extend(
+            px.iter()
+                .map(|e| (col(e), 2.0 * e.row as f64 - (h as f64 - 1.0))),
+        );
+    }
+    let (lpos, rpos) = (&*lpos, &*rpos);
     let w = p.width;
     for _ in 0..2 {
         let f = match fit.take() {
             Some(f) => f,
             None => fit_kept(lk, rk, &mut lsum, &mut rsum, h, w)?,
         };
-        let near =
-            |e: &EdgePixel, right: bool| (col(e) - f.at(right, e.row as f64, h)).abs() <= 0.75;
-        ln.clear();
-        ln.extend(lpx.iter().filter(|e| near(e, false)));
-        rn.clear();
-        rn.extend(rpx.iter().filter(|e| near(e, true)));
-        let l_same = diff(lk, ln, gone, came);
+        near_flags(lpos, f.a_left, f.b, f.q, keep);
+        let l_same = filter_diff(lpx, lin, keep, ln, gone, came);
+        std::mem::swap(lin, keep);
         if !l_same {
             lsum = lsum.map(|c| resum(&c, gone, came, ln, w));
         }
-        let r_same = diff(rk, rn, gone, came);
+        near_flags(rpos, f.a_right, f.b, f.q, keep);
+        let r_same = filter_diff(rpx, rin, keep, rn, gone, came);
+        std::mem::swap(rin, keep);
         if !r_same {
             rsum = rsum.map(|c| resum(&c, gone, came, rn, w));
         }
@@ -384,11 +473,8 @@ pub(super) fn refit_pair_with(
     }
     // 3. Rows where the ring is not its own width.
     let (ml, mr) = (&mut s.ml, &mut s.mr);
-    row_means(lk, h, ml, &mut s.count);
-    row_means(rk, h, mr, &mut s.count);
     let widths = &mut s.widths;
-    widths.clear();
-    widths.extend((0..h).map(|y| mr[y] - ml[y]).filter(|w| w.is_finite()));
+    row_widths(lk, rk, h, (ml, mr), (&mut s.count, &mut s.count_r), widths);
     if widths.is_empty() {
         return None;
     }
@@ -486,6 +572,7 @@ pub(super) fn refit_pair_with(
     // The row means of step 3 hold for every row steps 3 and 4 kept (the same pixels, in the
     // same order); a dropped row has none (NaN, as `row_means` marks a row without pixels). A
     // row has pixels exactly when its mean is a number.
+    let (mut left_rows, mut right_rows) = (Vec::with_capacity(h), Vec::with_capacity(h));
     for y in 0..h {
         if skip[y] || near_l[y] {
             ml[y] = f64::NAN;
@@ -493,9 +580,10 @@ pub(super) fn refit_pair_with(
         if skip[y] || near_r[y] {
             mr[y] = f64::NAN;
         }
+        left_rows.push(ml[y].is_finite());
+        right_rows.push(mr[y].is_finite());
     }
-    f.left_rows = ml.iter().map(|m| m.is_finite()).collect();
-    f.right_rows = mr.iter().map(|m| m.is_finite()).collect();
+    (f.left_rows, f.right_rows) = (left_rows, right_rows);
     f.width_change_px = width_change(ml, mr, h);
     Some(f)
 }

@@ -107,6 +107,37 @@ fn sums_from_the_change_are_the_sums_of_the_new_set() {
         assert!(came.is_empty());
         let got = resum(&component_of(&old, w), &gone, &[], &kept, w);
         assert_eq!(got, component_of(&kept, w));
+        // The refit's one-pass filter and comparison: the same kept set, and the same pixels
+        // gone and come in the same order, as filtering and then `diff`.
+        let same = diff(&old, &new, &mut gone, &mut came);
+        let (mut got_new, mut got_gone, mut got_came) = (Vec::new(), Vec::new(), Vec::new());
+        let got_same = filter_diff(&all, &was, &is, &mut got_new, &mut got_gone, &mut got_came);
+        assert_eq!(
+            (got_same, &got_new, &got_gone, &got_came),
+            (same, &new, &gone, &came)
+        );
+        // Both edges' row means and widths in one pass: the same bits as one edge at a time.
+        let h = 900;
+        let (mut ml, mut mr, mut nl, mut nr, mut widths) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        row_widths(
+            &old,
+            &new,
+            h,
+            (&mut ml, &mut mr),
+            (&mut nl, &mut nr),
+            &mut widths,
+        );
+        let (mut wl, mut wr, mut n) = (Vec::new(), Vec::new(), Vec::new());
+        row_means(&old, h, &mut wl, &mut n);
+        row_means(&new, h, &mut wr, &mut n);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!((bits(&ml), bits(&mr)), (bits(&wl), bits(&wr)));
+        let want: Vec<f64> = (0..h)
+            .map(|y| wr[y] - wl[y])
+            .filter(|w| w.is_finite())
+            .collect();
+        assert_eq!(bits(&widths), bits(&want));
     }
 }
 
