@@ -214,20 +214,30 @@ pub(super) fn joint_fit(
     }
 }
 
+/// Row-wise column sums of a pixel set into `sum`, their counts into `n`.
+fn row_sums(px: &[EdgePixel], h: usize, sum: &mut Vec<f64>, n: &mut Vec<u32>) {
+    sum.clear();
+    sum.resize(h, 0.0);
+    n.clear();
+    n.resize(h, 0);
+    for e in px {
+        sum[e.row as usize] += e.col32() as f64 / 32.0;
+        n[e.row as usize] += 1;
+    }
+}
+
+/// A row's mean from its sum and count (NaN where the row has none).
+fn mean_of(s: f64, k: u32) -> f64 {
+    if k > 0 { s / k as f64 } else { f64::NAN }
+}
+
 /// Row-wise mean column of a pixel set (NaN where a row has none), into `mean` (`n`: the
 /// counts).
 #[cfg(test)]
 pub(super) fn row_means(px: &[EdgePixel], h: usize, mean: &mut Vec<f64>, n: &mut Vec<u32>) {
-    mean.clear();
-    mean.resize(h, 0.0);
-    n.clear();
-    n.resize(h, 0);
-    for e in px {
-        mean[e.row as usize] += e.col32() as f64 / 32.0;
-        n[e.row as usize] += 1;
-    }
+    row_sums(px, h, mean, n);
     for (s, &k) in mean.iter_mut().zip(n.iter()) {
-        *s = if k > 0 { *s / k as f64 } else { f64::NAN };
+        *s = mean_of(*s, k);
     }
 }
 
@@ -280,20 +290,11 @@ pub(super) fn row_widths(
     (nl, nr): (&mut Vec<u32>, &mut Vec<u32>),
     widths: &mut Vec<f64>,
 ) {
-    for (px, mean, n) in [(lk, &mut *ml, &mut *nl), (rk, &mut *mr, &mut *nr)] {
-        mean.clear();
-        mean.resize(h, 0.0);
-        n.clear();
-        n.resize(h, 0);
-        for e in px {
-            mean[e.row as usize] += e.col32() as f64 / 32.0;
-            n[e.row as usize] += 1;
-        }
-    }
+    row_sums(lk, h, ml, nl);
+    row_sums(rk, h, mr, nr);
     widths.clear();
-    let div = |s: f64, k: u32| if k > 0 { s / k as f64 } else { f64::NAN };
     for y in 0..h {
-        let (l, r) = (div(ml[y], nl[y]), div(mr[y], nr[y]));
+        let (l, r) = (mean_of(ml[y], nl[y]), mean_of(mr[y], nr[y]));
         (ml[y], mr[y]) = (l, r);
         let w = r - l;
         if w.is_finite() {
