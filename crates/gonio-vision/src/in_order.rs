@@ -168,7 +168,11 @@ where
                 let item = result.map(|result| Detection { stamp, result });
                 let mut r = lock();
                 let handed = sink(&r.source, item);
-                r.emitted = emitted;
+                // A refused frame makes no room: the reading stops under the same lock.
+                match handed {
+                    Ok(()) => r.emitted = emitted,
+                    Err(_) => r.stopped = true,
+                }
                 drop(r);
                 room.notify_all();
                 if let Err(e) = handed {
