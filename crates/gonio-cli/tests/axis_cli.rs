@@ -364,7 +364,7 @@ fn compensation_a_unidirectional_test_and_errors() {
     for (args, want) in [
         (
             vec!["axis", &cut, "--json", &bad],
-            "cut.csv: target 180°, negative direction: run 3 is missing (the test has runs 1–5)",
+            "cut.csv:8:3: target 180°, negative direction: run 3 is missing (the test has runs 1–5)",
         ),
         // Not a certificate: its place named.
         (
