@@ -61,7 +61,8 @@ pub use parameters::{
 };
 pub use polygon::{FaceReading, MAX_PITCH_DEVIATION_ARCSEC, Polygon};
 pub use result::{
-    AXIS_FORMAT, AxisResult, AxisTarget, AxisUncertainty, PolygonSection, ReferenceSection,
+    AXIS_FORMAT, AxisResult, AxisTarget, AxisUncertainty, COMPENSATION_NOTE, PolygonSection,
+    ReferenceSection,
 };
 pub use uncertainty::{PARAMETER_K, ReferenceBudget, parameter_uncertainty, reference_budget};
 
