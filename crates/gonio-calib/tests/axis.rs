@@ -239,10 +239,39 @@ fn errors_name_what_is_missing() {
             ..
         })
     ));
+    // A huge number is named the short way, not in three hundred digits.
+    r[3].deviation_arcsec = -1e300;
+    assert_eq!(
+        evaluate(&r).unwrap_err().to_string(),
+        "reading 3: deviation_arcsec -1e300 is out of range: expected −1000000 to 1000000"
+    );
     assert_eq!(evaluate(&[]), Err(AxisError::Empty));
     // Fewer runs than the standard's five: evaluated, with a note.
     let three: Vec<_> = all.iter().filter(|x| x.run <= 3).copied().collect();
     let doc = analyse(&AxisInput::Deviations(three), &Instrument::default()).unwrap();
     assert_eq!(doc.runs, 3);
     assert!(doc.notes[0].contains("has 5"), "{:?}", doc.notes);
+}
+
+#[test]
+fn a_polygon_certificate_out_of_its_bounds_is_refused() {
+    let u = [0.01; 4];
+    // A corrupt or foreign certificate's pitch deviation: named, never taken off the readings.
+    let e = Polygon::new(&[0.1, 1e300, -0.1, 0.0], &u, 10.0, "p.json").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "the polygon's calibration: the pitch deviation of face 2, 1e300″, is out of range: expected −3600 to 3600 arcsec"
+    );
+    let e = Polygon::new(
+        &[0.1, 0.0, -0.1, 0.0],
+        &[0.01, 0.01, 5e4, 0.01],
+        10.0,
+        "p.json",
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("face 3's pitch deviation, 50000″"),
+        "{e}"
+    );
+    assert!(Polygon::new(&[3600.0, -3600.0, 0.0], &[3600.0; 3], 10.0, "p.json").is_ok());
 }

@@ -328,7 +328,7 @@ fn compensation_a_unidirectional_test_and_errors() {
         "--out",
         &s("down"),
     ]);
-    ok(&[
+    let (out, _) = ok(&[
         "axis",
         &s("down/readings.csv"),
         "--json",
@@ -336,8 +336,18 @@ fn compensation_a_unidirectional_test_and_errors() {
         "--compensation",
         &s("down.csv"),
     ]);
+    assert!(
+        out.contains("9 targets (0° … 360°), 5 runs, negative direction only"),
+        "{out}"
+    );
     let doc = json(&dir.join("down.json"));
     assert!(doc["A_arcsec"].is_null() && doc["M_arcsec"].is_null());
+    assert!(
+        doc["compensation_note"]
+            .as_str()
+            .unwrap()
+            .starts_with("correction = −x̄ (arcsec): added to the commanded position it cancels")
+    );
     assert!(doc["A_down_arcsec"].as_f64().unwrap() > 0.0);
     assert!(
         doc["bidirectional_note"]
@@ -360,11 +370,54 @@ fn compensation_a_unidirectional_test_and_errors() {
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(dir.join("cut.csv"), cut).unwrap();
+    let huge: String = readings
+        .lines()
+        .map(|l| match l.starts_with("180,-,3,") {
+            true => "180,-,3,1e300\n".to_string(),
+            false => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(dir.join("huge.csv"), huge).unwrap();
     let (cut, axis_json, bad) = (s("cut.csv"), s("axis.json"), s("bad.json"));
+    let (huge, sim_bad, good) = (s("huge.csv"), s("sim-bad"), s("ax/readings.csv"));
     for (args, want) in [
+        // The first reading at that target and direction (run 1 down: line 8), the run column.
         (
             vec!["axis", &cut, "--json", &bad],
-            "cut.csv: target 180°, negative direction: run 3 is missing (the test has runs 1–5)",
+            "cut.csv:8:3: target 180°, negative direction: run 3 is missing (the test has runs 1–5)",
+        ),
+        // A huge number is named the short way.
+        (
+            vec!["axis", &huge, "--json", &bad],
+            ":4: column 'deviation_arcsec': 1e300 is out of range",
+        ),
+        // An input named as the output: refused, and no summary printed before the error.
+        (
+            vec!["axis", &good, "--json", &good],
+            "is also an input of this command",
+        ),
+        // The simulator's flags name their bounds.
+        (
+            vec![
+                "simulate",
+                "axis",
+                "--backlash-arcsec",
+                "1e300",
+                "--out",
+                &sim_bad,
+            ],
+            "--backlash-arcsec 1e300: expected -3600 to 3600 arcsec",
+        ),
+        (
+            vec![
+                "simulate",
+                "axis",
+                "--reference-sigma-arcsec",
+                "-1",
+                "--out",
+                &sim_bad,
+            ],
+            "--reference-sigma-arcsec -1: expected 0 to 3600 arcsec",
         ),
         // Not a certificate: its place named.
         (
@@ -375,8 +428,14 @@ fn compensation_a_unidirectional_test_and_errors() {
         let o = gonio(&args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            o.stdout.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&o.stdout)
+        );
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(want), "{err}");
         assert!(!dir.join("bad.json").exists());
+        assert!(!dir.join("sim-bad").exists());
     }
 }

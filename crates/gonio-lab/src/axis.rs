@@ -44,6 +44,7 @@ use crate::readings::Row;
 use crate::sequence::{CheckKind, Sequence};
 use gonio_calib::axis::{Direction, MAX_RUNS, MAX_TARGET_DEG, TargetKey};
 use gonio_calib::shift_angle::{MAX_FACES, shift_range};
+use gonio_core::bound::Num;
 use serde::Deserialize;
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -100,17 +101,10 @@ pub struct AxisPlan {
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(untagged)]
-enum TargetsValue {
-    Word(String),
-    List(Vec<toml::Value>),
-}
-
-#[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPlan {
     faces: Spanned<i64>,
-    targets_deg: Option<Spanned<TargetsValue>>,
+    targets_deg: Option<Spanned<toml::Value>>,
     full_turn: Option<Spanned<bool>>,
     runs: Option<Spanned<i64>>,
     directions: Option<Spanned<String>>,
@@ -167,16 +161,16 @@ impl AxisPlan {
                 let span = v.span();
                 let bad = |m: String| Err(at(span.clone(), m));
                 let list = match v.get_ref() {
-                    TargetsValue::Word(w) if w == "faces" => {
+                    toml::Value::String(w) if w == "faces" => {
                         faces_targets(faces, full_turn.unwrap_or(true))
                     }
-                    TargetsValue::Word(w) => shift_range(w).ok_or_else(|| {
+                    toml::Value::String(w) => shift_range(w).ok_or_else(|| {
                         at(
                             span.clone(),
                             format!("targets_deg = {w:?}: expected \"faces\", START:STEP:END (e.g. \"0:30:360\") or a list of degrees"),
                         )
                     })?,
-                    TargetsValue::List(l) => l
+                    toml::Value::Array(l) => l
                         .iter()
                         .map(|x| match x {
                             toml::Value::Integer(i) => Some(*i as f64),
@@ -192,8 +186,14 @@ impl AxisPlan {
                                     .into(),
                             )
                         })?,
+                    other => {
+                        return bad(format!(
+                            "targets_deg: expected \"faces\", START:STEP:END (e.g. \"0:30:360\") or a list of degrees, found a {}",
+                            other.type_str()
+                        ));
+                    }
                 };
-                if let (Some(f), TargetsValue::List(_)) = (&raw.full_turn, v.get_ref()) {
+                if let (Some(f), toml::Value::Array(_)) = (&raw.full_turn, v.get_ref()) {
                     return Err(at(
                         f.span(),
                         "full_turn applies to targets_deg = \"faces\": list 360 among the targets instead".into(),
@@ -203,7 +203,8 @@ impl AxisPlan {
                 list.sort_by(f64::total_cmp);
                 if let Some(t) = list.iter().find(|t| t.abs() > MAX_TARGET_DEG) {
                     return bad(format!(
-                        "targets_deg: {t}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees"
+                        "targets_deg: {}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees",
+                        Num(*t)
                     ));
                 }
                 if let Some(t) = list.iter().find(|t| {
@@ -263,7 +264,8 @@ impl AxisPlan {
                     return Err(at(
                         v.span(),
                         format!(
-                            "overrun_deg = {o}: expected more than 0 and at most {MAX_OVERRUN_DEG} degrees"
+                            "overrun_deg = {}: expected more than 0 and at most {MAX_OVERRUN_DEG} degrees",
+                            Num(o)
                         ),
                     ));
                 }
@@ -291,7 +293,8 @@ impl AxisPlan {
                     return Err(at(
                         v.span(),
                         format!(
-                            "repeatability_arcsec = {r}: expected 0 to {MAX_REPEATABILITY_ARCSEC}"
+                            "repeatability_arcsec = {}: expected 0 to {MAX_REPEATABILITY_ARCSEC} arcsec",
+                            Num(r)
                         ),
                     ));
                 }
@@ -538,5 +541,21 @@ mod tests {
         );
         assert!(e("faces = 8\ntargets_deg = [0, 0]\n").contains("listed twice"));
         assert!(e("faces = 8\nrun = 5\n").starts_with("a.toml:2:1: unknown field"));
+        // A table where a value belongs, and huge numbers, named the short way.
+        assert_eq!(
+            e("faces = 8\ntargets_deg = {a = 1}\n"),
+            "a.toml:2:15: targets_deg: expected \"faces\", START:STEP:END (e.g. \"0:30:360\") or a list of degrees, found a table"
+        );
+        assert_eq!(
+            e("faces = 8\nrepeatability_arcsec = 1e300\n"),
+            "a.toml:2:24: repeatability_arcsec = 1e300: expected 0 to 3600 arcsec"
+        );
+        assert!(
+            e("faces = 8\ntargets_deg = [0, 1e300]\n")
+                .starts_with("a.toml:2:15: targets_deg: 1e300° is out of range")
+        );
+        assert!(
+            e("faces = 8\noverrun_deg = 1e300\n").starts_with("a.toml:2:15: overrun_deg = 1e300:")
+        );
     }
 }

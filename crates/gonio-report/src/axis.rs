@@ -170,9 +170,9 @@ pub fn figure(doc: &AxisResult) -> Result<Figure, ReportError> {
         id: id.into(),
         title: format!("Positioning deviations ({})", doc.standard),
         caption: format!(
-            "The mean unidirectional positioning deviations at each of the {} targets with their ±2s bands ({} runs each way; dots: every approach), as {} draws them; {}.",
+            "The mean unidirectional positioning deviations at each of the {} targets with their ±2s bands ({}; dots: every approach), as {} draws them; {}.",
             doc.targets.len(),
-            doc.runs,
+            doc.runs_text(),
             doc.standard,
             doc.deviations
         ),
@@ -186,7 +186,7 @@ pub(crate) fn header(b: &mut String, doc: &AxisResult, source: &str) {
         b,
         "<section class=\"axis\"><header><h1>Rotary axis: accuracy and repeatability of positioning</h1>\
          <p class=\"method\">{} — {} <span class=\"source\">({})</span></p></header>\
-         <table class=\"kv\"><tr><th>test</th><td>{}, {} targets from {}° to {}°, {} runs in each direction</td></tr>\
+         <table class=\"kv\"><tr><th>test</th><td>{}, {} targets from {}° to {}°, {}</td></tr>\
          <tr><th>deviations</th><td>{}</td></tr></table>",
         esc(&doc.standard),
         esc(&doc.standard_title),
@@ -195,7 +195,7 @@ pub(crate) fn header(b: &mut String, doc: &AxisResult, source: &str) {
         doc.targets.len(),
         doc.targets.first().map_or(0.0, |t| t.target_deg),
         doc.targets.last().map_or(0.0, |t| t.target_deg),
-        doc.runs,
+        esc(&doc.runs_text()),
         esc(&doc.deviations)
     );
 }

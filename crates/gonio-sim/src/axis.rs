@@ -308,3 +308,75 @@ pub fn simulate(axis: &AxisModel, test: &AxisTest) -> Result<Vec<AxisReading>, S
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gonio_calib::axis::evaluate;
+
+    fn test(seed_targets: usize, runs: u32) -> AxisTest {
+        AxisTest {
+            targets_deg: (0..seed_targets).map(|k| k as f64 * 15.0).collect(),
+            runs,
+            directions: Direction::BOTH.to_vec(),
+            reference_sigma_arcsec: 0.02,
+            resolution_arcsec: 0.001,
+        }
+    }
+
+    #[test]
+    fn the_evaluation_recovers_the_axis_backlash_and_repeatability() {
+        // 25 targets × 8 runs × 2 directions. Each approach scatters with
+        // σ_tot² = σ² + σ_ref² (+ the resolution's 0.001²/12, negligible).
+        let (m_targets, n) = (25usize, 8u32);
+        for (seed, backlash, sigma) in [(1u64, 2.0, 0.5), (2, -0.7, 0.1), (3, 0.0, 1.5)] {
+            let axis = AxisModel {
+                backlash_arcsec: backlash,
+                repeatability_arcsec: sigma,
+                ..AxisModel::default_with_seed(seed)
+            };
+            let t = test(m_targets, n);
+            let readings = simulate(&axis, &t).unwrap();
+            // The same seed gives the same readings; another seed others.
+            assert_eq!(readings, simulate(&axis, &t).unwrap());
+            let other = AxisModel {
+                seed: seed + 100,
+                ..axis.clone()
+            };
+            assert_ne!(readings, simulate(&other, &t).unwrap());
+            let e = evaluate(&readings).unwrap();
+            let sigma_tot = (sigma * sigma + 0.02f64 * 0.02).sqrt();
+            // B̄ is the mean of m reversal values, each of sd σ_tot·√(2/n): 4 sd allowed.
+            let sd_b = sigma_tot * (2.0 / f64::from(n)).sqrt() / (m_targets as f64).sqrt();
+            let b = e.parameters.b_mean.unwrap();
+            assert!(
+                (b - backlash).abs() <= 4.0 * sd_b,
+                "seed {seed}: B_mean {b} vs backlash {backlash}, sd {sd_b}"
+            );
+            // The pooled s of all 2m cells (2m(n − 1) degrees of freedom): relative sd
+            // ≈ 1/√(2ν), 4 of them allowed.
+            let cells: Vec<f64> = e
+                .targets
+                .iter()
+                .flat_map(|t| [t.up.as_ref().unwrap(), t.down.as_ref().unwrap()])
+                .map(|c| c.s_arcsec * c.s_arcsec)
+                .collect();
+            let pooled = (cells.iter().sum::<f64>() / cells.len() as f64).sqrt();
+            let nu = cells.len() as f64 * f64::from(n - 1);
+            assert!(
+                (pooled / sigma_tot - 1.0).abs() <= 4.0 / (2.0 * nu).sqrt(),
+                "seed {seed}: pooled s {pooled} vs σ {sigma_tot}"
+            );
+            // Every x̄↑ − x̄↓ against b: at most one in 25 beyond 3 sd (P ≈ 0.3 % each).
+            let over = e
+                .targets
+                .iter()
+                .filter(|t| {
+                    (t.reversal_arcsec().unwrap() - backlash).abs()
+                        > 3.0 * sigma_tot * (2.0 / f64::from(n)).sqrt()
+                })
+                .count();
+            assert!(over <= 1, "seed {seed}: {over} reversal values beyond 3 sd");
+        }
+    }
+}

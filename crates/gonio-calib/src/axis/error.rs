@@ -12,7 +12,10 @@ pub enum AxisError {
     #[error("no readings")]
     Empty,
     /// A number outside its bound.
-    #[error("reading {index}: {what} {value} is out of range: expected {expected}")]
+    #[error(
+        "reading {index}: {what} {} is out of range: expected {expected}",
+        gonio_core::bound::Num(*value)
+    )]
     OutOfRange {
         /// The reading.
         index: usize,
@@ -90,7 +93,7 @@ pub enum AxisError {
     },
     /// A target that is not at one of the polygon's faces.
     #[error(
-        "reading {index}: target {target_deg}° is not at a face of the {faces}-face polygon (a multiple of its pitch {pitch_deg}° from 0°); give the face in a `face` column"
+        "reading {index}: target {target_deg}° is not at a face of the {faces}-face polygon (a multiple of its pitch {pitch_deg}° from 0°): is the certificate of the polygon on the axis?"
     )]
     NotAtFace {
         /// The reading.

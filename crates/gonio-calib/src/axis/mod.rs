@@ -59,9 +59,10 @@ pub use error::AxisError;
 pub use parameters::{
     Approach, Cell, Evaluation, Parameters, STANDARD_RUNS, TargetStats, evaluate, runs_text,
 };
-pub use polygon::{FaceReading, Polygon};
+pub use polygon::{FaceReading, MAX_PITCH_DEVIATION_ARCSEC, Polygon};
 pub use result::{
-    AXIS_FORMAT, AxisResult, AxisTarget, AxisUncertainty, PolygonSection, ReferenceSection,
+    AXIS_FORMAT, AxisResult, AxisTarget, AxisUncertainty, COMPENSATION_NOTE, PolygonSection,
+    ReferenceSection,
 };
 pub use uncertainty::{PARAMETER_K, ReferenceBudget, parameter_uncertainty, reference_budget};
 

@@ -23,9 +23,14 @@
 
 use super::data::{AxisReading, Direction};
 use super::error::AxisError;
+use gonio_core::bound::Num;
 
 /// Targets within this of a face's angle are at the face, degrees (1 µ°).
 const AT_FACE_DEG: f64 = 1e-6;
+
+/// Largest |pitch deviation| (and its u) of a polygon, arcsec (one degree: a polygon's faces
+/// are flat to arcseconds; more is a certificate of something else, or a corrupt one).
+pub const MAX_PITCH_DEVIATION_ARCSEC: f64 = 3600.0;
 
 /// A calibrated polygon's face terms.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,7 +64,7 @@ impl Polygon {
     ///
     /// # Errors
     /// [`AxisError::BadPolygon`]: fewer than 3 faces, lengths that differ, a value or u that is
-    /// not finite (u < 0), dof ≤ 0.
+    /// not finite (u < 0), a |β| or u above [`MAX_PITCH_DEVIATION_ARCSEC`], dof ≤ 0.
     pub fn new(
         beta_arcsec: &[f64],
         u_arcsec: &[f64],
@@ -83,6 +88,26 @@ impl Polygon {
             return bad(format!(
                 "the pitch deviation of face {} is not a number",
                 f + 1
+            ));
+        }
+        if let Some(f) = beta_arcsec
+            .iter()
+            .position(|b| b.abs() > MAX_PITCH_DEVIATION_ARCSEC)
+        {
+            return bad(format!(
+                "the pitch deviation of face {}, {}″, is out of range: expected −{MAX_PITCH_DEVIATION_ARCSEC} to {MAX_PITCH_DEVIATION_ARCSEC} arcsec",
+                f + 1,
+                Num(beta_arcsec[f])
+            ));
+        }
+        if let Some(f) = u_arcsec
+            .iter()
+            .position(|u| u.is_finite() && *u > MAX_PITCH_DEVIATION_ARCSEC)
+        {
+            return bad(format!(
+                "the uncertainty of face {}'s pitch deviation, {}″, is out of range: expected at most {MAX_PITCH_DEVIATION_ARCSEC} arcsec",
+                f + 1,
+                Num(u_arcsec[f])
             ));
         }
         if let Some(f) = u_arcsec.iter().position(|u| !(u.is_finite() && *u >= 0.0)) {

@@ -14,6 +14,9 @@ use gonio_uncertainty::BudgetResult;
 use gonio_uncertainty::budget::{deserialize_dof, serialize_dof};
 use serde::{Deserialize, Serialize};
 
+/// The sign convention of the compensation table, as the document states it.
+pub const COMPENSATION_NOTE: &str = "correction = −x̄ (arcsec): added to the commanded position it cancels the measured deviation x̄ = position reached − target; correction_mean_arcsec = −(x̄↑ + x̄↓)/2 for a controller with one value per target";
+
 /// The `format` of the document.
 pub const AXIS_FORMAT: &str = "gonio.axis/1";
 
@@ -148,11 +151,26 @@ pub struct AxisResult {
     pub notes: Vec<String>,
     /// The controller's compensation table.
     pub compensation: Vec<AxisCompensation>,
+    /// The sign convention of the compensation table.
+    #[serde(default)]
+    pub compensation_note: String,
     /// The program.
     pub software: Software,
 }
 
 impl AxisResult {
+    /// `5 runs in each direction`, or `5 runs, negative direction only` in a unidirectional test.
+    pub fn runs_text(&self) -> String {
+        match self.test.strip_prefix("unidirectional (") {
+            Some(rest) => format!(
+                "{} runs, {} direction only",
+                self.runs,
+                rest.trim_end_matches(')')
+            ),
+            None => format!("{} runs in each direction", self.runs),
+        }
+    }
+
     /// The document of an evaluated test. `faces`: each target's polygon face (the
     /// evaluation's order) when `polygon` corrected the readings; `instrument`: the reference
     /// instrument's terms.
@@ -272,6 +290,7 @@ impl AxisResult {
             },
             notes,
             compensation: compensation(eval),
+            compensation_note: COMPENSATION_NOTE.into(),
             software: Software::default(),
         })
     }

@@ -78,10 +78,12 @@ pub fn run(args: Args) -> Result<()> {
             formats::compensation::axis_csv(&doc.compensation).as_bytes(),
         )?;
     }
+    // The files first: an output refused at the commit (an input named as an output) leaves
+    // no summary behind its error.
+    out.commit()?;
     if !to_stdout {
         gonio_cli::term::out(&summary(&doc))?;
     }
-    out.commit()?;
     for p in [&args.json, &args.compensation].into_iter().flatten() {
         if p.as_os_str() != "-" {
             gonio_cli::note!("wrote {}", p.display());
@@ -95,13 +97,13 @@ fn summary(doc: &AxisResult) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{}, rotary axis: {} test, {} targets ({}° … {}°), {} runs each way",
+        "{}, rotary axis: {} test, {} targets ({}° … {}°), {}",
         doc.standard,
         doc.test,
         doc.targets.len(),
         doc.targets.first().map_or(0.0, |t| t.target_deg),
         doc.targets.last().map_or(0.0, |t| t.target_deg),
-        doc.runs
+        doc.runs_text()
     );
     let _ = writeln!(
         s,

@@ -15,11 +15,13 @@
 
 use super::csv::CsvTable;
 use anyhow::{Result, anyhow};
+use gonio_calib::axis::TargetKey;
 use gonio_calib::axis::{
     AxisError, AxisInput, AxisReading, AxisResult, Direction, FaceReading, MAX_DEVIATION_ARCSEC,
     MAX_RUNS, MAX_TARGET_DEG, Polygon, analyse,
 };
 use gonio_calib::certificate::{Certificate, Instrument};
+use gonio_core::bound::Num;
 use std::path::Path;
 
 /// The readings file's header.
@@ -35,8 +37,19 @@ pub struct AxisFile {
     pub input: AxisInput,
     /// The line of every reading, in input order.
     pub lines: Vec<u64>,
-    /// The column of `target_deg`, `face` (if any), 1-based.
-    columns: (usize, Option<usize>),
+    /// The columns, 1-based.
+    columns: Columns,
+    /// The header's line.
+    header_line: u64,
+}
+
+/// The 1-based columns of a readings file.
+#[derive(Debug, Clone, Copy)]
+struct Columns {
+    target: usize,
+    run: usize,
+    value: usize,
+    face: Option<usize>,
 }
 
 /// Reads readings and, for `reading_arcsec`, the polygon's certificate; evaluates them with the
@@ -143,7 +156,10 @@ fn from_table(table: &CsvTable, polygon: Option<Polygon>) -> Result<AxisFile> {
             return Err(table.error_at(
                 *line,
                 c_target,
-                format!("{target}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees"),
+                format!(
+                    "{}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees",
+                    Num(target)
+                ),
             ));
         }
         let direction = Direction::parse(&f[c_dir]).ok_or_else(|| {
@@ -169,7 +185,7 @@ fn from_table(table: &CsvTable, polygon: Option<Polygon>) -> Result<AxisFile> {
             return Err(table.error_at(
                 *line,
                 c_value,
-                format!("{value} is out of range: expected −{MAX_DEVIATION_ARCSEC} to {MAX_DEVIATION_ARCSEC} arcsec"),
+                format!("{} is out of range: expected −{MAX_DEVIATION_ARCSEC} to {MAX_DEVIATION_ARCSEC} arcsec", Num(value)),
             ));
         }
         let face = c_face.map(|c| table.int_at(*line, f, c)).transpose()?;
@@ -218,7 +234,13 @@ fn from_table(table: &CsvTable, polygon: Option<Polygon>) -> Result<AxisFile> {
         name: name.clone(),
         input,
         lines,
-        columns: (c_target + 1, c_face.map(|c| c + 1)),
+        columns: Columns {
+            target: c_target + 1,
+            run: c_run + 1,
+            value: c_value + 1,
+            face: c_face.map(|c| c + 1),
+        },
+        header_line: table.header_line,
     })
 }
 
@@ -232,9 +254,27 @@ impl AxisFile {
         analyse(&self.input, instrument).map_err(|e| self.locate(e))
     }
 
+    /// The index of the first reading at `target_deg` (from `direction`, if given).
+    fn first_at(&self, target_deg: f64, direction: Option<Direction>) -> Option<usize> {
+        let key = TargetKey::of(target_deg);
+        let at = |t: f64, d: Direction| {
+            TargetKey::of(t) == key && direction.is_none_or(|want| want == d)
+        };
+        match &self.input {
+            AxisInput::Deviations(r) => r.iter().position(|r| at(r.target_deg, r.direction)),
+            AxisInput::Readings { rows, .. } => {
+                rows.iter().position(|r| at(r.target_deg, r.direction))
+            }
+        }
+    }
+
     fn locate(&self, e: AxisError) -> anyhow::Error {
         let name = &self.name;
+        let c = self.columns;
         let line = |i: usize| self.lines.get(i).copied().unwrap_or(0);
+        // A reading's line; for what a target lacks, the first reading at that target.
+        let at_target =
+            |t: f64, d: Option<Direction>| self.first_at(t, d).map_or(self.header_line, line);
         match &e {
             AxisError::Duplicate {
                 index,
@@ -243,19 +283,18 @@ impl AxisFile {
                 direction,
                 run,
             } => anyhow!(
-                "{name}:{}: target {target_deg}°, direction {}, run {run} again (first on line {}): each approach once",
+                "{name}:{}:{}: target {target_deg}°, direction {}, run {run} again (first on line {}): each approach once",
                 line(*index),
+                c.run,
                 direction.sign(),
                 line(*first)
             ),
             AxisError::NotAtFace { index, .. } => {
-                anyhow!("{name}:{}:{}: {e}", line(*index), self.columns.0)
+                anyhow!("{name}:{}:{}: {e}", line(*index), c.target)
             }
-            AxisError::FaceOutOfRange { index, .. } => anyhow!(
-                "{name}:{}:{}: {e}",
-                line(*index),
-                self.columns.1.unwrap_or(1)
-            ),
+            AxisError::FaceOutOfRange { index, .. } => {
+                anyhow!("{name}:{}:{}: {e}", line(*index), c.face.unwrap_or(1))
+            }
             AxisError::FaceOffTarget {
                 index,
                 face,
@@ -266,10 +305,48 @@ impl AxisFile {
             } => anyhow!(
                 "{name}:{}:{}: face {face} at target {target_deg}°, where line {}'s face puts face {expected}: the polygon's faces advance by one every {pitch_deg}° (is the certificate for the polygon on the axis?)",
                 line(*index),
-                self.columns.1.unwrap_or(1),
+                c.face.unwrap_or(1),
                 line(*first)
             ),
-            AxisError::OutOfRange { index, .. } => anyhow!("{name}:{}: {e}", line(*index)),
+            AxisError::OutOfRange {
+                index,
+                what,
+                value,
+                expected,
+            } => {
+                let (col, what) = match *what {
+                    "target_deg" => (c.target, "target_deg"),
+                    "run" => (c.run, "run"),
+                    // With a polygon, the deviation is the reading less its face's term.
+                    _ if matches!(self.input, AxisInput::Readings { .. }) => {
+                        (c.value, "reading_arcsec less the polygon's term")
+                    }
+                    _ => (c.value, "deviation_arcsec"),
+                };
+                anyhow!(
+                    "{name}:{}:{col}: {what} {} is out of range: expected {expected}",
+                    line(*index),
+                    Num(*value)
+                )
+            }
+            AxisError::MissingRun {
+                target_deg,
+                direction,
+                ..
+            } => anyhow!(
+                "{name}:{}:{}: {e}",
+                at_target(*target_deg, Some(*direction)),
+                c.run
+            ),
+            AxisError::MissingDirection { target_deg, .. } => {
+                anyhow!("{name}:{}:{}: {e}", at_target(*target_deg, None), c.target)
+            }
+            AxisError::TooFewRuns { .. } => {
+                anyhow!("{name}:{}:{}: {e}", self.header_line, c.run)
+            }
+            AxisError::TooFewTargets { .. } => {
+                anyhow!("{name}:{}:{}: {e}", self.header_line, c.target)
+            }
             _ => anyhow!("{name}: {e}"),
         }
     }
@@ -297,11 +374,11 @@ mod tests {
         };
         assert_eq!(
             e(&format!("{OK}90,+,2,2.5\n")),
-            "a.csv:7: target 90°, direction +, run 2 again (first on line 6): each approach once"
+            "a.csv:7:3: target 90°, direction +, run 2 again (first on line 6): each approach once"
         );
         assert_eq!(
             e(&OK.replace("90,+,2", "90,+,3")),
-            "a.csv: target 0°, positive direction: run 3 is missing (the test has runs 1–3)"
+            "a.csv:3:3: target 0°, positive direction: run 3 is missing (the test has runs 1–3)"
         );
         assert!(e(&OK.replace("0,+,2,1.2", "0,+,0,1.2")).starts_with("a.csv:4:3: column 'run'"));
         assert!(e(&OK.replace("90,+,1", "1e9,+,1")).starts_with("a.csv:5:1: column 'target_deg'"));
@@ -309,6 +386,65 @@ mod tests {
         assert!(e(&OK.replace("deviation_arcsec", "reading_arcsec")).contains("--polygon"));
         assert!(
             e("target_deg,direction,run\n0,+,1\n").contains("missing column 'deviation_arcsec'")
+        );
+    }
+
+    #[test]
+    fn every_error_names_line_and_column() {
+        let e = |text: &str| {
+            parse("a.csv", text, None)
+                .and_then(|f| f.analyse(&Instrument::default()))
+                .unwrap_err()
+                .to_string()
+        };
+        // Columns reordered: each error points at its own column.
+        let both = "run,deviation_arcsec,direction,target_deg\n\
+            1,1.0,+,0\n2,1.2,+,0\n1,0.5,-,0\n2,0.7,-,0\n\
+            1,2.0,+,90\n2,2.4,+,90\n1,1.5,-,90\n2,1.5,-,90\n";
+        assert!(
+            parse("a.csv", both, None)
+                .unwrap()
+                .analyse(&Instrument::default())
+                .is_ok()
+        );
+        // A run missing at a target: the first reading there, the run column.
+        assert_eq!(
+            e(&both.replace("2,1.5,-,90\n", "")),
+            "a.csv:8:1: target 90°, negative direction: run 2 is missing (the test has runs 1, 2)"
+        );
+        // A direction missing at a target: its first reading, the target column.
+        assert_eq!(
+            e(&both.replace("1,1.5,-,90\n2,1.5,-,90\n", "")),
+            "a.csv:6:4: target 90°: no approach in the negative direction, while other targets have both: a bidirectional test approaches every target from both sides"
+        );
+        // Unequal runs per direction are a run missing, named.
+        assert!(
+            e(&format!("{both}3,1.1,+,0\n3,2.2,+,90\n"))
+                .starts_with("a.csv:4:1: target 0°, negative direction: run 3 is missing")
+        );
+        // One target, one run: the header's column.
+        let keep = |f: &dyn Fn(&str) -> bool| -> String {
+            both.lines()
+                .filter(|l| f(l))
+                .map(|l| format!("{l}\n"))
+                .collect()
+        };
+        let one_target = keep(&|l| !l.ends_with(",90"));
+        assert!(
+            e(&one_target).starts_with("a.csv:1:4: 1 target"),
+            "{}",
+            e(&one_target)
+        );
+        let one_run = keep(&|l| !l.starts_with("2,"));
+        assert!(
+            e(&one_run).starts_with("a.csv:1:1: 1 run"),
+            "{}",
+            e(&one_run)
+        );
+        // Huge numbers the short way.
+        assert_eq!(
+            e(&both.replace("2,2.4,", "2,-1e300,")),
+            "a.csv:7:2: column 'deviation_arcsec': -1e300 is out of range: expected −1000000 to 1000000 arcsec"
         );
     }
 

@@ -4,6 +4,7 @@
 use anyhow::{Context, Result, bail};
 use gonio_calib::axis::{Direction, MAX_RUNS, MAX_TARGET_DEG, TargetKey};
 use gonio_cli::output::Outputs;
+use gonio_core::bound::Num;
 use gonio_sim::axis::{AxisModel, AxisTest, MAX_AXIS_ARCSEC, simulate};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -36,10 +37,10 @@ pub struct Args {
     #[command(flatten)]
     pub axis: AxisFlags,
     /// The reference's noise on each reading, arcsec.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
     pub reference_sigma_arcsec: f64,
     /// The reference's resolution, arcsec.
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, default_value_t = 0.001, allow_negative_numbers = true)]
     pub resolution_arcsec: f64,
     /// Seed of the approaches' scatter and the reference's noise.
     #[arg(long, default_value_t = 0)]
@@ -90,7 +91,10 @@ impl AxisFlags {
             if let Some(v) = v
                 && !(low..=MAX_AXIS_ARCSEC).contains(&v)
             {
-                bail!("{flag} {v}: expected {low} to {MAX_AXIS_ARCSEC} arcsec");
+                bail!(
+                    "{flag} {}: expected {low} to {MAX_AXIS_ARCSEC} arcsec",
+                    Num(v)
+                );
             }
         }
         let d = AxisModel::default_with_seed(seed);
@@ -123,7 +127,8 @@ pub fn parse_targets(flag: &str, s: &str) -> Result<Vec<f64>> {
     };
     if let Some(t) = v.iter().find(|t| t.abs() > MAX_TARGET_DEG) {
         bail!(
-            "{flag} {shown:?}: {t}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees"
+            "{flag} {shown:?}: {}° is out of range: expected −{MAX_TARGET_DEG} to {MAX_TARGET_DEG} degrees",
+            Num(*t)
         );
     }
     v.sort_by(f64::total_cmp);
@@ -167,10 +172,16 @@ pub fn run(args: Args) -> Result<()> {
     };
     let (sigma, res) = (args.reference_sigma_arcsec, args.resolution_arcsec);
     if !(0.0..=MAX_AXIS_ARCSEC).contains(&sigma) {
-        bail!("--reference-sigma-arcsec {sigma}: expected 0 to {MAX_AXIS_ARCSEC} arcsec");
+        bail!(
+            "--reference-sigma-arcsec {}: expected 0 to {MAX_AXIS_ARCSEC} arcsec",
+            Num(sigma)
+        );
     }
     if !(1e-6..=1.0).contains(&res) {
-        bail!("--resolution-arcsec {res}: expected 0.000001 to 1 arcsec");
+        bail!(
+            "--resolution-arcsec {}: expected 0.000001 to 1 arcsec",
+            Num(res)
+        );
     }
     let readings = simulate(&model, &test)?;
     let mut out = Outputs::new();
