@@ -27,6 +27,13 @@
 //! pair leaves out are subtracted in scalar code. This is written by hand (no crate computes
 //! these sums); the plain definition is the reference the tests hold it to.
 //!
+//! Where only the frame's totals are wanted and its height is known, [`FrameFocus`] gives them
+//! without a reduction per row: a row between the first two and the last two takes all three of
+//! its shares, whose sum 4D − 2H − 2V has no Σx, so those rows add three `vpdpbusd` and two
+//! `vpsadbw` a step into lanes that run on from row to row, widened to 64 bits every 2^13
+//! steps and reduced once, at the frame's end ([`frame_sums`] over a whole frame; the same
+//! integers as [`RowFocus`]'s rows added up).
+//!
 //! ```
 //! use gonio_vision::focus::abs_diff_sums;
 //! assert_eq!(abs_diff_sums(&[10, 0, 255], &[7, 5, 0]), (3 + 5 + 255, 9 + 25 + 255 * 255));
@@ -177,6 +184,116 @@ impl RowFocus {
     }
 }
 
+/// A whole frame's raw sums: what [`RowFocus::push`] gives, added up over the frame's rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FrameStats {
+    /// Pixels at 255.
+    pub saturated: u64,
+    /// Σ|central difference|, horizontal plus vertical, over the interior.
+    pub abs_sum: u64,
+    /// Σ(central difference)², horizontal plus vertical, over the interior.
+    pub sq_sum: u64,
+}
+
+/// The streaming raw statistics of a frame whose height is known: [`RowFocus`]'s sums added
+/// up over the frame, bit for bit, without a total per row. With AVX-512 VNNI the lanes of the
+/// rows between the first two and the last two run on from row to row
+/// ([`crate::simd::vnni`]), reduced once at the frame's end; otherwise row by row.
+///
+/// ```
+/// use gonio_vision::focus::{FrameFocus, RowFocus};
+/// let rows = [[0u8, 9, 255, 4], [7, 7, 1, 200], [3, 255, 0, 6], [1, 2, 3, 4]];
+/// let (mut f, mut r) = (FrameFocus::default(), RowFocus::default());
+/// let (mut abs, mut sq) = (0, 0);
+/// for y in 0..4 {
+///     let prev = (y >= 2).then(|| (&rows[y - 2][..], &rows[y - 1][..]));
+///     let s = r.push(y, &rows[y], prev);
+///     (abs, sq) = (abs + s.abs_sum, sq + s.sq_sum);
+///     assert_eq!(f.push((y, 4), &rows[y], prev), s.saturated);
+/// }
+/// let t = f.finish();
+/// assert_eq!((t.saturated, t.abs_sum, t.sq_sum), (2, abs, sq));
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct FrameFocus {
+    /// The sums so far.
+    total: FrameStats,
+    /// The VNNI path's lanes and sums.
+    #[cfg(target_arch = "x86_64")]
+    lanes: crate::simd::vnni::FrameLanes,
+    /// Whether this frame takes the VNNI path (latched at row 0, as in [`RowFocus`]).
+    use_vnni: Option<Vnni>,
+}
+
+impl FrameFocus {
+    /// Row `y` of a frame `h` rows high (`yh` = (y, h); of width w ≥ 2) and, from y = 2 on,
+    /// rows y − 2 and y − 1 as `prev`; its pixels at 255 returned. Every frame starts at
+    /// y = 0 and goes on one row at a time to y = h − 1, then [`FrameFocus::finish`].
+    ///
+    /// # Panics
+    /// If the rows' lengths differ or w < 2 while `prev` is given.
+    #[inline]
+    pub fn push(&mut self, yh: (usize, usize), row: &[u8], prev: Option<(&[u8], &[u8])>) -> u32 {
+        if yh.0 == 0 {
+            self.use_vnni = Vnni::get();
+        }
+        self.push_on(yh, row, prev)
+    }
+
+    /// [`FrameFocus::push`] on the path latched in `use_vnni`.
+    #[inline(always)]
+    fn push_on(&mut self, yh: (usize, usize), row: &[u8], prev: Option<(&[u8], &[u8])>) -> u32 {
+        if yh.0 == 0 {
+            self.total = FrameStats::default();
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.use_vnni {
+            let n = crate::simd::vnni::frame_row_sums(cpu, &mut self.lanes, yh, row, prev);
+            self.total.saturated += u64::from(n);
+            return n;
+        }
+        let s = RowFocus::push_direct(row, prev);
+        self.total.saturated += u64::from(s.saturated);
+        self.total.abs_sum += s.abs_sum;
+        self.total.sq_sum += s.sq_sum;
+        s.saturated
+    }
+
+    /// The frame's sums, once its last row is in.
+    pub fn finish(&mut self) -> FrameStats {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.use_vnni {
+            let t = crate::simd::vnni::frame_end_sums(cpu, &mut self.lanes);
+            self.total.abs_sum = t.abs_sum;
+            self.total.sq_sum = t.sq_sum;
+        }
+        self.total
+    }
+}
+
+/// A whole frame's [`FrameStats`] (`h` rows of `w` columns, row-major, `wh` = (w, h)) by
+/// [`FrameFocus`], calling `on_saturated(y, n)` in row order for each row y that has n > 0
+/// pixels at 255.
+///
+/// # Panics
+/// If `frame` holds fewer than w · h bytes, or w < 2 with h ≥ 3.
+pub fn frame_sums(
+    frame: &[u8],
+    (w, h): (usize, usize),
+    on_saturated: &mut dyn FnMut(usize, u32),
+) -> FrameStats {
+    let frame = &frame[..w * h];
+    let mut f = FrameFocus::default();
+    for y in 0..h {
+        let prev = (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
+        let n = f.push((y, h), &frame[y * w..(y + 1) * w], prev);
+        if n > 0 {
+            on_saturated(y, n);
+        }
+    }
+    f.finish()
+}
+
 /// The portable path: 64 columns at a time, the differences as bytes, their sums and squares in
 /// sixteen 32-bit lanes (no overflow: a lane takes at most 4·255² per 64 columns, 512 steps for
 /// the widest window of 32768 px).
@@ -308,6 +425,113 @@ mod tests {
                     assert_eq!(got, want, "VNNI identity, width {w}, row {y}");
                 }
             }
+        }
+    }
+
+    /// The frame's sums by the definition, row by row, and its rows with pixels at 255.
+    fn frame_by_definition(rows: &[Vec<u8>]) -> (FrameStats, Vec<(usize, u32)>) {
+        let mut t = FrameStats::default();
+        let mut sat = Vec::new();
+        for y in 0..rows.len() {
+            let s = row_stats_by_definition(rows, y);
+            if s.saturated > 0 {
+                sat.push((y, s.saturated));
+            }
+            t.saturated += u64::from(s.saturated);
+            t.abs_sum += s.abs_sum;
+            t.sq_sum += s.sq_sum;
+        }
+        (t, sat)
+    }
+
+    /// Both ways through [`frame_sums`] (row by row, and the VNNI frame kernel where the CPU
+    /// has it) against the definition, on `rows`.
+    fn check_frame(rows: &[Vec<u8>], what: &str) {
+        let (w, h) = (rows.first().map_or(2, Vec::len), rows.len());
+        let frame = rows.concat();
+        let want = frame_by_definition(rows);
+        let mut paths = vec![("direct", None)];
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = crate::simd::Vnni::detected() {
+            paths.push(("VNNI frame kernel", Some(cpu)));
+        }
+        for (path, cpu) in paths {
+            let mut f = FrameFocus::default();
+            let mut sat = Vec::new();
+            f.use_vnni = cpu;
+            for y in 0..h {
+                let prev = (y >= 2).then(|| (&rows[y - 2][..], &rows[y - 1][..]));
+                let n = f.push_on((y, h), &rows[y], prev);
+                if n > 0 {
+                    sat.push((y, n));
+                }
+            }
+            let got = f.finish();
+            assert_eq!((got, sat), want, "{path}, {what}, {w} × {h}");
+        }
+        let mut sat = Vec::new();
+        let got = frame_sums(&frame, (w, h), &mut |y, n| sat.push((y, n)));
+        assert_eq!((got, sat), want, "dispatched, {what}, {w} × {h}");
+    }
+
+    /// Frames of random rows with rows of 0, of 255 and 0/255 stripes among them (the
+    /// largest lanes), of every odd width and height around the kernel's steps and the
+    /// frame's first and last two rows, and the station's window.
+    #[test]
+    fn frame_sums_are_the_rows_sums() {
+        let mut s = 0x853c_49e6_748f_ea9bu64;
+        let mut byte = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 24) as u8
+        };
+        let widths = [
+            2, 3, 4, 5, 63, 64, 65, 66, 127, 128, 129, 130, 191, 1440, 1441,
+        ];
+        for w in widths {
+            for h in [1, 2, 3, 4, 5, 6, 7, 540] {
+                if h == 540 && w < 1440 && w != 65 {
+                    continue;
+                }
+                let rows: Vec<Vec<u8>> = (0..h)
+                    .map(|y| match (y * 7 + w) % 11 {
+                        0 => vec![0; w],
+                        1 => vec![255; w],
+                        2 => (0..w)
+                            .map(|x| if (x / 2) % 2 == 0 { 255 } else { 0 })
+                            .collect(),
+                        _ => (0..w).map(|_| byte()).collect(),
+                    })
+                    .collect();
+                check_frame(&rows, "mixed rows");
+                let flat: Vec<Vec<u8>> = (0..h).map(|y| vec![255 * (y % 2) as u8; w]).collect();
+                check_frame(&flat, "rows of 0 and 255");
+            }
+        }
+        // Every difference 255, vertically, over a frame long enough to widen the lanes
+        // several times, and over rows wider than a block of lanes.
+        let stripes: Vec<Vec<u8>> = (0..3000)
+            .map(|y| vec![[0, 0, 255, 255][y % 4]; 1441])
+            .collect();
+        check_frame(&stripes, "rows of 0, 0, 255, 255");
+        let wide: Vec<Vec<u8>> = (0..6)
+            .map(|_| (0..600_000).map(|_| byte()).collect())
+            .collect();
+        check_frame(&wide, "rows wider than a block");
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        /// [`frame_sums`] against the definition on arbitrary small frames.
+        #[test]
+        fn frame_sums_match_the_definition(
+            (w, bytes) in (2usize..200, 1usize..12)
+                .prop_flat_map(|(w, h)| (Just(w), proptest::collection::vec(any::<u8>(), w * h)))
+        ) {
+            let rows: Vec<Vec<u8>> = bytes.chunks(w).map(<[u8]>::to_vec).collect();
+            check_frame(&rows, "proptest");
         }
     }
 

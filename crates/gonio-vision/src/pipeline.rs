@@ -28,7 +28,7 @@ use crate::VisionError;
 use crate::blur_sobel::BlurSobel;
 use crate::features::{FrameResult, RawStats, SaturatedRun, baseline_features, saturated_runs};
 use crate::fill::EdgeFill;
-use crate::focus::{RowFocus, RowStats};
+use crate::focus::{FrameFocus, RowFocus, RowStats};
 use crate::gradient::GradRow;
 use crate::label::{Component, EdgeList, Labeller};
 use crate::morphology::{BlackTopHat, Disk, Opening};
@@ -202,20 +202,35 @@ impl RawSums {
         self.grad_sum += below.grad_sum;
     }
 
-    /// Row `y` of a whole frame of rows `w` wide into the sums, as the detector takes them
-    /// (`focus` carries the focus sums' state from row to row): rows go in order, row 0
-    /// starting the frame's sums afresh.
+    /// Row `y` of a whole frame of rows `w` wide, `h` high, into the sums, as the detector
+    /// takes them (`focus` carries the focus sums' lanes from row to row, reduced once, at
+    /// row h − 1): rows go in order, row 0 starting the frame's sums afresh.
     #[inline]
-    pub(crate) fn add_row(&mut self, focus: &mut RowFocus, frame: &[u8], w: usize, y: usize) {
+    pub(crate) fn add_row(
+        &mut self,
+        focus: &mut FrameFocus,
+        frame: &[u8],
+        (w, h): (usize, usize),
+        y: usize,
+    ) {
         if y == 0 {
             self.clear();
         }
         let row = &frame[y * w..(y + 1) * w];
-        let s = crate::simd::dispatch(
-            #[inline(always)]
-            || focus.push(y, row, rows_above(frame, w, y)),
-        );
-        self.add(s, row, y);
+        // The next row is read next, a row's work from now.
+        if let Some(next) = frame.get((y + 1) * w..(y + 2) * w) {
+            crate::simd::prefetch(next);
+        }
+        let n = focus.push((y, h), row, rows_above(frame, w, y));
+        if n > 0 {
+            self.saturated += u64::from(n);
+            saturated_runs(row, y, &mut self.sat_runs);
+        }
+        if y + 1 == h {
+            let t = focus.finish();
+            self.grad_sum = t.abs_sum;
+            self.focus_sum = t.sq_sum;
+        }
     }
 
     /// The frame's statistics from its sums (a window `w` × `h`).

@@ -1,5 +1,7 @@
-//! The focus sums' kernel of [`crate::focus`] with AVX-512 VNNI (64 columns a step, the tail by
-//! a masked load: zero lanes add nothing to any sum).
+//! The focus sums' kernels of [`crate::focus`] with AVX-512 VNNI (64 columns a step, the tail by
+//! a masked load: zero lanes add nothing to any sum): a row's sums reduced per row
+//! ([`row_sums`]), and a frame's rows into lanes kept across rows and reduced once a frame
+//! ([`frame_row_sums`], [`frame_end_sums`]).
 
 use crate::simd::Vnni;
 use std::arch::x86_64::*;
@@ -257,4 +259,245 @@ pub(crate) fn row_sums(_cpu: Vnni, row: &[u8], above: Option<&[u8]>) -> RowSums 
     // (`is_x86_feature_detected!` in `simd::detected` and `simd::vnni`; `_cpu` proves it);
     // `kernel` checks the lengths.
     unsafe { kernel(row, above) }
+}
+
+/// Steps of the frame kernel's 32-bit lanes between their widening to 64 bits: a step adds
+/// less than 2^17 to a lane of D, H and V (see [`FLUSH`]), so 2^13 steps keep each lane
+/// below 2^30 (a frame of 1440 × 540 takes two blocks).
+const FRAME_FLUSH: usize = 1 << 13;
+
+/// The lanes the frame kernel keeps across rows: D, H and V (32-bit lanes) and the sum of
+/// both Σ|x − y| (64-bit lanes, `vpsadbw`'s).
+#[derive(Clone, Copy)]
+struct Lanes([__m512i; 4]);
+
+impl Lanes {
+    /// Adds one step's loads [`plain`] gives (as [`Sums::step`], without S).
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
+    fn step(&mut self, top: &mut __m512i, [x, xh, x2, a]: [__m512i; 4]) {
+        let [d, h, v, g] = &mut self.0;
+        let xf = _mm512_xor_si512(x, _mm512_set1_epi8(i8::MIN));
+        *top = _mm512_max_epu8(*top, x);
+        *d = _mm512_dpbusd_epi32(*d, x, xf);
+        *h = _mm512_dpbusd_epi32(*h, x2, xf);
+        *v = _mm512_dpbusd_epi32(*v, a, xf);
+        *g = _mm512_add_epi64(*g, _mm512_sad_epu8(xh, x2));
+        *g = _mm512_add_epi64(*g, _mm512_sad_epu8(x, a));
+    }
+
+    /// 4D − 2H − 2V over all the 32-bit lanes of both sets, in 64 bits; the sets' D, H and
+    /// V lanes are then 0 (Σ|x − y| is kept).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn flush(sets: &mut [Lanes; 2]) -> i64 {
+        let wide = |x: __m512i| {
+            _mm512_add_epi64(
+                _mm512_cvtepi32_epi64(_mm512_castsi512_si256(x)),
+                _mm512_cvtepi32_epi64(_mm512_extracti64x4_epi64::<1>(x)),
+            )
+        };
+        let mut t = _mm512_setzero_si512();
+        for s in sets.iter_mut() {
+            let [d, h, v, _] = &mut s.0;
+            let hv = _mm512_add_epi64(wide(*h), wide(*v));
+            t = _mm512_add_epi64(t, _mm512_slli_epi64::<2>(wide(*d)));
+            t = _mm512_sub_epi64(t, _mm512_slli_epi64::<1>(hv));
+            (*d, *h, *v) = (
+                _mm512_setzero_si512(),
+                _mm512_setzero_si512(),
+                _mm512_setzero_si512(),
+            );
+        }
+        _mm512_reduce_add_epi64(t)
+    }
+}
+
+/// A whole frame's focus sums, as the sums of [`crate::focus::RowFocus::push`] over its
+/// rows give them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) struct FrameSums {
+    /// Σ|central difference|, horizontal plus vertical, over the interior.
+    pub abs_sum: u64,
+    /// Σ(central difference)², horizontal plus vertical, over the interior.
+    pub sq_sum: u64,
+}
+
+/// The state of [`frame_row`] between a frame's rows: the lanes of both sets of [`Lanes`]
+/// (as 64-byte blocks), the steps they hold since their last widening, and the scalar sums.
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(C, align(64))]
+pub(crate) struct FrameLanes {
+    lanes: [[i64; 8]; 8],
+    pending: usize,
+    sq: i64,
+    abs: i64,
+}
+
+/// Row `y` of a frame `h` rows high into `st` (row 0 starts it afresh), with rows y − 2 and
+/// y − 1 as `prev` from y = 2 on; its pixels at 255 returned. A row r in 2 … h − 3 takes all
+/// three of its shares (`now` + `next` + `after` of [`RowSums`] is 4D − 2H − 2V: S cancels),
+/// so it adds D, H, V and both Σ|x − y| into lanes kept across rows, widened and reduced once
+/// a block of [`FRAME_FLUSH`] steps; the first two and last two rows take the shares they have
+/// by [`kernel`]; the end columns the pairs leave out are subtracted in scalar code.
+///
+/// # Safety
+/// The CPU must support AVX-512 F, BW, VNNI and POPCNT.
+///
+/// # Panics
+/// If the rows' lengths differ or w < 2 while `prev` is given.
+#[target_feature(enable = "avx512f,avx512bw,avx512vnni,popcnt")]
+unsafe fn frame_row(
+    st: &mut FrameLanes,
+    (y, h): (usize, usize),
+    x: &[u8],
+    prev: Option<(&[u8], &[u8])>,
+) -> u32 {
+    if y == 0 {
+        *st = FrameLanes::default();
+    }
+    let w = x.len();
+    if let Some((a, b)) = prev {
+        assert!(
+            w >= 2 && a.len() == w && b.len() == w,
+            "rows of one width ≥ 2"
+        );
+        // The end columns: b[0], b[1] of the horizontal x = b[..w − 2] and b[w − 2], b[w − 1]
+        // of y = b[2..] (their Σy shifted by 128 in D − H), and columns 0 and w − 1 of the
+        // vertical pair.
+        let bv = |k: usize| i64::from(b[k]);
+        let (d0, d1) = (
+            i64::from(x[0]) - i64::from(a[0]),
+            i64::from(x[w - 1]) - i64::from(a[w - 1]),
+        );
+        st.sq -= bv(0) * bv(0) + bv(1) * bv(1) + bv(w - 2) * bv(w - 2) + bv(w - 1) * bv(w - 1)
+            - 256 * (bv(0) + bv(1))
+            + d0 * d0
+            + d1 * d1;
+        st.abs -= d0.abs() + d1.abs();
+    }
+    let m = w.saturating_sub(2);
+    let steps = w.div_ceil(64);
+    match prev {
+        // Rows too wide for a block of lanes go through the row kernel (it blocks its columns).
+        Some((a, _)) if y + 3 <= h && steps <= FRAME_FLUSH => {
+            // SAFETY: `FrameLanes` is 64-byte aligned and holds eight 64-byte blocks.
+            let p = st.lanes.as_mut_ptr().cast::<__m512i>();
+            let load = |k: usize| unsafe { _mm512_load_si512(p.add(k).cast()) };
+            let mut sets = [
+                Lanes([load(0), load(1), load(2), load(3)]),
+                Lanes([load(4), load(5), load(6), load(7)]),
+            ];
+            if st.pending + steps > FRAME_FLUSH {
+                st.sq += Lanes::flush(&mut sets);
+                st.pending = 0;
+            }
+            st.pending += steps;
+            let (pr, pa) = (x.as_ptr(), a.as_ptr());
+            let mut top = _mm512_setzero_si512();
+            let mut i = 0;
+            // SAFETY (both loops): as in `kernel`, plain loads when columns i … i + 65
+            // (i + 129 two at a time) are inside the rows, masked loads inside them otherwise.
+            while i + 128 <= m {
+                let (l0, l1) = unsafe { (plain(pr, pa, i), plain(pr, pa, i + 64)) };
+                sets[0].step(&mut top, l0);
+                sets[1].step(&mut top, l1);
+                i += 128;
+            }
+            while i < w {
+                let loads = unsafe {
+                    if i + 64 <= m {
+                        plain(pr, pa, i)
+                    } else {
+                        let (kr, kp) = (mask(i, w), mask(i.min(m), m));
+                        let xv = _mm512_maskz_loadu_epi8(kr, pr.add(i).cast());
+                        [
+                            xv,
+                            _mm512_maskz_mov_epi8(kp, xv),
+                            _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 2).cast()),
+                            _mm512_maskz_loadu_epi8(kr, pa.add(i).cast()),
+                        ]
+                    }
+                };
+                sets[0].step(&mut top, loads);
+                i += 64;
+            }
+            for k in 0..4 {
+                // SAFETY: as the loads.
+                unsafe {
+                    _mm512_store_si512(p.add(k).cast(), sets[0].0[k]);
+                    _mm512_store_si512(p.add(4 + k).cast(), sets[1].0[k]);
+                }
+            }
+            if _mm512_cmpeq_epi8_mask(top, _mm512_set1_epi8(-1)) == 0 {
+                0
+            } else {
+                saturated(x)
+            }
+        }
+        _ => {
+            // SAFETY: the caller has the CPU's features; `kernel` checks the lengths.
+            let r = unsafe { kernel(x, prev.map(|(a, _)| a)) };
+            if y >= 2 {
+                st.sq += r.now;
+                st.abs += r.v_abs as i64;
+            }
+            if y >= 1 && y + 2 <= h {
+                st.sq += r.next;
+                st.abs += r.h_abs as i64;
+            }
+            if y + 3 <= h {
+                st.sq += r.after;
+            }
+            r.saturated
+        }
+    }
+}
+
+/// The frame's sums once its last row is in `st` (which then holds no lanes).
+///
+/// # Safety
+/// The CPU must support AVX-512 F.
+#[target_feature(enable = "avx512f")]
+unsafe fn frame_end(st: &mut FrameLanes) -> FrameSums {
+    let p = st.lanes.as_mut_ptr().cast::<__m512i>();
+    // SAFETY: `FrameLanes` is 64-byte aligned and holds eight 64-byte blocks.
+    let load = |k: usize| unsafe { _mm512_load_si512(p.add(k).cast()) };
+    let mut sets = [
+        Lanes([load(0), load(1), load(2), load(3)]),
+        Lanes([load(4), load(5), load(6), load(7)]),
+    ];
+    let sq = st.sq + Lanes::flush(&mut sets);
+    let g = _mm512_add_epi64(sets[0].0[3], sets[1].0[3]);
+    let abs = st.abs + _mm512_reduce_add_epi64(g);
+    *st = FrameLanes::default();
+    FrameSums {
+        abs_sum: abs as u64,
+        sq_sum: sq as u64,
+    }
+}
+
+/// [`frame_row`] on a CPU that has the features (`_cpu` proves it): row `y` of a frame `h`
+/// rows high into `st`, its pixels at 255 returned.
+///
+/// # Panics
+/// If the rows' lengths differ or w < 2 while `prev` is given.
+#[inline]
+pub(crate) fn frame_row_sums(
+    _cpu: Vnni,
+    st: &mut FrameLanes,
+    yh: (usize, usize),
+    row: &[u8],
+    prev: Option<(&[u8], &[u8])>,
+) -> u32 {
+    // SAFETY: `_cpu` proves the CPU's features (as in `row_sums`).
+    unsafe { frame_row(st, yh, row, prev) }
+}
+
+/// The sums of the frame whose rows went into `st` by [`frame_row_sums`] (`_cpu` proves the
+/// CPU's features).
+#[inline]
+pub(crate) fn frame_end_sums(_cpu: Vnni, st: &mut FrameLanes) -> FrameSums {
+    // SAFETY: `_cpu` proves the CPU's features (as in `row_sums`).
+    unsafe { frame_end(st) }
 }

@@ -19,7 +19,7 @@
 //! Units: columns and rows are the whole frame's pixels. Allocates a detector when the band's
 //! width changes; the edge list handed to the selection keeps its storage from frame to frame.
 
-use crate::focus::RowFocus;
+use crate::focus::FrameFocus;
 use crate::label::{Component, EdgeList, EdgePixel};
 use crate::optics::Params;
 use crate::pipeline::{Detector, RawSums};
@@ -130,7 +130,7 @@ impl Band {
         frame: &[u8],
         search: (f64, f64),
         guard: f64,
-        (raw, focus): (&mut RawSums, &mut RowFocus),
+        (raw, focus): (&mut RawSums, &mut FrameFocus),
         p: &Params,
     ) -> Option<BandFrame> {
         let (w, h) = (p.width, p.height);
@@ -160,7 +160,7 @@ impl Band {
         // One pass over the frame: each row's raw statistics, then its band into the stages
         // while the row is in the L1 cache.
         for y in 0..h {
-            raw.add_row(focus, frame, w, y);
+            raw.add_row(focus, frame, (w, h), y);
             det.push_stages(&frame[y * w + x0..y * w + x0 + bw]).ok()?;
         }
         let parts = det.finish_parts().ok()?;

@@ -76,7 +76,7 @@ mod band;
 pub use band::stage_reach_px;
 
 use crate::features::frame_result;
-use crate::focus::RowFocus;
+use crate::focus::FrameFocus;
 use crate::pipeline::{Detector, LowerHalf, RawSums};
 use crate::select::{Candidate, PairFit};
 use crate::{FrameResult, Optics, Params, VisionError};
@@ -268,7 +268,7 @@ pub struct Tracker {
     p: Params,
     band: Band,
     raw: RawSums,
-    focus: RowFocus,
+    focus: FrameFocus,
     anchor: Option<Anchor>,
     last: Option<Ring>,
     prev: Option<Ring>,
@@ -299,7 +299,7 @@ impl Tracker {
             p,
             band: Band::default(),
             raw: RawSums::default(),
-            focus: RowFocus::default(),
+            focus: FrameFocus::default(),
             anchor: None,
             last: None,
             prev: None,
