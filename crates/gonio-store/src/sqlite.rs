@@ -7,6 +7,33 @@ use rusqlite::types::ValueRef;
 use std::path::Path;
 use std::time::Duration;
 
+/// How long a statement waits for another connection's lock before it fails.
+const BUSY_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// Switches the file's journal to WAL and returns the mode it is in. Switching takes the file's
+/// exclusive lock, and SQLite answers `SQLITE_BUSY` at once, without its busy handler, when
+/// another connection holds or waits for a lock then (several stations opening a new file at
+/// the same moment): the switch is tried again, 1 ms after the first refusal and up to 50 ms
+/// apart, until `timeout` has passed. A file already in WAL mode stays so without the lock.
+fn to_wal(conn: &rusqlite::Connection, timeout: Duration) -> rusqlite::Result<String> {
+    let start = std::time::Instant::now();
+    let mut pause = Duration::from_millis(1);
+    loop {
+        match conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0)) {
+            Err(rusqlite::Error::SqliteFailure(e, _))
+                if matches!(
+                    e.code,
+                    rusqlite::ErrorCode::DatabaseBusy | rusqlite::ErrorCode::DatabaseLocked
+                ) && start.elapsed() + pause < timeout =>
+            {
+                std::thread::sleep(pause);
+                pause = (pause * 2).min(Duration::from_millis(50));
+            }
+            r => return r,
+        }
+    }
+}
+
 pub(crate) struct Sqlite {
     conn: rusqlite::Connection,
 }
@@ -24,13 +51,10 @@ impl Sqlite {
             });
         }
         let conn = rusqlite::Connection::open(path).map_err(open_err)?;
-        conn.busy_timeout(Duration::from_secs(30))
-            .map_err(open_err)?;
+        conn.busy_timeout(BUSY_TIMEOUT).map_err(open_err)?;
         // WAL: readers (the dashboard) never block the station's writes. synchronous = FULL:
         // a committed part survives a power cut, not only a killed process.
-        let mode: String = conn
-            .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
-            .map_err(open_err)?;
+        let mode = to_wal(&conn, BUSY_TIMEOUT).map_err(open_err)?;
         if !mode.eq_ignore_ascii_case("wal") {
             return Err(StoreError::Open {
                 location: path.display().to_string(),
@@ -169,5 +193,31 @@ mod tests {
             super::translate("SELECT $1, '$x', $12"),
             "SELECT ?1, '$x', ?12"
         );
+    }
+
+    /// While another connection holds a write lock on a file not yet in WAL mode, SQLite
+    /// refuses the switch at once, busy timeout or not; the switch waits for the lock instead.
+    #[test]
+    fn the_switch_to_wal_waits_for_another_connections_lock() {
+        use std::time::Duration;
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("new.sqlite");
+        let writer = rusqlite::Connection::open(&path).unwrap();
+        writer
+            .execute_batch("CREATE TABLE t (x); BEGIN IMMEDIATE; INSERT INTO t VALUES (1);")
+            .unwrap();
+        let opener = rusqlite::Connection::open(&path).unwrap();
+        opener.busy_timeout(super::BUSY_TIMEOUT).unwrap();
+        let refused = super::to_wal(&opener, Duration::ZERO).unwrap_err();
+        assert!(refused.to_string().contains("locked"), "{refused}");
+        let holder = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(200));
+            writer.execute_batch("COMMIT").unwrap();
+        });
+        assert_eq!(
+            super::to_wal(&opener, Duration::from_secs(20)).unwrap(),
+            "wal"
+        );
+        holder.join().unwrap();
     }
 }
