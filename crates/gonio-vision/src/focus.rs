@@ -31,8 +31,8 @@
 //! without a reduction per row: a row between the first two and the last two takes all three of
 //! its shares, whose sum 4D − 2H − 2V has no Σx, so those rows add three `vpdpbusd` and two
 //! `vpsadbw` a step into lanes that run on from row to row, widened to 64 bits every 2^13
-//! steps and reduced once, at the frame's end ([`frame_sums`] over a whole frame; the same
-//! integers as [`RowFocus`]'s rows added up).
+//! steps and reduced once, at the frame's end (the same integers as [`RowFocus`]'s rows added
+//! up).
 //!
 //! ```
 //! use gonio_vision::focus::abs_diff_sums;
@@ -271,29 +271,6 @@ impl FrameFocus {
     }
 }
 
-/// A whole frame's [`FrameStats`] (`h` rows of `w` columns, row-major, `wh` = (w, h)) by
-/// [`FrameFocus`], calling `on_saturated(y, n)` in row order for each row y that has n > 0
-/// pixels at 255.
-///
-/// # Panics
-/// If `frame` holds fewer than w · h bytes, or w < 2 with h ≥ 3.
-pub fn frame_sums(
-    frame: &[u8],
-    (w, h): (usize, usize),
-    on_saturated: &mut dyn FnMut(usize, u32),
-) -> FrameStats {
-    let frame = &frame[..w * h];
-    let mut f = FrameFocus::default();
-    for y in 0..h {
-        let prev = (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]));
-        let n = f.push((y, h), &frame[y * w..(y + 1) * w], prev);
-        if n > 0 {
-            on_saturated(y, n);
-        }
-    }
-    f.finish()
-}
-
 /// The portable path: 64 columns at a time, the differences as bytes, their sums and squares in
 /// sixteen 32-bit lanes (no overflow: a lane takes at most 4·255² per 64 columns, 512 steps for
 /// the widest window of 32768 px).
@@ -444,24 +421,29 @@ mod tests {
         (t, sat)
     }
 
-    /// Both ways through [`frame_sums`] (row by row, and the VNNI frame kernel where the CPU
-    /// has it) against the definition, on `rows`.
+    /// [`FrameFocus`] each way (row by row, the VNNI frame kernel where the CPU has it, and
+    /// the path [`FrameFocus::push`] dispatches to) against the definition, on `rows`.
     fn check_frame(rows: &[Vec<u8>], what: &str) {
         let (w, h) = (rows.first().map_or(2, Vec::len), rows.len());
-        let frame = rows.concat();
         let want = frame_by_definition(rows);
-        let mut paths = vec![("direct", None)];
+        // (name, the path to latch; `None`: the one `push` chooses)
+        let mut paths = vec![("direct", Some(None)), ("dispatched", None)];
         #[cfg(target_arch = "x86_64")]
         if let Some(cpu) = crate::simd::Vnni::detected() {
-            paths.push(("VNNI frame kernel", Some(cpu)));
+            paths.push(("VNNI frame kernel", Some(Some(cpu))));
         }
-        for (path, cpu) in paths {
+        for (path, latch) in paths {
             let mut f = FrameFocus::default();
             let mut sat = Vec::new();
-            f.use_vnni = cpu;
             for y in 0..h {
                 let prev = (y >= 2).then(|| (&rows[y - 2][..], &rows[y - 1][..]));
-                let n = f.push_on((y, h), &rows[y], prev);
+                let n = match latch {
+                    Some(cpu) => {
+                        f.use_vnni = cpu;
+                        f.push_on((y, h), &rows[y], prev)
+                    }
+                    None => f.push((y, h), &rows[y], prev),
+                };
                 if n > 0 {
                     sat.push((y, n));
                 }
@@ -469,9 +451,6 @@ mod tests {
             let got = f.finish();
             assert_eq!((got, sat), want, "{path}, {what}, {w} × {h}");
         }
-        let mut sat = Vec::new();
-        let got = frame_sums(&frame, (w, h), &mut |y, n| sat.push((y, n)));
-        assert_eq!((got, sat), want, "dispatched, {what}, {w} × {h}");
     }
 
     /// Frames of random rows with rows of 0, of 255 and 0/255 stripes among them (the
@@ -524,7 +503,7 @@ mod tests {
     use proptest::prelude::*;
 
     proptest! {
-        /// [`frame_sums`] against the definition on arbitrary small frames.
+        /// [`FrameFocus`] against the definition on arbitrary small frames.
         #[test]
         fn frame_sums_match_the_definition(
             (w, bytes) in (2usize..200, 1usize..12)

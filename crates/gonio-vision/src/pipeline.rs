@@ -186,12 +186,18 @@ impl RawSums {
     /// Adds row `y` (its pixels `row`, its sums `s`).
     #[inline(always)]
     fn add(&mut self, s: RowStats, row: &[u8], y: usize) {
-        if s.saturated > 0 {
-            self.saturated += u64::from(s.saturated);
-            saturated_runs(row, y, &mut self.sat_runs);
-        }
+        self.add_saturated(s.saturated, row, y);
         self.grad_sum += s.abs_sum;
         self.focus_sum += s.sq_sum;
+    }
+
+    /// Adds row `y`'s `n` pixels at 255 and, when there are any, its saturated runs.
+    #[inline(always)]
+    fn add_saturated(&mut self, n: u32, row: &[u8], y: usize) {
+        if n > 0 {
+            self.saturated += u64::from(n);
+            saturated_runs(row, y, &mut self.sat_runs);
+        }
     }
 
     /// Adds the rows of `below`, all of them after these.
@@ -222,10 +228,7 @@ impl RawSums {
             crate::simd::prefetch(next);
         }
         let n = focus.push((y, h), row, rows_above(frame, w, y));
-        if n > 0 {
-            self.saturated += u64::from(n);
-            saturated_runs(row, y, &mut self.sat_runs);
-        }
+        self.add_saturated(n, row, y);
         if y + 1 == h {
             let t = focus.finish();
             self.grad_sum = t.abs_sum;

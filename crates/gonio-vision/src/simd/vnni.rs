@@ -80,6 +80,35 @@ unsafe fn plain(pr: *const u8, pa: *const u8, i: usize) -> [__m512i; 4] {
     }
 }
 
+/// One step's loads at column i of rows `w` wide whose horizontal pairs cover columns
+/// c < m (= w − 2): [`plain`] when columns i … i + 65 lie inside the rows, otherwise masked
+/// loads covering only columns inside them (x and a: i … w − 1; x[c + 2]: c in i … m − 1;
+/// zero lanes add nothing to any sum).
+///
+/// # Safety
+/// i < w, and `pr`, `pa` must point at rows of w bytes.
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw")]
+unsafe fn step_loads(pr: *const u8, pa: *const u8, i: usize, m: usize, w: usize) -> [__m512i; 4] {
+    // SAFETY: the caller keeps i inside the rows; each load stays inside them (see above).
+    unsafe {
+        if i + 64 <= m {
+            plain(pr, pa, i)
+        } else {
+            let (kr, kp) = (mask(i, w), mask(i.min(m), m));
+            // (`wrapping_add`: with an empty mask the address may lie past the row; it is
+            // never dereferenced.)
+            let x = _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast());
+            [
+                x,
+                _mm512_maskz_mov_epi8(kp, x),
+                _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 2).cast()),
+                _mm512_maskz_loadu_epi8(kr, pa.wrapping_add(i).cast()),
+            ]
+        }
+    }
+}
+
 /// The lanes of one set of sums over a block of steps: S, D, H, V (`vpdpbusd`, 32-bit
 /// lanes) and both Σ|x − y| (`vpsadbw`, each lane's total in its low 32 bits).
 #[derive(Clone, Copy)]
@@ -183,9 +212,8 @@ unsafe fn kernel(row: &[u8], above: Option<&[u8]>) -> RowSums {
         // Two sets of sums, for steps two at a time: each `vpdpbusd` accumulator takes
         // every other step, not a chain of one step's latency after the other.
         let (mut p, mut q) = (Sums::new(), Sums::new());
-        // SAFETY (both loops): plain loads when columns i … i + 65 (i + 129 two at a time)
-        // are inside the rows; masked loads otherwise, each covering only columns inside its
-        // row (x and a: i … w − 1; x[c + 2]: c in i … m − 1).
+        // SAFETY (both loops): plain loads when columns i … i + 129 are inside the rows,
+        // `step_loads` (i < w) otherwise.
         while i + 128 <= end.min(m) {
             let (l0, l1) = unsafe { (plain(pr, pa, i), plain(pr, pa, i + 64)) };
             p.step(&mut top, l0);
@@ -193,23 +221,7 @@ unsafe fn kernel(row: &[u8], above: Option<&[u8]>) -> RowSums {
             i += 128;
         }
         while i < end {
-            let loads = unsafe {
-                if i + 64 <= m {
-                    plain(pr, pa, i)
-                } else {
-                    let (kr, kp) = (mask(i, w), mask(i.min(m), m));
-                    // (`wrapping_add`: with an empty mask the address may lie past
-                    // the row; it is never dereferenced.)
-                    let x = _mm512_maskz_loadu_epi8(kr, pr.wrapping_add(i).cast());
-                    [
-                        x,
-                        _mm512_maskz_mov_epi8(kp, x),
-                        _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 2).cast()),
-                        _mm512_maskz_loadu_epi8(kr, pa.wrapping_add(i).cast()),
-                    ]
-                }
-            };
-            p.step(&mut top, loads);
+            p.step(&mut top, unsafe { step_loads(pr, pa, i, m, w) });
             i += 64;
         }
         let t = p.plus(q).totals();
@@ -334,6 +346,36 @@ pub(crate) struct FrameLanes {
     abs: i64,
 }
 
+impl FrameLanes {
+    /// Both sets of lanes, loaded (aligned loads of the eight 64-byte blocks).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn sets(&self) -> [Lanes; 2] {
+        let p = self.lanes.as_ptr().cast::<__m512i>();
+        // SAFETY: `FrameLanes` is 64-byte aligned and holds eight 64-byte blocks.
+        let load = |k: usize| unsafe { _mm512_load_si512(p.add(k).cast()) };
+        [
+            Lanes([load(0), load(1), load(2), load(3)]),
+            Lanes([load(4), load(5), load(6), load(7)]),
+        ]
+    }
+
+    /// Stores both sets of lanes back ([`FrameLanes::sets`]' blocks), eight aligned stores
+    /// (an iterator over the sets compiled to unaligned copies through the stack).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn keep(&mut self, [a, b]: [Lanes; 2]) {
+        let p = self.lanes.as_mut_ptr().cast::<__m512i>();
+        for k in 0..4 {
+            // SAFETY: as in `sets`.
+            unsafe {
+                _mm512_store_si512(p.add(k).cast(), a.0[k]);
+                _mm512_store_si512(p.add(4 + k).cast(), b.0[k]);
+            }
+        }
+    }
+}
+
 /// Row `y` of a frame `h` rows high into `st` (row 0 starts it afresh), with rows y − 2 and
 /// y − 1 as `prev` from y = 2 on; its pixels at 255 returned. A row r in 2 … h − 3 takes all
 /// three of its shares (`now` + `next` + `after` of [`RowSums`] is 4D − 2H − 2V: S cancels),
@@ -381,13 +423,7 @@ unsafe fn frame_row(
     match prev {
         // Rows too wide for a block of lanes go through the row kernel (it blocks its columns).
         Some((a, _)) if y + 3 <= h && steps <= FRAME_FLUSH => {
-            // SAFETY: `FrameLanes` is 64-byte aligned and holds eight 64-byte blocks.
-            let p = st.lanes.as_mut_ptr().cast::<__m512i>();
-            let load = |k: usize| unsafe { _mm512_load_si512(p.add(k).cast()) };
-            let mut sets = [
-                Lanes([load(0), load(1), load(2), load(3)]),
-                Lanes([load(4), load(5), load(6), load(7)]),
-            ];
+            let mut sets = st.sets();
             if st.pending + steps > FRAME_FLUSH {
                 st.sq += Lanes::flush(&mut sets);
                 st.pending = 0;
@@ -396,8 +432,7 @@ unsafe fn frame_row(
             let (pr, pa) = (x.as_ptr(), a.as_ptr());
             let mut top = _mm512_setzero_si512();
             let mut i = 0;
-            // SAFETY (both loops): as in `kernel`, plain loads when columns i … i + 65
-            // (i + 129 two at a time) are inside the rows, masked loads inside them otherwise.
+            // SAFETY (both loops): as in `kernel`.
             while i + 128 <= m {
                 let (l0, l1) = unsafe { (plain(pr, pa, i), plain(pr, pa, i + 64)) };
                 sets[0].step(&mut top, l0);
@@ -405,30 +440,10 @@ unsafe fn frame_row(
                 i += 128;
             }
             while i < w {
-                let loads = unsafe {
-                    if i + 64 <= m {
-                        plain(pr, pa, i)
-                    } else {
-                        let (kr, kp) = (mask(i, w), mask(i.min(m), m));
-                        let xv = _mm512_maskz_loadu_epi8(kr, pr.add(i).cast());
-                        [
-                            xv,
-                            _mm512_maskz_mov_epi8(kp, xv),
-                            _mm512_maskz_loadu_epi8(kp, pr.wrapping_add(i + 2).cast()),
-                            _mm512_maskz_loadu_epi8(kr, pa.add(i).cast()),
-                        ]
-                    }
-                };
-                sets[0].step(&mut top, loads);
+                sets[0].step(&mut top, unsafe { step_loads(pr, pa, i, m, w) });
                 i += 64;
             }
-            for k in 0..4 {
-                // SAFETY: as the loads.
-                unsafe {
-                    _mm512_store_si512(p.add(k).cast(), sets[0].0[k]);
-                    _mm512_store_si512(p.add(4 + k).cast(), sets[1].0[k]);
-                }
-            }
+            st.keep(sets);
             if _mm512_cmpeq_epi8_mask(top, _mm512_set1_epi8(-1)) == 0 {
                 0
             } else {
@@ -460,13 +475,7 @@ unsafe fn frame_row(
 /// The CPU must support AVX-512 F.
 #[target_feature(enable = "avx512f")]
 unsafe fn frame_end(st: &mut FrameLanes) -> FrameSums {
-    let p = st.lanes.as_mut_ptr().cast::<__m512i>();
-    // SAFETY: `FrameLanes` is 64-byte aligned and holds eight 64-byte blocks.
-    let load = |k: usize| unsafe { _mm512_load_si512(p.add(k).cast()) };
-    let mut sets = [
-        Lanes([load(0), load(1), load(2), load(3)]),
-        Lanes([load(4), load(5), load(6), load(7)]),
-    ];
+    let mut sets = st.sets();
     let sq = st.sq + Lanes::flush(&mut sets);
     let g = _mm512_add_epi64(sets[0].0[3], sets[1].0[3]);
     let abs = st.abs + _mm512_reduce_add_epi64(g);
