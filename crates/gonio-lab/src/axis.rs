@@ -100,6 +100,9 @@ pub struct AxisPlan {
     pub mode: ModeRule,
 }
 
+/// The forms `targets_deg` takes, for its errors.
+const TARGETS_FORMS: &str = "\"faces\", START:STEP:END (e.g. \"0:30:360\") or a list of degrees";
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPlan {
@@ -167,7 +170,7 @@ impl AxisPlan {
                     toml::Value::String(w) => shift_range(w).ok_or_else(|| {
                         at(
                             span.clone(),
-                            format!("targets_deg = {w:?}: expected \"faces\", START:STEP:END (e.g. \"0:30:360\") or a list of degrees"),
+                            format!("targets_deg = {w:?}: expected {TARGETS_FORMS}"),
                         )
                     })?,
                     toml::Value::Array(l) => l
@@ -188,7 +191,7 @@ impl AxisPlan {
                         })?,
                     other => {
                         return bad(format!(
-                            "targets_deg: expected \"faces\", START:STEP:END (e.g. \"0:30:360\") or a list of degrees, found a {}",
+                            "targets_deg: expected {TARGETS_FORMS}, found a {}",
                             other.type_str()
                         ));
                     }

@@ -172,7 +172,7 @@ pub fn figure(doc: &AxisResult) -> Result<Figure, ReportError> {
         caption: format!(
             "The mean unidirectional positioning deviations at each of the {} targets with their ±2s bands ({}; dots: every approach), as {} draws them; {}.",
             doc.targets.len(),
-            doc.runs_text(),
+            doc.runs_summary(),
             doc.standard,
             doc.deviations
         ),
@@ -195,7 +195,7 @@ pub(crate) fn header(b: &mut String, doc: &AxisResult, source: &str) {
         doc.targets.len(),
         doc.targets.first().map_or(0.0, |t| t.target_deg),
         doc.targets.last().map_or(0.0, |t| t.target_deg),
-        esc(&doc.runs_text()),
+        esc(&doc.runs_summary()),
         esc(&doc.deviations)
     );
 }

@@ -160,7 +160,7 @@ pub struct AxisResult {
 
 impl AxisResult {
     /// `5 runs in each direction`, or `5 runs, negative direction only` in a unidirectional test.
-    pub fn runs_text(&self) -> String {
+    pub fn runs_summary(&self) -> String {
         match self.test.strip_prefix("unidirectional (") {
             Some(rest) => format!(
                 "{} runs, {} direction only",

@@ -103,7 +103,7 @@ fn summary(doc: &AxisResult) -> String {
         doc.targets.len(),
         doc.targets.first().map_or(0.0, |t| t.target_deg),
         doc.targets.last().map_or(0.0, |t| t.target_deg),
-        doc.runs_text()
+        doc.runs_summary()
     );
     let _ = writeln!(
         s,
