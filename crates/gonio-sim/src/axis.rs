@@ -314,9 +314,9 @@ mod tests {
     use super::*;
     use gonio_calib::axis::evaluate;
 
-    fn test(seed_targets: usize, runs: u32) -> AxisTest {
+    fn test(targets: usize, runs: u32) -> AxisTest {
         AxisTest {
-            targets_deg: (0..seed_targets).map(|k| k as f64 * 15.0).collect(),
+            targets_deg: (0..targets).map(|k| k as f64 * 15.0).collect(),
             runs,
             directions: Direction::BOTH.to_vec(),
             reference_sigma_arcsec: 0.02,
