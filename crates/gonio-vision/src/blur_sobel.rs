@@ -122,10 +122,7 @@ impl BlurSobel {
         if let Some(cpu) = self.avx512 {
             use crate::simd::avx512::blur_sobel::{Emit, blur_sobel};
             let sb = &mut self.sobel;
-            let (a, b) = (
-                sb.rows.clamped(-1) * sb.stride,
-                sb.rows.clamped(0) * sb.stride,
-            );
+            let [a, b] = sb.rows.clamped_run::<2>(-1).map(|s| s * sb.stride);
             let emit = out.map(|out| Emit { out, a, b });
             let emitted = emit.is_some();
             blur_sobel(

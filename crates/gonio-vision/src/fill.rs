@@ -108,8 +108,7 @@ impl EdgeFill {
     fn emit_impl(&mut self, out: &mut SparseEdgeRow) {
         let w = self.width;
         let y = self.rows.output_row();
-        let c_slot = self.rows.clamped(0);
-        let (up_slot, down_slot) = (self.rows.neighbour(-1), self.rows.neighbour(1));
+        let (up_slot, c_slot, down_slot) = self.rows.around();
         let cur = &self.ring[c_slot];
         let up = up_slot.map_or(&self.empty, |s| &self.ring[s]);
         let down = down_slot.map_or(&self.empty, |s| &self.ring[s]);

@@ -56,7 +56,7 @@ impl Gaussian5 {
     /// received: replicated borders).
     #[inline]
     pub(crate) fn window(&self) -> [usize; 5] {
-        [-2, -1, 0, 1, 2].map(|dy| self.rows.clamped(dy) * self.stride)
+        self.rows.clamped_run::<5>(-2).map(|s| s * self.stride)
     }
 
     #[inline(always)]

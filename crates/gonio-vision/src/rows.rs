@@ -95,7 +95,13 @@ impl RowLag {
     /// Ring slot the next input row goes to.
     #[inline]
     pub fn input_slot(&self) -> usize {
-        self.n_in % self.depth()
+        self.slot(self.n_in)
+    }
+
+    /// Ring slot of row `r`.
+    #[inline]
+    fn slot(&self, r: usize) -> usize {
+        r % self.depth
     }
 
     /// Counts one input row; true when an output row is ready to be emitted.
@@ -116,6 +122,36 @@ impl RowLag {
     pub fn clamped(&self, dy: isize) -> usize {
         let last = self.n_in as isize - 1;
         (self.n_out as isize + dy).clamp(0, last) as usize % self.depth()
+    }
+
+    /// Ring slots of rows `output_row + first_dy` … `output_row + first_dy + N − 1`, each
+    /// clamped as [`RowLag::clamped`]: the same slots, one division for all (a clamped row is
+    /// the one before it or the next, so its slot is that one's or the next, wrapped).
+    #[inline]
+    pub fn clamped_run<const N: usize>(&self, first_dy: isize) -> [usize; N] {
+        let last = self.n_in as isize - 1;
+        let row = |k: usize| (self.n_out as isize + first_dy + k as isize).clamp(0, last);
+        let mut slots = [self.clamped(first_dy); N];
+        for k in 1..N {
+            let step = (row(k) != row(k - 1)) as usize;
+            let next = slots[k - 1] + step;
+            slots[k] = if next == self.depth { 0 } else { next };
+        }
+        slots
+    }
+
+    /// [`RowLag::neighbour`]`(-1)`, [`RowLag::clamped`]`(0)` and [`RowLag::neighbour`]`(1)`:
+    /// the same slots, one division for the three while the output row is one received.
+    #[inline]
+    pub fn around(&self) -> (Option<usize>, usize, Option<usize>) {
+        if self.n_out >= self.n_in {
+            return (self.neighbour(-1), self.clamped(0), self.neighbour(1));
+        }
+        let c = self.slot(self.n_out);
+        let up = (self.n_out > 0).then(|| if c == 0 { self.depth - 1 } else { c - 1 });
+        let down =
+            (self.n_out + 1 < self.n_in).then(|| if c + 1 == self.depth { 0 } else { c + 1 });
+        (up, c, down)
     }
 
     /// Ring slot of row `output_row + dy`, or `None` when that row is outside the frame.
@@ -385,5 +421,38 @@ impl<S: RowStage, N: RowSink<Row = S::Out>> RowSink for Then<S, N> {
     }
     fn lag(&self) -> usize {
         self.stage.lag() + self.next.lag()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RowLag;
+
+    /// The slots of a run and of a row's neighbours are [`RowLag::clamped`]'s and
+    /// [`RowLag::neighbour`]'s, at every point of a frame, for rings of every depth.
+    #[test]
+    fn runs_and_neighbours_are_the_single_slots() {
+        for lag in 0..4usize {
+            for depth in 2 * lag + 1..2 * lag + 6 {
+                for n_in in 0..3 * depth + 4 {
+                    for n_out in 0..=n_in + 2 {
+                        let r = RowLag {
+                            n_in,
+                            n_out,
+                            ..RowLag::with_depth(lag, depth)
+                        };
+                        if n_in > 0 {
+                            for first in -3..=2isize {
+                                let want: [usize; 5] =
+                                    std::array::from_fn(|k| r.clamped(first + k as isize));
+                                assert_eq!(r.clamped_run::<5>(first), want, "{r:?} from {first}");
+                            }
+                            let want = (r.neighbour(-1), r.clamped(0), r.neighbour(1));
+                            assert_eq!(r.around(), want, "{r:?}");
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -282,8 +282,9 @@ fn rows_around<'a>(
     ring: &'a [GradRow; 3],
     zero: &'a [u16],
 ) -> (&'a GradRow, &'a [u16], &'a [u16]) {
-    let around = |dy| rows.neighbour(dy).map_or(zero, |s| &ring[s].mag[..]);
-    (&ring[rows.clamped(0)], around(-1), around(1))
+    let (up, c, down) = rows.around();
+    let mag = |s: Option<usize>| s.map_or(zero, |s| &ring[s].mag[..]);
+    (&ring[c], mag(up), mag(down))
 }
 
 /// Streaming segmentation of gradient rows.

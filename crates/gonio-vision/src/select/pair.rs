@@ -369,7 +369,8 @@ pub(super) fn clean_majority(
 /// 1. the pixels of each edge's polarity within 1.5 px of its track's curve, rows marked in
 ///    `skip` (saturated) left out: the edge's pixels, whatever component they ended up in;
 /// 2. each edge's clean majority: a RANSAC curve (the frame's curvature, else the track's) and
-///    its pixels within 0.75 px; then, twice, the two edges fitted together as parallel curves
+///    its pixels within 0.75 px; then, twice (once when the first keeps the same pixels: the
+///    second would too), the two edges fitted together as parallel curves
 ///    ([`PairFit`]) and the gathered pixels within 0.75 px of them kept (pixels that only
 ///    crossed an edge drop out);
 /// 3. rows where the ring's width departs from its median by more than max(0.35 px, 4 robust
@@ -466,11 +467,14 @@ pub(super) fn refit_pair_with(
         if !r_same {
             rsum = rsum.map(|c| resum(&c, gone, came, rn, w));
         }
-        if l_same && r_same {
-            fit = Some(f);
-        }
         std::mem::swap(lk, ln);
         std::mem::swap(rk, rn);
+        if l_same && r_same {
+            // Nothing changed: a second pass would find the same pixels near the same curves
+            // (most frames: the clean majorities already are the pixels near the joint fit).
+            fit = Some(f);
+            break;
+        }
     }
     // 3. Rows where the ring is not its own width.
     let (ml, mr) = (&mut s.ml, &mut s.mr);
