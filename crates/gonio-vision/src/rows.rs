@@ -142,7 +142,7 @@ impl RowLag {
 
     /// [`RowLag::neighbour`]`(-1)`, [`RowLag::clamped`]`(0)` and [`RowLag::neighbour`]`(1)`:
     /// the same slots, one division for the three while the output row is one received.
-    #[inline]
+    #[inline(always)]
     pub fn around(&self) -> (Option<usize>, usize, Option<usize>) {
         if self.n_out >= self.n_in {
             return (self.neighbour(-1), self.clamped(0), self.neighbour(1));
