@@ -95,13 +95,7 @@ impl RowLag {
     /// Ring slot the next input row goes to.
     #[inline]
     pub fn input_slot(&self) -> usize {
-        self.slot(self.n_in)
-    }
-
-    /// Ring slot of row `r`.
-    #[inline]
-    fn slot(&self, r: usize) -> usize {
-        r % self.depth
+        self.n_in % self.depth()
     }
 
     /// Counts one input row; true when an output row is ready to be emitted.
@@ -141,17 +135,17 @@ impl RowLag {
     }
 
     /// [`RowLag::neighbour`]`(-1)`, [`RowLag::clamped`]`(0)` and [`RowLag::neighbour`]`(1)`:
-    /// the same slots, one division for the three while the output row is one received.
+    /// the run of clamped slots around the output row, each neighbour where it is a row
+    /// received (there it is not clamped).
     #[inline(always)]
     pub fn around(&self) -> (Option<usize>, usize, Option<usize>) {
-        if self.n_out >= self.n_in {
-            return (self.neighbour(-1), self.clamped(0), self.neighbour(1));
-        }
-        let c = self.slot(self.n_out);
-        let up = (self.n_out > 0).then(|| if c == 0 { self.depth - 1 } else { c - 1 });
-        let down =
-            (self.n_out + 1 < self.n_in).then(|| if c + 1 == self.depth { 0 } else { c + 1 });
-        (up, c, down)
+        let [up, c, down] = self.clamped_run::<3>(-1);
+        let y = self.n_out;
+        (
+            (y > 0 && y <= self.n_in).then_some(up),
+            c,
+            (y + 1 < self.n_in).then_some(down),
+        )
     }
 
     /// Ring slot of row `output_row + dy`, or `None` when that row is outside the frame.
