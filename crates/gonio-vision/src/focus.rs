@@ -252,7 +252,11 @@ impl FrameFocus {
             self.total.saturated += u64::from(n);
             return n;
         }
-        let s = RowFocus::push_direct(row, prev);
+        // Compiled for the level in use, as the detector's rows are (`Detector::feed`).
+        let s = crate::simd::dispatch(
+            #[inline(always)]
+            || RowFocus::push_direct(row, prev),
+        );
         self.total.saturated += u64::from(s.saturated);
         self.total.abs_sum += s.abs_sum;
         self.total.sq_sum += s.sq_sum;
