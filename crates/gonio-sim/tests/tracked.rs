@@ -1,8 +1,9 @@
 //! The tracked detector (`gonio_vision::track`) against the whole-frame detector, frame by frame,
 //! on rendered scenes: realistic turns, the dense and clean scenes, rings near the window's
-//! side, a ring lost and found again (each through `SourceDetector` with tracking on, the
-//! station's path), and the `random` family (2,000 scenes as drawn, each measured after a frame
-//! of it moved sideways by up to 12 px, as the eccentric motion moves a ring between frames).
+//! side, a ring crossing the window fast, a ring lost and found again (each through
+//! `SourceDetector` with tracking on, the station's path), and the `random` family (2,000
+//! scenes as drawn, each measured after a frame of it moved sideways by up to 12 px, as the
+//! eccentric motion moves a ring between frames).
 //!
 //! - no frame valid in the band that the whole-frame detector calls invalid;
 //! - |Δc| ≤ 0.02 px on every frame both call valid;
@@ -121,6 +122,9 @@ fn turns_are_measured_in_the_band_and_agree_with_the_whole_frame() {
         (ScenePreset::Dense, 150.0, 20.0, 4),
         (ScenePreset::Clean, 150.0, 20.0, 4),
         (ScenePreset::Realistic, 500.0, 0.0, 5),
+        // The turn starting as the ring crosses the window's middle at its fastest, 21 px a
+        // frame: tracked from its second frame.
+        (ScenePreset::Realistic, 500.0, 45.0, 7),
     ];
     let tallies: Vec<Tally> = cases
         .par_iter()
@@ -139,8 +143,9 @@ fn turns_are_measured_in_the_band_and_agree_with_the_whole_frame() {
 
 #[test]
 fn a_ring_lost_and_found_again_is_tracked_again() {
-    // 620 µm takes the ring out of the window on one side and back.
-    let t = turn(ScenePreset::Realistic, 620.0, 0.0, 6);
+    // 700 µm takes the ring out of the window on both sides and back, entering at ≈ 19 px a
+    // frame.
+    let t = turn(ScenePreset::Realistic, 700.0, 130.0, 6);
     t.check("lost and found");
     assert!(
         t.whole_valid < t.frames * 3 / 4,

@@ -38,9 +38,9 @@
 //! searched columns or a component cut by the band's side reaches into them; a second ring
 //! candidate in the band; the ring farther from its prediction than the plausible motion; its
 //! score below 80 % of the last whole frame's, or the margin left over that frame's runner-up
-//! too small; its edges' gradient (or the band's focus) fallen (blur); saturation in the
-//! searched columns; its width changed; so many edge pixels that the whole frame's list could
-//! overflow. After a whole frame with a valid ring the band is run on that same frame too,
+//! too small; its edges' gradient (or the frame's focus, from one frame to the next) fallen
+//! (blur); saturation in the searched columns; its width changed; so many edge pixels that the
+//! whole frame's list could overflow. After a whole frame with a valid ring the band is run on that same frame too,
 //! and tracking (re)starts only when it agrees with the whole frame within [`ANCHOR_TOL_PX`].
 //! Validity is only ever reported from the band when the band finds the ring valid; every
 //! invalid frame is the whole-frame detector's.
@@ -83,8 +83,9 @@ use crate::{FrameResult, Optics, Params, VisionError};
 use band::Band;
 
 /// Columns searched on either side of the ring's predicted edges before its motion is known
-/// (from two measured frames), px.
-pub const SEARCH_HALF_WIDTH_PX: f64 = 16.0;
+/// (from two measured frames), px: a ring that stays in the station's window (1440 px: an
+/// amplitude of at most 720 px) moves at most 720 px · 1.8° ≈ 22.6 px a frame at 1.8° a frame.
+pub const SEARCH_HALF_WIDTH_PX: f64 = 24.0;
 /// Columns searched on either side of the ring's predicted edges per frame of gap once its
 /// motion is known, px (at most [`SEARCH_HALF_WIDTH_PX`]).
 pub const TRACK_HALF_WIDTH_PX: f64 = 8.0;
@@ -103,7 +104,9 @@ pub const KEEP_SCORE: f64 = 0.8;
 pub const MARGIN_HEADROOM: f64 = 0.1;
 /// The ring's weaker edge gradient must stay at least this fraction of the anchor frame's.
 pub const KEEP_GRADIENT: f64 = 0.7;
-/// The frame's focus measure must stay at least this fraction of the anchor frame's.
+/// The frame's focus measure must stay at least this fraction of the last measured frame's: a
+/// blur comes from one frame to the next, while the measure also follows what the window
+/// shows as the grating turns (by half over a quarter turn of a ring at e = 500 µm).
 pub const KEEP_FOCUS: f64 = 0.5;
 /// On the anchor frame the band's c must equal the whole frame's within this, px.
 pub const ANCHOR_TOL_PX: f64 = 0.01;
@@ -244,6 +247,8 @@ struct Anchor {
     strength: f64,
     gradient: f64,
     separation: f64,
+    /// The focus measure of the last frame measured: the anchor frame's, then each tracked
+    /// frame's ([`KEEP_FOCUS`]).
     focus: f64,
     score: f64,
     margin: f64,
@@ -272,6 +277,9 @@ pub struct Tracker {
     anchor: Option<Anchor>,
     last: Option<Ring>,
     prev: Option<Ring>,
+    /// The ring on the measured frame before `last` whatever its motion: the motion over three
+    /// frames ([`Tracker::after_whole`]).
+    before: Option<Ring>,
     /// Frames measured in the band since the last whole one.
     since_whole: u64,
     /// Whole frames to go before the band is tried on one again, and the failed tries in a
@@ -303,6 +311,7 @@ impl Tracker {
             anchor: None,
             last: None,
             prev: None,
+            before: None,
             since_whole: 0,
             cooldown: 0,
             failed: 0,
@@ -318,6 +327,7 @@ impl Tracker {
         self.anchor = None;
         self.last = None;
         self.prev = None;
+        self.before = None;
         self.cooldown = 0;
         self.failed = 0;
     }
@@ -462,8 +472,12 @@ impl Tracker {
         r.tracked = true;
         r.score = Some((anchor.score * strength / anchor.strength).min(1.0));
         r.margin = Some(margin.clamp(0.0, 1.0));
-        self.prev = Some(last);
+        (self.before, self.prev) = (Some(last), Some(last));
         self.last = Some(ring);
+        self.anchor = Some(Anchor {
+            focus: stats.focus,
+            ..anchor
+        });
         Ok(r)
     }
 
@@ -475,13 +489,23 @@ impl Tracker {
             self.reset();
             return;
         };
-        // The motion from the frame before, when it is plausible (a ring that jumped has no
-        // motion to go by).
-        self.prev = self.last.filter(|l| {
-            l.index < index
-                && index - l.index <= MAX_GAP_FRAMES
-                && (ring.c - l.c).abs() <= SEARCH_HALF_WIDTH_PX * (index - l.index) as f64
+        // The motion from the frame before when it is plausible: within the search before the
+        // motion is known, or the motion of the two frames before carried on (within JUMP_PX
+        // a frame: a ring entering the window faster than SEARCH_HALF_WIDTH_PX a frame). A
+        // ring that jumped has no motion to go by.
+        let (before, last) = (self.before, self.last);
+        let near = |a: &Ring, b: u64| a.index < b && b - a.index <= MAX_GAP_FRAMES;
+        self.prev = last.filter(|l| {
+            near(l, index) && {
+                let gap = (index - l.index) as f64;
+                (ring.c - l.c).abs() <= SEARCH_HALF_WIDTH_PX * gap
+                    || before.filter(|b| near(b, l.index)).is_some_and(|b| {
+                        let v = (l.c - b.c) / (l.index - b.index) as f64;
+                        (ring.c - l.c - v * gap).abs() <= JUMP_PX * gap
+                    })
+            }
         });
+        self.before = last;
         self.last = Some(ring);
         self.anchor = None;
         if self.cooldown > 0 {
@@ -615,6 +639,22 @@ mod tests {
             assert_eq!((r.focus, r.saturated_px), (w.focus, w.saturated_px));
         }
         assert_eq!((t.tracked_frames(), t.whole_frames()), (11, 1));
+    }
+
+    #[test]
+    fn a_ring_faster_than_the_first_search_is_tracked_from_its_third_frame() {
+        // 30 px a frame: beyond the search before the motion is known (a ring entering the
+        // window at e ≳ 780 µm); two whole frames give the motion, the third confirms it.
+        let frames: Vec<Vec<u8>> = (0..12)
+            .map(|k| frame(&[(60.0 + 30.0 * k as f64, 100.0)], k))
+            .collect();
+        let (t, out) = run(&frames);
+        for (k, (r, w)) in out.iter().enumerate() {
+            assert_eq!(r.tracked, k > 2, "frame {k}");
+            assert!(r.valid && w.valid);
+            assert_eq!(r.c_px, w.c_px, "frame {k}: the same integers, the same c");
+        }
+        assert_eq!((t.tracked_frames(), t.whole_frames()), (9, 3));
     }
 
     #[test]
