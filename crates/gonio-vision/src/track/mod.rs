@@ -40,8 +40,9 @@
 //! score below 80 % of the last whole frame's, or the margin left over that frame's runner-up
 //! too small; its edges' gradient (or the frame's focus, from one frame to the next) fallen
 //! (blur); saturation in the searched columns; its width changed; so many edge pixels that the
-//! whole frame's list could overflow. After a whole frame with a valid ring the band is run on that same frame too,
-//! and tracking (re)starts only when it agrees with the whole frame within [`ANCHOR_TOL_PX`].
+//! whole frame's list could overflow. After a whole frame with a valid ring the band is run on
+//! that same frame too, and tracking (re)starts only when it agrees with the whole frame within
+//! [`ANCHOR_TOL_PX`].
 //! Validity is only ever reported from the band when the band finds the ring valid; every
 //! invalid frame is the whole-frame detector's.
 //!
@@ -201,6 +202,15 @@ struct Ring {
 }
 
 impl Ring {
+    /// Its motion per frame on to the ring `later`, when this one was measured at most
+    /// [`MAX_GAP_FRAMES`] frames before it.
+    fn velocity_to(&self, later: &Ring) -> Option<f64> {
+        let gap = later.index.checked_sub(self.index)?;
+        (1..=MAX_GAP_FRAMES)
+            .contains(&gap)
+            .then(|| (later.c - self.c) / gap as f64)
+    }
+
     /// From a whole frame's result: its edges' fitted lines, widened by the part of the
     /// ring's curvature a line leaves out.
     fn of(r: &FrameResult, index: u64, p: &Params) -> Option<Ring> {
@@ -276,10 +286,11 @@ pub struct Tracker {
     focus: FrameFocus,
     anchor: Option<Anchor>,
     last: Option<Ring>,
+    /// The ring on the measured frame before `last`, whatever its motion.
     prev: Option<Ring>,
-    /// The ring on the measured frame before `last` whatever its motion: the motion over three
-    /// frames ([`Tracker::after_whole`]).
-    before: Option<Ring>,
+    /// The motion from `prev` to `last` is the ring's: the band is placed by it
+    /// ([`Tracker::after_whole`] decides).
+    motion_known: bool,
     /// Frames measured in the band since the last whole one.
     since_whole: u64,
     /// Whole frames to go before the band is tried on one again, and the failed tries in a
@@ -311,7 +322,7 @@ impl Tracker {
             anchor: None,
             last: None,
             prev: None,
-            before: None,
+            motion_known: false,
             since_whole: 0,
             cooldown: 0,
             failed: 0,
@@ -327,7 +338,7 @@ impl Tracker {
         self.anchor = None;
         self.last = None;
         self.prev = None;
-        self.before = None;
+        self.motion_known = false;
         self.cooldown = 0;
         self.failed = 0;
     }
@@ -409,8 +420,8 @@ impl Tracker {
         let gap = (index - last.index) as f64;
         let velocity = self
             .prev
-            .filter(|q| q.index < last.index && last.index - q.index <= MAX_GAP_FRAMES)
-            .map(|q| (last.c - q.c) / (last.index - q.index) as f64);
+            .filter(|_| self.motion_known)
+            .and_then(|q| q.velocity_to(&last));
         let shift = velocity.unwrap_or(0.0) * gap;
         let predicted = last.c + shift;
         let half = velocity.map_or(SEARCH_HALF_WIDTH_PX, |_| {
@@ -472,7 +483,7 @@ impl Tracker {
         r.tracked = true;
         r.score = Some((anchor.score * strength / anchor.strength).min(1.0));
         r.margin = Some(margin.clamp(0.0, 1.0));
-        (self.before, self.prev) = (Some(last), Some(last));
+        (self.prev, self.motion_known) = (Some(last), true);
         self.last = Some(ring);
         self.anchor = Some(Anchor {
             focus: stats.focus,
@@ -493,19 +504,15 @@ impl Tracker {
         // motion is known, or the motion of the two frames before carried on (within JUMP_PX
         // a frame: a ring entering the window faster than SEARCH_HALF_WIDTH_PX a frame). A
         // ring that jumped has no motion to go by.
-        let (before, last) = (self.before, self.last);
-        let near = |a: &Ring, b: u64| a.index < b && b - a.index <= MAX_GAP_FRAMES;
-        self.prev = last.filter(|l| {
-            near(l, index) && {
+        self.motion_known = self.last.is_some_and(|l| {
+            l.velocity_to(&ring).is_some() && {
                 let gap = (index - l.index) as f64;
                 (ring.c - l.c).abs() <= SEARCH_HALF_WIDTH_PX * gap
-                    || before.filter(|b| near(b, l.index)).is_some_and(|b| {
-                        let v = (l.c - b.c) / (l.index - b.index) as f64;
-                        (ring.c - l.c - v * gap).abs() <= JUMP_PX * gap
-                    })
+                    || (self.prev.and_then(|q| q.velocity_to(&l)))
+                        .is_some_and(|v| (ring.c - l.c - v * gap).abs() <= JUMP_PX * gap)
             }
         });
-        self.before = last;
+        self.prev = self.last;
         self.last = Some(ring);
         self.anchor = None;
         if self.cooldown > 0 {
@@ -626,18 +633,26 @@ mod tests {
         (t, out)
     }
 
-    #[test]
-    fn a_moving_ring_is_tracked_with_the_whole_frames_column() {
+    /// 12 frames of a ring moving from column `c0` by `step` px a frame: every frame valid,
+    /// measured whole before frame `first_tracked` and in the band from it, with the whole
+    /// frame's c and raw statistics.
+    fn moving_ring(c0: f64, step: f64, first_tracked: usize) -> Tracker {
         let frames: Vec<Vec<u8>> = (0..12)
-            .map(|k| frame(&[(150.0 + 2.5 * k as f64, 100.0)], k))
+            .map(|k| frame(&[(c0 + step * k as f64, 100.0)], k))
             .collect();
         let (t, out) = run(&frames);
         for (k, (r, w)) in out.iter().enumerate() {
-            assert_eq!(r.tracked, k > 0, "frame {k}");
+            assert_eq!(r.tracked, k >= first_tracked, "frame {k}");
             assert!(r.valid && w.valid);
             assert_eq!(r.c_px, w.c_px, "frame {k}: the same integers, the same c");
             assert_eq!((r.focus, r.saturated_px), (w.focus, w.saturated_px));
         }
+        t
+    }
+
+    #[test]
+    fn a_moving_ring_is_tracked_with_the_whole_frames_column() {
+        let t = moving_ring(150.0, 2.5, 1);
         assert_eq!((t.tracked_frames(), t.whole_frames()), (11, 1));
     }
 
@@ -645,15 +660,7 @@ mod tests {
     fn a_ring_faster_than_the_first_search_is_tracked_from_its_third_frame() {
         // 30 px a frame: beyond the search before the motion is known (a ring entering the
         // window at e ≳ 780 µm); two whole frames give the motion, the third confirms it.
-        let frames: Vec<Vec<u8>> = (0..12)
-            .map(|k| frame(&[(60.0 + 30.0 * k as f64, 100.0)], k))
-            .collect();
-        let (t, out) = run(&frames);
-        for (k, (r, w)) in out.iter().enumerate() {
-            assert_eq!(r.tracked, k > 2, "frame {k}");
-            assert!(r.valid && w.valid);
-            assert_eq!(r.c_px, w.c_px, "frame {k}: the same integers, the same c");
-        }
+        let t = moving_ring(60.0, 30.0, 3);
         assert_eq!((t.tracked_frames(), t.whole_frames()), (9, 3));
     }
 
