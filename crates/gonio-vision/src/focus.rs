@@ -430,23 +430,30 @@ mod tests {
     fn check_frame(rows: &[Vec<u8>], what: &str) {
         let (w, h) = (rows.first().map_or(2, Vec::len), rows.len());
         let want = frame_by_definition(rows);
-        // (name, the path to latch; `None`: the one `push` chooses)
-        let mut paths = vec![("direct", Some(None)), ("dispatched", None)];
+        /// `push_on` with the VNNI kernel latched or not, or `push` with its own choice.
+        enum Drive {
+            Latched(Option<Vnni>),
+            Push,
+        }
+        let mut paths = vec![
+            ("direct", Drive::Latched(None)),
+            ("dispatched", Drive::Push),
+        ];
         #[cfg(target_arch = "x86_64")]
         if let Some(cpu) = crate::simd::Vnni::detected() {
-            paths.push(("VNNI frame kernel", Some(Some(cpu))));
+            paths.push(("VNNI frame kernel", Drive::Latched(Some(cpu))));
         }
-        for (path, latch) in paths {
+        for (path, drive) in paths {
             let mut f = FrameFocus::default();
             let mut sat = Vec::new();
             for y in 0..h {
                 let prev = (y >= 2).then(|| (&rows[y - 2][..], &rows[y - 1][..]));
-                let n = match latch {
-                    Some(cpu) => {
+                let n = match drive {
+                    Drive::Latched(cpu) => {
                         f.use_vnni = cpu;
                         f.push_on((y, h), &rows[y], prev)
                     }
-                    None => f.push((y, h), &rows[y], prev),
+                    Drive::Push => f.push((y, h), &rows[y], prev),
                 };
                 if n > 0 {
                     sat.push((y, n));
