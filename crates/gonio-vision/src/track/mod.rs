@@ -192,13 +192,15 @@ impl Fallback {
 }
 
 /// A measured ring: its frame, c, and the columns its edges span over the window (left edge's
-/// least to right edge's greatest, with the ring's curvature), px.
+/// least to right edge's greatest, with the ring's curvature), px; and its frame's focus
+/// measure ([`KEEP_FOCUS`]).
 #[derive(Debug, Clone, Copy)]
 struct Ring {
     index: u64,
     c: f64,
     lo: f64,
     hi: f64,
+    focus: f64,
 }
 
 impl Ring {
@@ -225,12 +227,13 @@ impl Ring {
             c,
             lo: at(&l, 0.0).min(at(&l, h - 1.0)) - sag,
             hi: at(&rt, 0.0).max(at(&rt, h - 1.0)) + sag,
+            focus: r.focus,
         })
     }
 
     /// From the ring's pair fit: its edges' curves over the window's rows, and a pixel for
-    /// the edge pixels' scatter about them.
-    fn of_fit(f: &PairFit, index: u64, h: usize) -> Ring {
+    /// the edge pixels' scatter about them (`focus`: the frame's).
+    fn of_fit(f: &PairFit, index: u64, h: usize, focus: f64) -> Ring {
         let um = (h - 1) as f64;
         let extremes = |a: f64| {
             let at = |u: f64| a + f.b * u + f.q * u * u;
@@ -246,6 +249,7 @@ impl Ring {
             c: f.c_px(h),
             lo: extremes(f.a_left).0 - 1.0,
             hi: extremes(f.a_right).1 + 1.0,
+            focus,
         }
     }
 }
@@ -257,9 +261,6 @@ struct Anchor {
     strength: f64,
     gradient: f64,
     separation: f64,
-    /// The focus measure of the last frame measured: the anchor frame's, then each tracked
-    /// frame's ([`KEEP_FOCUS`]).
-    focus: f64,
     score: f64,
     margin: f64,
 }
@@ -459,8 +460,8 @@ impl Tracker {
         }
         let strength = strength(best, p);
         let (gradient, separation) = (best.gradient, best.separation_px);
-        let ring = Ring::of_fit(&best.fit, index, h);
         let stats = self.raw.stats(w, h);
+        let ring = Ring::of_fit(&best.fit, index, h, stats.focus);
         let mut r = frame_result(b.selection, b.components, stats, p);
         let c = match r.c_px {
             Some(c) if r.valid => c,
@@ -474,7 +475,7 @@ impl Tracker {
         if strength < KEEP_SCORE * anchor.strength || margin < p.min_margin + MARGIN_HEADROOM {
             return Err(Fallback::Weak);
         }
-        if gradient < KEEP_GRADIENT * anchor.gradient || stats.focus < KEEP_FOCUS * anchor.focus {
+        if gradient < KEEP_GRADIENT * anchor.gradient || stats.focus < KEEP_FOCUS * last.focus {
             return Err(Fallback::Blurred);
         }
         if (separation - anchor.separation).abs() > p.parallel_px {
@@ -485,10 +486,6 @@ impl Tracker {
         r.margin = Some(margin.clamp(0.0, 1.0));
         (self.prev, self.motion_known) = (Some(last), true);
         self.last = Some(ring);
-        self.anchor = Some(Anchor {
-            focus: stats.focus,
-            ..anchor
-        });
         Ok(r)
     }
 
@@ -553,11 +550,10 @@ impl Tracker {
             strength: strength(best, p),
             gradient: best.gradient,
             separation: best.separation_px,
-            focus: r.focus,
             score,
             margin,
         };
-        let fitted = Ring::of_fit(&best.fit, ring.index, p.height);
+        let fitted = Ring::of_fit(&best.fit, ring.index, p.height, ring.focus);
         let banded = frame_result(
             b.selection,
             b.components,
