@@ -501,14 +501,16 @@ impl Tracker {
         // motion is known, or the motion of the two frames before carried on (within JUMP_PX
         // a frame: a ring entering the window faster than SEARCH_HALF_WIDTH_PX a frame). A
         // ring that jumped has no motion to go by.
-        self.motion_known = self.last.is_some_and(|l| {
-            l.velocity_to(&ring).is_some() && {
-                let gap = (index - l.index) as f64;
-                (ring.c - l.c).abs() <= SEARCH_HALF_WIDTH_PX * gap
-                    || (self.prev.and_then(|q| q.velocity_to(&l)))
-                        .is_some_and(|v| (ring.c - l.c - v * gap).abs() <= JUMP_PX * gap)
-            }
-        });
+        let before = self
+            .prev
+            .zip(self.last)
+            .and_then(|(q, l)| q.velocity_to(&l));
+        self.motion_known = self
+            .last
+            .and_then(|l| l.velocity_to(&ring))
+            .is_some_and(|v| {
+                v.abs() <= SEARCH_HALF_WIDTH_PX || before.is_some_and(|u| (v - u).abs() <= JUMP_PX)
+            });
         self.prev = self.last;
         self.last = Some(ring);
         self.anchor = None;
