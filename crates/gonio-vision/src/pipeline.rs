@@ -123,30 +123,41 @@ impl StageObserver for StageImages {
 }
 
 /// The row-local stages, from camera rows to segmented edges, chained to `N`.
-type Front<N> = Then<BlackTopHat, Then<Opening, Then<BlurSobel, Then<Segmenter, N>>>>;
+pub(crate) type Front<N> = Then<BlackTopHat, Then<Opening, EdgeStages<N>>>;
+/// The row-local stages from the morphology's output to segmented edges, chained to `N`.
+pub(crate) type EdgeStages<N> = Then<BlurSobel, Then<Segmenter, N>>;
 /// The stages that see the whole frame's edges in order: filling and labelling.
 type Back = Then<EdgeFill, Labeller>;
 /// The detector's stages, chained.
 type Cascade = Front<Back>;
 
 /// The row-local stages of a detector with parameters `p`, chained to `next`.
-fn front<N>(p: &Params, next: N) -> Front<N> {
-    fn then<S, N>(stage: S, next: N) -> Then<S, N> {
-        Then { stage, next }
+pub(crate) fn front<N>(p: &Params, next: N) -> Front<N> {
+    let w = p.width;
+    Then {
+        stage: BlackTopHat::new(w, Disk::new(p.close_radius_px)),
+        next: Then {
+            stage: Opening::new(w, Disk::new(p.open_radius_px)),
+            next: edge_stages(p, next),
+        },
     }
+}
+
+/// The blur, Sobel and segmentation of a detector with parameters `p`, chained to `next`.
+pub(crate) fn edge_stages<N>(p: &Params, next: N) -> EdgeStages<N> {
     let w = p.width;
     let seg = SegmentParams {
         low: p.grad_low,
         high: p.grad_high,
         tan_q10: p.tan_tolerance_q10,
     };
-    then(
-        BlackTopHat::new(w, Disk::new(p.close_radius_px)),
-        then(
-            Opening::new(w, Disk::new(p.open_radius_px)),
-            then(BlurSobel::new(w), then(Segmenter::new(w, seg), next)),
-        ),
-    )
+    Then {
+        stage: BlurSobel::new(w),
+        next: Then {
+            stage: Segmenter::new(w, seg),
+            next,
+        },
+    }
 }
 
 /// The streaming baseline detector.
@@ -269,7 +280,7 @@ fn rows_above(frame: &[u8], w: usize, y: usize) -> Option<(&[u8], &[u8])> {
     (y >= 2).then(|| (&frame[(y - 2) * w..(y - 1) * w], &frame[(y - 1) * w..y * w]))
 }
 
-fn labeller(p: &Params, record_all: bool) -> Labeller {
+pub(crate) fn labeller(p: &Params, record_all: bool) -> Labeller {
     Labeller::new(p.width, p.height, record_all)
         .min_rows(p.min_fragment_rows)
         .keep_pixels(p.max_edge_pixels)
@@ -636,7 +647,7 @@ pub const SEAM_FRACTION: f64 = 0.43;
 
 /// Copies a camera row into a cascade's input, inverted for a bright ring.
 #[inline(always)]
-fn take_row(input: &mut [u8], row: &[u8], invert: bool) {
+pub(crate) fn take_row(input: &mut [u8], row: &[u8], invert: bool) {
     if invert {
         for (o, &v) in input.iter_mut().zip(row) {
             *o = 255 - v;

@@ -22,15 +22,21 @@
 use crate::focus::FrameFocus;
 use crate::label::{Component, EdgeList, EdgePixel};
 use crate::optics::Params;
-use crate::pipeline::{Detector, RawSums};
+use crate::pipeline::{Detector, FrameParts, RawSums};
 use crate::select::{Selection, select};
+
+use super::strips::Strips;
 
 /// Columns on either side of a pixel that the stages up to the edge filling read, px: the
 /// closing (dilation and erosion by the 2d + 1 disk), the opening (two ≈ d/2 disks), the 5×5
 /// blur, Sobel, the non-maximum suppression and the filling (one each).
 pub fn stage_reach_px(p: &Params) -> usize {
-    2 * p.close_radius_px + 2 * p.open_radius_px + 2 + 1 + 1 + 1
+    2 * p.close_radius_px + 2 * p.open_radius_px + EDGE_STAGES_REACH_PX
 }
+
+/// Pixels on either side (columns or rows) that the stages after the morphology read, px: the
+/// 5×5 blur, Sobel, the non-maximum suppression and the filling.
+pub(crate) const EDGE_STAGES_REACH_PX: usize = 2 + 1 + 1 + 1;
 
 /// Where a band lies in the frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -90,9 +96,10 @@ pub(crate) struct BandFrame {
     pub selection: Selection,
     /// Where the band lay.
     pub place: Placement,
-    /// Connected components in the band (cut ones included).
+    /// Connected components wholly on the band's exact columns, not touching a cut side's
+    /// first exact column (the whole frame's components there).
     pub components: usize,
-    /// The band's positioned edge pixels.
+    /// The positioned edge pixels on the band's exact columns (the whole frame's there).
     pub pixels: usize,
     /// A component left out because a cut side of the band touches it reaches into the
     /// columns searched: the band cannot tell what it is in the whole frame.
@@ -108,6 +115,9 @@ const WIDTHS: usize = 3;
 pub(crate) struct Band {
     /// Detectors as wide as the bands lately used, the latest last.
     dets: Vec<Detector>,
+    /// The stages over strips of a band's rows side by side ([`Strips`]), for the widths lately
+    /// used.
+    strips: Vec<Strips>,
     cands: Vec<Component>,
     /// The band's edge pixels in the frame's columns, for the selection (kept from frame to
     /// frame).
@@ -117,6 +127,38 @@ pub(crate) struct Band {
 }
 
 impl Band {
+    /// Where in `dets` the detector for bands `width` columns wide is (made if none is kept;
+    /// the last).
+    fn detector_for(&mut self, width: usize, p: &Params) -> usize {
+        match self.dets.iter().position(|d| d.params().width == width) {
+            Some(k) => {
+                let d = self.dets.remove(k);
+                self.dets.push(d);
+            }
+            None => {
+                if self.dets.len() == WIDTHS {
+                    self.dets.remove(0);
+                }
+                self.dets
+                    .push(Detector::from_params(Params { width, ..p.clone() }));
+            }
+        }
+        self.dets.len() - 1
+    }
+
+    /// Where in `strips` the stages for bands `width` columns wide are (made if none are
+    /// kept); `None` when the window is too short for strips ([`Strips::new`]).
+    fn strips_for(&mut self, width: usize, p: &Params) -> Option<usize> {
+        if let Some(k) = self.strips.iter().position(|s| s.width() == width) {
+            return Some(k);
+        }
+        let st = Strips::new(width, p)?;
+        if self.strips.len() == WIDTHS {
+            self.strips.remove(0);
+        }
+        self.strips.push(st);
+        Some(self.strips.len() - 1)
+    }
     /// Runs the stages over the band of `frame` (the whole window, `p`'s size) whose exact
     /// columns hold the searched columns `search` widened by `guard` px on both sides, and
     /// selects the ring among its components with the saturated runs of the whole frame. The
@@ -130,40 +172,61 @@ impl Band {
         frame: &[u8],
         search: (f64, f64),
         guard: f64,
+        stats: (&mut RawSums, &mut FrameFocus),
+        p: &Params,
+    ) -> Option<BandFrame> {
+        self.select_laid_out(frame, search, guard, stats, p, true)
+    }
+
+    /// [`Band::select`], in strips ([`Strips`]) only if `in_strips` (and where they can be:
+    /// both sides cut, the window tall enough).
+    fn select_laid_out(
+        &mut self,
+        frame: &[u8],
+        search: (f64, f64),
+        guard: f64,
         (raw, focus): (&mut RawSums, &mut FrameFocus),
         p: &Params,
+        in_strips: bool,
     ) -> Option<BandFrame> {
         let (w, h) = (p.width, p.height);
         let place = Placement::of(search.0 - guard, search.1 + guard, p)?;
-        // A detector as wide as the band.
-        match self
-            .dets
-            .iter()
-            .position(|d| d.params().width == place.width)
-        {
-            Some(k) => {
-                let d = self.dets.remove(k);
-                self.dets.push(d);
+        let (x0, bw) = (place.x0, place.width);
+        // The stages after the morphology over strips of the band's rows side by side where
+        // both its sides are cut (a frame side must be a row's end), else the band's rows as
+        // they are.
+        let strips = (in_strips && x0 > 0 && x0 + bw < w)
+            .then(|| self.strips_for(bw, p))
+            .flatten();
+        let parts = match strips {
+            Some(i) => {
+                let st = &mut self.strips[i];
+                // As below: each row's raw statistics, then its band into the stages.
+                for y in 0..h {
+                    raw.add_row(focus, frame, (w, h), y);
+                    st.push(y, &frame[y * w + x0..y * w + x0 + bw]);
+                }
+                let label = st.finish();
+                let components = label.component_count();
+                let (cands, edges) = label.candidates_and_edges();
+                FrameParts {
+                    cands,
+                    components,
+                    edges,
+                }
             }
             None => {
-                if self.dets.len() == WIDTHS {
-                    self.dets.remove(0);
+                let k = self.detector_for(bw, p);
+                let det = &mut self.dets[k];
+                // One pass over the frame: each row's raw statistics, then its band into the
+                // stages while the row is in the L1 cache.
+                for y in 0..h {
+                    raw.add_row(focus, frame, (w, h), y);
+                    det.push_stages(&frame[y * w + x0..y * w + x0 + bw]).ok()?;
                 }
-                self.dets.push(Detector::from_params(Params {
-                    width: place.width,
-                    ..p.clone()
-                }));
+                det.finish_parts().ok()?
             }
-        }
-        let det = self.dets.last_mut()?;
-        let (x0, bw) = (place.x0, place.width);
-        // One pass over the frame: each row's raw statistics, then its band into the stages
-        // while the row is in the L1 cache.
-        for y in 0..h {
-            raw.add_row(focus, frame, (w, h), y);
-            det.push_stages(&frame[y * w + x0..y * w + x0 + bw]).ok()?;
-        }
-        let parts = det.finish_parts().ok()?;
+        };
         let (e0, e1) = place.exact;
         let in_search = |lo: usize, hi: usize| hi as f64 >= search.0 && lo as f64 <= search.1;
         let mut cut_in_search = false;
@@ -206,7 +269,12 @@ impl Band {
                 ..*e
             });
         }
-        let components = parts.components;
+        let exact_pixels = out.len();
+        // The components a cut side touches (or beyond it) are those with a positioned pixel
+        // there or a candidate's range reaching there: a filled pixel has a positioned
+        // neighbour on its side of the first exact column. What is left lies wholly on the
+        // exact columns: the whole frame's components there, however the band was laid out.
+        let components = parts.components.saturating_sub(self.cut.len());
         self.edges
             .resolve_pixels(h, p.max_edge_pixels.max(n_pixels));
         let selection = select(&self.cands, &mut self.edges, raw.saturated_runs(), p);
@@ -214,7 +282,7 @@ impl Band {
             selection,
             place,
             components,
-            pixels: n_pixels,
+            pixels: exact_pixels,
             cut_in_search,
         })
     }
@@ -281,6 +349,86 @@ mod tests {
         );
     }
 
+    /// The band in strips side by side and the band's rows as they are give the same result:
+    /// the same selection, components, pixels and cut components, on frames of lines and noise
+    /// with bands all across the frame (those at its sides run as they are either way).
+    #[test]
+    fn the_strips_select_what_the_band_selects() {
+        let optics = Optics {
+            window_width_px: 640,
+            window_height_px: 320,
+            ..Optics::default()
+        };
+        let p = optics.params().unwrap();
+        let frame = lines_and_noise(p.width, p.height, 0x2545_f491_4f6c_dd1d);
+        let (mut strips, mut plain) = (Band::default(), Band::default());
+        let mut stats = (RawSums::default(), FrameFocus::default());
+        let mut laid_out = 0;
+        for k in 0..30 {
+            let first = -20.0 + 23.7 * k as f64;
+            let search = (first, first + 25.0 + (k % 4) as f64 * 9.0);
+            let (a, b) = (
+                strips.select_laid_out(&frame, search, 3.0, (&mut stats.0, &mut stats.1), &p, true),
+                plain.select_laid_out(&frame, search, 3.0, (&mut stats.0, &mut stats.1), &p, false),
+            );
+            let (Some(a), Some(b)) = (a, b) else {
+                panic!("band {search:?}: the band is the whole frame");
+            };
+            assert_eq!(
+                (
+                    &a.selection,
+                    a.place,
+                    a.components,
+                    a.pixels,
+                    a.cut_in_search
+                ),
+                (
+                    &b.selection,
+                    b.place,
+                    b.components,
+                    b.pixels,
+                    b.cut_in_search
+                ),
+                "band {search:?}"
+            );
+            // The pixels handed to the selection: the same, with the same components but
+            // where a cut side touches them (their ids then come from the cut margin).
+            let cut = |band: &Band, c: u32| band.cut.binary_search(&c).is_ok();
+            let (pa, pb) = (
+                strips.edges.pixels().unwrap().to_vec(),
+                plain.edges.pixels().unwrap().to_vec(),
+            );
+            assert_eq!(pa.len(), pb.len(), "band {search:?}");
+            for (x, y) in pa.iter().zip(&pb) {
+                let same_comp = x.comp == y.comp || (cut(&strips, x.comp) && cut(&plain, y.comp));
+                assert!(
+                    same_comp && EdgePixel { comp: 0, ..*x } == EdgePixel { comp: 0, ..*y },
+                    "band {search:?}: {x:?} / {y:?}"
+                );
+            }
+            laid_out += usize::from(a.place.x0 > 0 && a.place.x0 + a.place.width < p.width);
+        }
+        assert!(
+            !strips.strips.is_empty() && laid_out >= 20,
+            "{laid_out} bands in strips"
+        );
+    }
+
+    /// A frame `w` × `h` of dark lines 37 px apart, a wider one at column 300, and noise.
+    fn lines_and_noise(w: usize, h: usize, seed: u64) -> Vec<u8> {
+        let mut s = seed;
+        (0..w * h)
+            .map(|i| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let x = (i % w) as f64 + 0.05 * (i / w) as f64;
+                let dark = (x % 37.0) < 6.0 + (s % 3) as f64 || (x - 300.0).abs() < 5.5;
+                (if dark { 60 } else { 150 }) + (s >> 58) as u8
+            })
+            .collect()
+    }
+
     /// On the exact columns the band's edge pixels are the whole frame's, bit for bit: for a
     /// band inside the frame and one at each of its sides.
     #[test]
@@ -292,17 +440,7 @@ mod tests {
         };
         let p = optics.params().unwrap();
         let (w, h) = (p.width, p.height);
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let frame: Vec<u8> = (0..w * h)
-            .map(|i| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                let x = (i % w) as f64 + 0.05 * (i / w) as f64;
-                let dark = (x % 37.0) < 6.0 + (s % 3) as f64 || (x - 300.0).abs() < 5.5;
-                (if dark { 60 } else { 150 }) + (s >> 58) as u8
-            })
-            .collect();
+        let frame = lines_and_noise(w, h, 0x9e37_79b9_7f4a_7c15);
         let pixels_of = |det: &mut Detector, x0: usize, bw: usize| -> Vec<EdgePixel> {
             for row in frame.chunks_exact(w) {
                 det.push_row(&row[x0..x0 + bw]).unwrap();

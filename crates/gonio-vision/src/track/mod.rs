@@ -25,7 +25,7 @@
 //! - **What differs**: the frame's curvature (the median of the long clean edges' curvatures)
 //!   is taken from the band's edges, which bends only short pieces of an edge and the pixel
 //!   gates of the refit's first step, not the fit that gives c; `components` counts the
-//!   band's components; and the band cannot see a ring candidate elsewhere in the frame.
+//!   components wholly on the band's exact columns; and the band cannot see a ring candidate elsewhere in the frame.
 //!   `score` and `margin` are therefore the last whole frame's, scaled by how the ring's own
 //!   score changed since ([`Tracker`]). A candidate elsewhere is a concentric edge pair or a
 //!   defect passing by; the last whole frame saw the concentric ones (tracking starts only
@@ -51,8 +51,12 @@
 //! time (BENCHMARKS.md). The frame is read once: row by row, its raw statistics and then its
 //! band into the stages, while the row is in the L1 cache (the sums are integers added in row
 //! order, the values of a separate pass; the stages get the same rows in the same order). The
-//! edge list handed to the selection keeps its storage from frame to frame. Written here
-//! because it is the detector's product, not a general tracker.
+//! stages after the morphology (blur, Sobel, segmentation, filling), whose cost on a band two
+//! 64-byte steps wide is as much per row as per step, run over four strips of the band's rows
+//! side by side (`track::strips`: each strip's seams are cut sides like the band's own, its
+//! rows five more than a quarter at either end; ≈ 10 % off a tracked frame). The edge list
+//! handed to the selection keeps its storage from frame to frame. Written here because it is
+//! the detector's product, not a general tracker.
 //!
 //! Errors: [`VisionError::FrameSize`] for a frame of the wrong size, as the whole detector.
 //!
@@ -73,6 +77,7 @@
 //! ```
 
 mod band;
+mod strips;
 
 pub use band::stage_reach_px;
 
@@ -113,8 +118,8 @@ pub const KEEP_FOCUS: f64 = 0.5;
 pub const ANCHOR_TOL_PX: f64 = 0.01;
 /// The whole frame is measured again after at most this many frames measured in the band.
 pub const RECHECK_FRAMES: u64 = 256;
-/// A band whose edge pixels, spread over the whole frame, would fill more than this fraction
-/// of the whole frame's edge list.
+/// A band whose edge pixels on its exact columns, spread over the whole frame at their density
+/// there, would fill more than this fraction of the whole frame's edge list.
 pub const DENSE_FRACTION: f64 = 0.5;
 
 /// Why a frame was measured whole rather than in the band.
@@ -446,9 +451,8 @@ impl Tracker {
         {
             return Err(Fallback::AtBorder);
         }
-        if b.pixels as f64 * w as f64 / b.place.width as f64
-            > DENSE_FRACTION * p.max_edge_pixels as f64
-        {
+        let exact_cols = (b.place.exact.1 + 1 - b.place.exact.0) as f64;
+        if b.pixels as f64 * w as f64 / exact_cols > DENSE_FRACTION * p.max_edge_pixels as f64 {
             return Err(Fallback::Dense);
         }
         let saturated =

@@ -1,0 +1,281 @@
+//! A band's stages after the morphology over strips of its rows side by side: the same edges
+//! from fewer, wider rows.
+//!
+//! A band is two 64-byte steps wide, and a row of two steps pays each stage's fixed cost per
+//! row (the row's ends, the ring slots, the calls) over little work. The morphology's kernels
+//! keep their state in registers over batches of rows and cost by the step, so the top-hat and
+//! the opening run over the band's rows as they are. The blur, Sobel, the segmentation and the
+//! filling, which cost by the row as much as by the step, run over rows [`STRIPS`] times the
+//! band's width: strip j (t = ⌈h/4⌉ rows of the band and R = [`EDGE_STAGES_REACH_PX`] more
+//! on either side, those stages reading rows as far as they read columns) holds the opened
+//! rows from j·t − R on (0 for the first, h − t − 2R at most for the last). Each strip's top
+//! and bottom are treated as the frame's, so its rows j·t … (j + 1)·t − 1, R or more from a
+//! cut end or at the frame's own, are the band's own, bit for bit, on every column the band
+//! makes exactly: a seam between two strips is a cut side of each, like the band's own sides,
+//! and reaches no further into it than they do. The labeller then takes the band's rows in
+//! order, the first strip's as they come and the others' held until then (pixels' rows and
+//! columns made the band's): it sees what the band's own stages give on every exact column,
+//! so [`super::band`]'s reasoning about exact and cut columns holds unchanged. Only a band
+//! with both sides cut can use it (a frame side must be a row's end), in a window of at least
+//! 16R rows. On the station's window (540 rows) four strips of 145 rows take ≈ 10 % off a
+//! tracked frame (BENCHMARKS.md).
+//!
+//! Units: rows and columns are the band's pixels. Allocates its rings and a copy of the
+//! band's opened rows when made, and its held rows on the first frame.
+
+use crate::buffer::Aligned;
+use crate::fill::EdgeFill;
+use crate::label::{EdgePixel, Labeller};
+use crate::morphology::{BlackTopHat, Disk, Opening};
+use crate::optics::Params;
+use crate::pipeline::{EdgeStages, edge_stages, labeller, take_row};
+use crate::rows::{LastSink, RowBlock, RowSink, StageObserver, Then};
+use crate::segment::SparseEdgeRow;
+
+use super::band::EDGE_STAGES_REACH_PX;
+
+/// Strips side by side: with a row's fixed cost in those stages about that of one and a half
+/// 64-byte steps, (1.5 + 2n)·(h/n + 2R) steps for a band of two falls from 3.5 h (n = 1) to
+/// within 2 % of its least by n = 4 on the station's window; eight measured no faster.
+pub(crate) const STRIPS: usize = 4;
+
+/// The band's morphology, the stages after it over strips of the band's rows side by side,
+/// and the band's labeller (see the module documentation).
+#[derive(Debug, Clone)]
+pub(crate) struct Strips {
+    line: Then<BlackTopHat, Then<Opening, Lay>>,
+    /// The band's width, px.
+    width: usize,
+    invert: bool,
+}
+
+impl Strips {
+    /// The stages for bands of `band_width` columns (a multiple of 64) of frames with `p`;
+    /// `None` for a window shorter than 16R rows, where the strips' overlap would cost much
+    /// of what they save (or a width not a multiple of 64).
+    pub(crate) fn new(band_width: usize, p: &Params) -> Option<Strips> {
+        let (h, n, reach) = (p.height, STRIPS, EDGE_STAGES_REACH_PX);
+        let t = h.div_ceil(n);
+        let strip_rows = t + 2 * reach;
+        if !band_width.is_multiple_of(64) || t < 4 * reach || strip_rows > h {
+            return None;
+        }
+        // Strip j: the opened rows from starts[j] on; its rows j·t … (j + 1)·t − 1 are the
+        // band's own (R or more from a cut end of the strip, or at the frame's).
+        let starts: Vec<usize> = (0..n)
+            .map(|j| (j * t).saturating_sub(reach).min(h - strip_rows))
+            .collect();
+        let wide = Params {
+            width: n * band_width,
+            height: strip_rows,
+            ..p.clone()
+        };
+        let band = Params {
+            width: band_width,
+            ..p.clone()
+        };
+        let rejoin = Rejoin {
+            input: SparseEdgeRow::new(n * band_width),
+            row: SparseEdgeRow::new(band_width),
+            labeller: labeller(&band, false),
+            held: Vec::new(),
+            k: 0,
+            t,
+            starts: starts.clone(),
+            height: h,
+            width: band_width,
+        };
+        let lay = Lay {
+            rows: Aligned::new(h * band_width, 0),
+            y: 0,
+            starts,
+            height: h,
+            width: band_width,
+            edges: edge_stages(
+                &wide,
+                Then {
+                    stage: EdgeFill::new(n * band_width),
+                    next: rejoin,
+                },
+            ),
+        };
+        Some(Strips {
+            line: Then {
+                stage: BlackTopHat::new(band_width, Disk::new(p.close_radius_px)),
+                next: Then {
+                    stage: Opening::new(band_width, Disk::new(p.open_radius_px)),
+                    next: lay,
+                },
+            },
+            width: band_width,
+            invert: p.invert,
+        })
+    }
+
+    /// The band's width, px.
+    pub(crate) fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Pushes the band's row `y` (`width()` pixels); row 0 starts a frame.
+    pub(crate) fn push(&mut self, y: usize, row: &[u8]) {
+        if y == 0 {
+            self.line.reset();
+        }
+        take_row(self.line.input(), row, self.invert);
+        self.line.pushed(&mut ());
+    }
+
+    /// Ends the frame once every row is in: the labeller has the band's rows.
+    pub(crate) fn finish(&mut self) -> &mut Labeller {
+        self.line.finish(&mut ());
+        self.line.last_sink()
+    }
+}
+
+/// The band's opened rows into the stages after the morphology as the strips' rows: row k of
+/// the strips is the opened rows `starts[j]` + k side by side.
+#[derive(Debug, Clone)]
+struct Lay {
+    /// The frame's opened rows, `width` each (the opening writes its batches of rows here).
+    rows: Aligned<u8>,
+    /// Opened rows received in this frame.
+    y: usize,
+    /// Each strip's first opened row.
+    starts: Vec<usize>,
+    height: usize,
+    width: usize,
+    edges: EdgeStages<Then<EdgeFill, Rejoin>>,
+}
+
+impl LastSink for Lay {
+    type Sink = Labeller;
+    fn last_sink(&mut self) -> &mut Labeller {
+        self.edges.last_sink()
+    }
+}
+
+impl RowSink for Lay {
+    type Row = [u8];
+    fn input(&mut self) -> &mut [u8] {
+        let bw = self.width;
+        &mut self.rows[self.y * bw..(self.y + 1) * bw]
+    }
+    fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
+        (self.y + n <= self.height).then(|| RowBlock {
+            first: self.y * self.width,
+            stride: self.width,
+            buf: &mut self.rows[..],
+        })
+    }
+    fn pushed<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
+        let (y, bw) = (self.y, self.width);
+        self.y += 1;
+        // Row k of the strips is complete when the last strip's row k has come.
+        let Some(k) = y.checked_sub(self.starts[self.starts.len() - 1]) else {
+            return;
+        };
+        let row = self.edges.input();
+        for (j, &a) in self.starts.iter().enumerate() {
+            let r = a + k;
+            row[j * bw..(j + 1) * bw].copy_from_slice(&self.rows[r * bw..(r + 1) * bw]);
+        }
+        self.edges.pushed(obs);
+    }
+    fn finish<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
+        self.edges.finish(obs);
+    }
+    fn reset(&mut self) {
+        self.y = 0;
+        self.edges.reset();
+    }
+    fn lag(&self) -> usize {
+        self.starts[self.starts.len() - 1] + self.edges.lag()
+    }
+}
+
+/// The filled rows of the strips into the band's labeller, in the band's row order.
+#[derive(Debug, Clone)]
+struct Rejoin {
+    /// The strips' filled row.
+    input: SparseEdgeRow,
+    /// One strip's part of it, for the labeller.
+    row: SparseEdgeRow,
+    labeller: Labeller,
+    /// The band's rows t … h − 1, held until rows 0 … t − 1 are in.
+    held: Vec<SparseEdgeRow>,
+    /// Rows of the strips received in this frame.
+    k: usize,
+    /// The band's rows each strip gives.
+    t: usize,
+    /// Each strip's first band row.
+    starts: Vec<usize>,
+    height: usize,
+    /// The band's width, px.
+    width: usize,
+}
+
+impl Rejoin {
+    /// The pixels of `from` in columns `x0 .. x0 + 64·to.bits.len()` (`from` sorted by column)
+    /// into `to`, moved left by `x0` and into row `row`, with their bit words.
+    fn take(to: &mut SparseEdgeRow, from: &SparseEdgeRow, x0: usize, row: u16) {
+        let (w0, n) = (x0 / 64, to.bits.len());
+        to.bits.copy_from_slice(&from.bits[w0..w0 + n]);
+        let px = &from.pixels;
+        let lo = px.partition_point(|p| (p.col as usize) < x0);
+        let hi = lo + px[lo..].partition_point(|p| (p.col as usize) < x0 + 64 * n);
+        to.pixels.clear();
+        to.pixels.extend(px[lo..hi].iter().map(|p| EdgePixel {
+            col: p.col - x0 as u16,
+            row,
+            ..*p
+        }));
+    }
+}
+
+impl LastSink for Rejoin {
+    type Sink = Labeller;
+    fn last_sink(&mut self) -> &mut Labeller {
+        &mut self.labeller
+    }
+}
+
+impl RowSink for Rejoin {
+    type Row = SparseEdgeRow;
+    fn input(&mut self) -> &mut SparseEdgeRow {
+        &mut self.input
+    }
+    fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
+        let (k, bw, t) = (self.k, self.width, self.t);
+        self.k += 1;
+        for (j, &a) in self.starts.iter().enumerate() {
+            let y = a + k;
+            if y < j * t || y >= ((j + 1) * t).min(self.height) {
+                continue;
+            }
+            if j == 0 {
+                Rejoin::take(&mut self.row, &self.input, 0, y as u16);
+                self.labeller.push_sparse(&self.row);
+            } else {
+                let i = y - t;
+                while self.held.len() <= i {
+                    self.held.push(SparseEdgeRow::new(bw));
+                }
+                Rejoin::take(&mut self.held[i], &self.input, j * bw, y as u16);
+            }
+        }
+    }
+    fn finish<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
+        for row in &self.held[..self.height - self.t] {
+            self.labeller.push_sparse(row);
+        }
+        self.labeller.finish();
+    }
+    fn reset(&mut self) {
+        self.k = 0;
+        self.labeller.reset();
+    }
+    fn lag(&self) -> usize {
+        0
+    }
+}
