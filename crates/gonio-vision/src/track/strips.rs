@@ -216,17 +216,15 @@ struct Rejoin {
 }
 
 impl Rejoin {
-    /// The pixels of `from` in columns `x0 .. x0 + 64·to.bits.len()` (`from` sorted by column)
-    /// into `to`, moved left by `x0` and into row `row`, with their bit words.
-    fn take(to: &mut SparseEdgeRow, from: &SparseEdgeRow, x0: usize, row: u16) {
-        let (w0, n) = (x0 / 64, to.bits.len());
-        to.bits.copy_from_slice(&from.bits[w0..w0 + n]);
-        let px = &from.pixels;
-        let lo = px.partition_point(|p| (p.col as usize) < x0);
-        let hi = lo + px[lo..].partition_point(|p| (p.col as usize) < x0 + 64 * n);
+    /// Strip `j`'s part of the strips' row (`bits`, and `pixels`, those of its columns) into
+    /// `to`, columns moved left by j·width and the pixels into row `row`.
+    fn take(to: &mut SparseEdgeRow, bits: &[u64], pixels: &[EdgePixel], j: usize, row: u16) {
+        let n = to.bits.len();
+        to.bits.copy_from_slice(&bits[j * n..(j + 1) * n]);
+        let x0 = (64 * n * j) as u16;
         to.pixels.clear();
-        to.pixels.extend(px[lo..hi].iter().map(|p| EdgePixel {
-            col: p.col - x0 as u16,
+        to.pixels.extend(pixels.iter().map(|p| EdgePixel {
+            col: p.col - x0,
             row,
             ..*p
         }));
@@ -248,20 +246,27 @@ impl RowSink for Rejoin {
     fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
         let (k, bw, t) = (self.k, self.width, self.t);
         self.k += 1;
+        let (bits, pixels) = (&self.input.bits[..], &self.input.pixels[..]);
+        // The pixels are in column order: each strip's are the next ones left of its end.
+        let mut lo = 0;
         for (j, &a) in self.starts.iter().enumerate() {
+            let end = ((j + 1) * bw) as u16;
+            let hi = lo + pixels[lo..].iter().take_while(|p| p.col < end).count();
+            let px = &pixels[lo..hi];
+            lo = hi;
             let y = a + k;
             if y < j * t || y >= ((j + 1) * t).min(self.height) {
                 continue;
             }
             if j == 0 {
-                Rejoin::take(&mut self.row, &self.input, 0, y as u16);
+                Rejoin::take(&mut self.row, bits, px, j, y as u16);
                 self.labeller.push_sparse(&self.row);
             } else {
                 let i = y - t;
                 while self.held.len() <= i {
                     self.held.push(SparseEdgeRow::new(bw));
                 }
-                Rejoin::take(&mut self.held[i], &self.input, j * bw, y as u16);
+                Rejoin::take(&mut self.held[i], bits, px, j, y as u16);
             }
         }
     }
