@@ -57,7 +57,7 @@ impl Strips {
         let (h, n, reach) = (p.height, STRIPS, EDGE_STAGES_REACH_PX);
         let t = h.div_ceil(n);
         let strip_rows = t + 2 * reach;
-        if !band_width.is_multiple_of(64) || t < 4 * reach || strip_rows > h {
+        if !band_width.is_multiple_of(64) || h < 16 * reach {
             return None;
         }
         // Strip j: the opened rows from starts[j] on; its rows j·t … (j + 1)·t − 1 are the
@@ -282,5 +282,30 @@ impl RowSink for Rejoin {
     }
     fn lag(&self) -> usize {
         0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Optics;
+
+    /// Strips need a window of 16R rows (each strip's quarter at least four times the rows it
+    /// shares with its neighbours) and a band a whole number of 64-byte steps wide.
+    #[test]
+    fn strips_need_a_tall_enough_window_and_whole_steps() {
+        let params = |h: usize| {
+            Optics {
+                window_width_px: 640,
+                window_height_px: h as u32,
+                ..Optics::default()
+            }
+            .params()
+            .unwrap()
+        };
+        let r = EDGE_STAGES_REACH_PX;
+        assert!(Strips::new(128, &params(16 * r - 1)).is_none());
+        assert!(Strips::new(128, &params(16 * r)).is_some());
+        assert!(Strips::new(96, &params(540)).is_none());
     }
 }
