@@ -123,7 +123,9 @@ impl StageObserver for StageImages {
 }
 
 /// The row-local stages, from camera rows to segmented edges, chained to `N`.
-pub(crate) type Front<N> = Then<BlackTopHat, Then<Opening, EdgeStages<N>>>;
+type Front<N> = Morphology<EdgeStages<N>>;
+/// The morphology: the black top-hat and the opening of it, chained to `N`.
+pub(crate) type Morphology<N> = Then<BlackTopHat, Then<Opening, N>>;
 /// The row-local stages from the morphology's output to segmented edges, chained to `N`.
 pub(crate) type EdgeStages<N> = Then<BlurSobel, Then<Segmenter, N>>;
 /// The stages that see the whole frame's edges in order: filling and labelling.
@@ -132,13 +134,18 @@ type Back = Then<EdgeFill, Labeller>;
 type Cascade = Front<Back>;
 
 /// The row-local stages of a detector with parameters `p`, chained to `next`.
-pub(crate) fn front<N>(p: &Params, next: N) -> Front<N> {
+fn front<N>(p: &Params, next: N) -> Front<N> {
+    morphology(p, edge_stages(p, next))
+}
+
+/// The top-hat and opening of a detector with parameters `p`, chained to `next`.
+pub(crate) fn morphology<N>(p: &Params, next: N) -> Morphology<N> {
     let w = p.width;
     Then {
         stage: BlackTopHat::new(w, Disk::new(p.close_radius_px)),
         next: Then {
             stage: Opening::new(w, Disk::new(p.open_radius_px)),
-            next: edge_stages(p, next),
+            next,
         },
     }
 }
@@ -271,6 +278,19 @@ pub(crate) struct FrameParts<'a> {
     pub components: usize,
     /// The frame's edge pixels.
     pub edges: &'a mut EdgeList,
+}
+
+impl<'a> FrameParts<'a> {
+    /// What a labeller that has taken a whole frame's rows holds.
+    pub(crate) fn of(label: &'a mut Labeller) -> FrameParts<'a> {
+        let components = label.component_count();
+        let (cands, edges) = label.candidates_and_edges();
+        FrameParts {
+            cands,
+            components,
+            edges,
+        }
+    }
 }
 
 /// Rows y − 2 and y − 1 of a whole frame of rows `w` wide (what the focus measure of row y
@@ -480,14 +500,7 @@ impl Detector {
         }
         self.line.finish(&mut ());
         self.rows = 0;
-        let label = self.line.last_sink();
-        let components = label.component_count();
-        let (cands, edges) = label.candidates_and_edges();
-        Ok(FrameParts {
-            cands,
-            components,
-            edges,
-        })
+        Ok(FrameParts::of(self.line.last_sink()))
     }
 
     /// The frame's result once every row has reached the labeller.

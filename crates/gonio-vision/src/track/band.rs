@@ -127,38 +127,23 @@ pub(crate) struct Band {
 }
 
 impl Band {
-    /// Where in `dets` the detector for bands `width` columns wide is (made if none is kept;
-    /// the last).
+    /// Where in `dets` the detector for bands `width` columns wide is ([`kept`]).
     fn detector_for(&mut self, width: usize, p: &Params) -> usize {
-        match self.dets.iter().position(|d| d.params().width == width) {
-            Some(k) => {
-                let d = self.dets.remove(k);
-                self.dets.push(d);
-            }
-            None => {
-                if self.dets.len() == WIDTHS {
-                    self.dets.remove(0);
-                }
-                self.dets
-                    .push(Detector::from_params(Params { width, ..p.clone() }));
-            }
-        }
-        self.dets.len() - 1
+        let make = || Some(Detector::from_params(Params { width, ..p.clone() }));
+        kept(&mut self.dets, |d| d.params().width == width, make)
+            .expect("a detector can always be made")
     }
 
-    /// Where in `strips` the stages for bands `width` columns wide are (made if none are
-    /// kept); `None` when the window is too short for strips ([`Strips::new`]).
+    /// Where in `strips` the stages for bands `width` columns wide are ([`kept`]); `None` when
+    /// the window is too short for strips ([`Strips::new`]).
     fn strips_for(&mut self, width: usize, p: &Params) -> Option<usize> {
-        if let Some(k) = self.strips.iter().position(|s| s.width() == width) {
-            return Some(k);
-        }
-        let st = Strips::new(width, p)?;
-        if self.strips.len() == WIDTHS {
-            self.strips.remove(0);
-        }
-        self.strips.push(st);
-        Some(self.strips.len() - 1)
+        kept(
+            &mut self.strips,
+            |s| s.width() == width,
+            || Strips::new(width, p),
+        )
     }
+
     /// Runs the stages over the band of `frame` (the whole window, `p`'s size) whose exact
     /// columns hold the searched columns `search` widened by `guard` px on both sides, and
     /// selects the ring among its components with the saturated runs of the whole frame. The
@@ -206,14 +191,7 @@ impl Band {
                     raw.add_row(focus, frame, (w, h), y);
                     st.push(y, &frame[y * w + x0..y * w + x0 + bw]);
                 }
-                let label = st.finish();
-                let components = label.component_count();
-                let (cands, edges) = label.candidates_and_edges();
-                FrameParts {
-                    cands,
-                    components,
-                    edges,
-                }
+                FrameParts::of(st.finish())
             }
             None => {
                 let k = self.detector_for(bw, p);
@@ -286,6 +264,28 @@ impl Band {
             cut_in_search,
         })
     }
+}
+
+/// Where in `kept` (the last [`WIDTHS`] used, the latest last) the one that `is` is: moved to
+/// the end, or made by `make` and pushed there (the least lately used dropped); `None` when
+/// none is kept and `make` makes none.
+fn kept<T>(
+    kept: &mut Vec<T>,
+    is: impl Fn(&T) -> bool,
+    make: impl FnOnce() -> Option<T>,
+) -> Option<usize> {
+    let t = match kept.iter().position(is) {
+        Some(k) => kept.remove(k),
+        None => {
+            let t = make()?;
+            if kept.len() == WIDTHS {
+                kept.remove(0);
+            }
+            t
+        }
+    };
+    kept.push(t);
+    Some(kept.len() - 1)
 }
 
 /// Component `c` of a band placed at `place`, in the columns of a frame `w` wide: every column

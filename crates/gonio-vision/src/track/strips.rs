@@ -26,9 +26,8 @@
 use crate::buffer::Aligned;
 use crate::fill::EdgeFill;
 use crate::label::{EdgePixel, Labeller};
-use crate::morphology::{BlackTopHat, Disk, Opening};
 use crate::optics::Params;
-use crate::pipeline::{EdgeStages, edge_stages, labeller, take_row};
+use crate::pipeline::{EdgeStages, Morphology, edge_stages, labeller, morphology, take_row};
 use crate::rows::{LastSink, RowBlock, RowSink, StageObserver, Then};
 use crate::segment::SparseEdgeRow;
 
@@ -43,7 +42,7 @@ pub(crate) const STRIPS: usize = 4;
 /// and the band's labeller (see the module documentation).
 #[derive(Debug, Clone)]
 pub(crate) struct Strips {
-    line: Then<BlackTopHat, Then<Opening, Lay>>,
+    line: Morphology<Lay>,
     /// The band's width, px.
     width: usize,
     invert: bool,
@@ -100,13 +99,7 @@ impl Strips {
             ),
         };
         Some(Strips {
-            line: Then {
-                stage: BlackTopHat::new(band_width, Disk::new(p.close_radius_px)),
-                next: Then {
-                    stage: Opening::new(band_width, Disk::new(p.open_radius_px)),
-                    next: lay,
-                },
-            },
+            line: morphology(&band, lay),
             width: band_width,
             invert: p.invert,
         })
