@@ -949,6 +949,12 @@ impl Labeller {
     /// Pushes the next row of (filled) edges, sparse: its runs are the stretches of consecutive
     /// columns in `edges.pixels`.
     pub fn push_sparse(&mut self, edges: &SparseEdgeRow) {
+        self.push_pixels(&edges.pixels);
+    }
+
+    /// Pushes the next row of (filled) edges as its pixels alone, by increasing column (their
+    /// `row` and `comp` are not read: the row is the labeller's next).
+    pub fn push_pixels(&mut self, px: &[EdgePixel]) {
         #[cfg(target_arch = "x86_64")]
         if let Some(cpu) = Avx512::get() {
             // Compiled with AVX-512 enabled: the same code (no intrinsics), with vector
@@ -956,18 +962,18 @@ impl Labeller {
             crate::simd::avx512::label::run(
                 cpu,
                 #[inline(always)]
-                || self.push_sparse_in(Some(cpu), edges),
+                || self.push_pixels_in(Some(cpu), px),
             );
             return;
         }
-        self.push_sparse_in(None, edges)
+        self.push_pixels_in(None, px)
     }
 
-    /// [`Labeller::push_sparse`], inlined into each level's compilation (`cpu`: the CPU has
+    /// [`Labeller::push_pixels`], inlined into each level's compilation (`cpu`: the CPU has
     /// AVX-512 F/BW/VL/DQ, and the kept edge pixels are written by
     /// [`crate::simd::avx512::label`]).
     #[inline(always)]
-    fn push_sparse_in(&mut self, cpu: Option<Avx512>, edges: &SparseEdgeRow) {
+    fn push_pixels_in(&mut self, cpu: Option<Avx512>, px: &[EdgePixel]) {
         let y = self.row;
         let r = y as i64;
         let rp = RowPowers {
@@ -983,7 +989,7 @@ impl Labeller {
                     e.overflow = true;
                 }
                 // Room for the whole row (the storage only grows).
-                let need = e.len + edges.pixels.len();
+                let need = e.len + px.len();
                 if !e.overflow && e.pixels.len() < need {
                     e.pixels.resize(need, EdgePixel::default());
                 }
@@ -1000,7 +1006,6 @@ impl Labeller {
         let f = &mut self.forest;
         let (up, here, last_row) = (&self.up[..], &mut self.here[..], &mut self.last_row[..]);
         f.merged.clear();
-        let px = &edges.pixels[..];
         // Pass 1, the runs: each run's component, its columns in `here` and each pixel's
         // (provisional) label in `lab`. Pass 2, below: the sums and the
         // edge list from `lab`. Two passes, not one: the sums' read-modify-writes hang on a
@@ -1094,7 +1099,7 @@ impl Labeller {
         let f = &mut self.forest;
         f.free.extend(f.merged.iter().map(|&(from, _)| from));
         std::mem::swap(&mut self.prev_cols, &mut self.cols);
-        self.nprev = edges.pixels.len();
+        self.nprev = px.len();
         std::mem::swap(&mut self.up, &mut self.here);
         self.row += 1;
     }

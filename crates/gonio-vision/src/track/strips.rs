@@ -43,9 +43,35 @@ pub(crate) const STRIPS: usize = 4;
 #[derive(Debug, Clone)]
 pub(crate) struct Strips {
     line: Morphology<Lay>,
+    layout: Layout,
+    invert: bool,
+}
+
+/// Where the strips lie in the band.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    /// Each strip's first band row.
+    starts: [usize; STRIPS],
+    /// The band's rows each strip gives, t (the last strip may give fewer).
+    quarter: usize,
+    /// The band's height, rows.
+    height: usize,
     /// The band's width, px.
     width: usize,
-    invert: bool,
+}
+
+impl Layout {
+    /// Whether band row `y`, in strip `j`, is one the strip gives: j·t … (j + 1)·t − 1, R or
+    /// more from a cut end of the strip, or at the frame's.
+    fn gives(&self, j: usize, y: usize) -> bool {
+        (j * self.quarter..((j + 1) * self.quarter).min(self.height)).contains(&y)
+    }
+
+    /// The last strip's first band row: row k of the strips is complete with band row
+    /// last_start + k.
+    fn last_start(&self) -> usize {
+        self.starts[STRIPS - 1]
+    }
 }
 
 impl Strips {
@@ -59,11 +85,13 @@ impl Strips {
         if !band_width.is_multiple_of(64) || h < 16 * reach {
             return None;
         }
-        // Strip j: the opened rows from starts[j] on; its rows j·t … (j + 1)·t − 1 are the
-        // band's own (R or more from a cut end of the strip, or at the frame's).
-        let starts: Vec<usize> = (0..n)
-            .map(|j| (j * t).saturating_sub(reach).min(h - strip_rows))
-            .collect();
+        // Strip j: the opened rows from starts[j] on.
+        let layout = Layout {
+            starts: std::array::from_fn(|j| (j * t).saturating_sub(reach).min(h - strip_rows)),
+            quarter: t,
+            height: h,
+            width: band_width,
+        };
         let wide = Params {
             width: n * band_width,
             height: strip_rows,
@@ -75,21 +103,15 @@ impl Strips {
         };
         let rejoin = Rejoin {
             input: SparseEdgeRow::new(n * band_width),
-            row: SparseEdgeRow::new(band_width),
             labeller: labeller(&band, false),
-            held: Vec::new(),
+            held: vec![Vec::new(); h - t],
             k: 0,
-            t,
-            starts: starts.clone(),
-            height: h,
-            width: band_width,
+            layout,
         };
         let lay = Lay {
             rows: Aligned::new(h * band_width, 0),
             y: 0,
-            starts,
-            height: h,
-            width: band_width,
+            layout,
             edges: edge_stages(
                 &wide,
                 Then {
@@ -100,14 +122,14 @@ impl Strips {
         };
         Some(Strips {
             line: morphology(&band, lay),
-            width: band_width,
+            layout,
             invert: p.invert,
         })
     }
 
     /// The band's width, px.
     pub(crate) fn width(&self) -> usize {
-        self.width
+        self.layout.width
     }
 
     /// Pushes the band's row `y` (`width()` pixels); row 0 starts a frame.
@@ -134,10 +156,7 @@ struct Lay {
     rows: Aligned<u8>,
     /// Opened rows received in this frame.
     y: usize,
-    /// Each strip's first opened row.
-    starts: Vec<usize>,
-    height: usize,
-    width: usize,
+    layout: Layout,
     edges: EdgeStages<Then<EdgeFill, Rejoin>>,
 }
 
@@ -151,25 +170,25 @@ impl LastSink for Lay {
 impl RowSink for Lay {
     type Row = [u8];
     fn input(&mut self) -> &mut [u8] {
-        let bw = self.width;
+        let bw = self.layout.width;
         &mut self.rows[self.y * bw..(self.y + 1) * bw]
     }
     fn input_block(&mut self, n: usize) -> Option<RowBlock<'_>> {
-        (self.y + n <= self.height).then(|| RowBlock {
-            first: self.y * self.width,
-            stride: self.width,
+        let bw = self.layout.width;
+        (self.y + n <= self.layout.height).then(|| RowBlock {
+            first: self.y * bw,
+            stride: bw,
             buf: &mut self.rows[..],
         })
     }
     fn pushed<O: StageObserver + ?Sized>(&mut self, obs: &mut O) {
-        let (y, bw) = (self.y, self.width);
+        let (y, l) = (self.y, self.layout);
         self.y += 1;
-        // Row k of the strips is complete when the last strip's row k has come.
-        let Some(k) = y.checked_sub(self.starts[self.starts.len() - 1]) else {
+        let Some(k) = y.checked_sub(l.last_start()) else {
             return;
         };
-        let row = self.edges.input();
-        for (j, &a) in self.starts.iter().enumerate() {
+        let (row, bw) = (self.edges.input(), l.width);
+        for (j, &a) in l.starts.iter().enumerate() {
             let r = a + k;
             row[j * bw..(j + 1) * bw].copy_from_slice(&self.rows[r * bw..(r + 1) * bw]);
         }
@@ -183,7 +202,7 @@ impl RowSink for Lay {
         self.edges.reset();
     }
     fn lag(&self) -> usize {
-        self.starts[self.starts.len() - 1] + self.edges.lag()
+        self.layout.last_start() + self.edges.lag()
     }
 }
 
@@ -192,36 +211,12 @@ impl RowSink for Lay {
 struct Rejoin {
     /// The strips' filled row.
     input: SparseEdgeRow,
-    /// One strip's part of it, for the labeller.
-    row: SparseEdgeRow,
     labeller: Labeller,
-    /// The band's rows t … h − 1, held until rows 0 … t − 1 are in.
-    held: Vec<SparseEdgeRow>,
+    /// The pixels of the band's rows t … h − 1, held until rows 0 … t − 1 are in.
+    held: Vec<Vec<EdgePixel>>,
     /// Rows of the strips received in this frame.
     k: usize,
-    /// The band's rows each strip gives.
-    t: usize,
-    /// Each strip's first band row.
-    starts: Vec<usize>,
-    height: usize,
-    /// The band's width, px.
-    width: usize,
-}
-
-impl Rejoin {
-    /// Strip `j`'s part of the strips' row (`bits`, and `pixels`, those of its columns) into
-    /// `to`, columns moved left by j·width and the pixels into row `row`.
-    fn take(to: &mut SparseEdgeRow, bits: &[u64], pixels: &[EdgePixel], j: usize, row: u16) {
-        let n = to.bits.len();
-        to.bits.copy_from_slice(&bits[j * n..(j + 1) * n]);
-        let x0 = (64 * n * j) as u16;
-        to.pixels.clear();
-        to.pixels.extend(pixels.iter().map(|p| EdgePixel {
-            col: p.col - x0,
-            row,
-            ..*p
-        }));
-    }
+    layout: Layout,
 }
 
 impl LastSink for Rejoin {
@@ -237,35 +232,37 @@ impl RowSink for Rejoin {
         &mut self.input
     }
     fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
-        let (k, bw, t) = (self.k, self.width, self.t);
+        let (k, l) = (self.k, self.layout);
         self.k += 1;
-        let (bits, pixels) = (&self.input.bits[..], &self.input.pixels[..]);
+        let pixels = &self.input.pixels[..];
         // The pixels are in column order: each strip's are the next ones left of its end.
         let mut lo = 0;
-        for (j, &a) in self.starts.iter().enumerate() {
-            let end = ((j + 1) * bw) as u16;
+        for (j, &a) in l.starts.iter().enumerate() {
+            let x0 = j * l.width;
+            let end = (x0 + l.width) as u16;
             let hi = lo + pixels[lo..].iter().take_while(|p| p.col < end).count();
             let px = &pixels[lo..hi];
             lo = hi;
             let y = a + k;
-            if y < j * t || y >= ((j + 1) * t).min(self.height) {
+            if !l.gives(j, y) {
                 continue;
             }
             if j == 0 {
-                Rejoin::take(&mut self.row, bits, px, j, y as u16);
-                self.labeller.push_sparse(&self.row);
+                // The first strip's columns are the band's, and its rows come in order.
+                self.labeller.push_pixels(px);
             } else {
-                let i = y - t;
-                while self.held.len() <= i {
-                    self.held.push(SparseEdgeRow::new(bw));
-                }
-                Rejoin::take(&mut self.held[i], bits, px, j, y as u16);
+                let row = &mut self.held[y - l.quarter];
+                row.clear();
+                row.extend(px.iter().map(|p| EdgePixel {
+                    col: p.col - x0 as u16,
+                    ..*p
+                }));
             }
         }
     }
     fn finish<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
-        for row in &self.held[..self.height - self.t] {
-            self.labeller.push_sparse(row);
+        for row in &self.held {
+            self.labeller.push_pixels(row);
         }
         self.labeller.finish();
     }
