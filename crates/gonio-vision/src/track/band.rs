@@ -76,10 +76,20 @@ impl Placement {
         })
     }
 
+    /// Whether the band's left and right sides cut the frame (rather than lie on its sides).
+    fn cuts(&self, frame_width: usize) -> (bool, bool) {
+        (self.x0 > 0, self.x0 + self.width < frame_width)
+    }
+
     /// True for a column on or beyond a cut side's first exact column.
     fn at_cut(&self, col: usize, frame_width: usize) -> bool {
-        (self.x0 > 0 && col <= self.exact.0)
-            || (self.x0 + self.width < frame_width && col >= self.exact.1)
+        let (left, right) = self.cuts(frame_width);
+        (left && col <= self.exact.0) || (right && col >= self.exact.1)
+    }
+
+    /// The exact columns' count.
+    pub(crate) fn exact_width(&self) -> usize {
+        self.exact.1 + 1 - self.exact.0
     }
 
     /// A band pixel's `first_index` (row · band width + column) in the frame's numbering.
@@ -180,7 +190,7 @@ impl Band {
         // The stages after the morphology over strips of the band's rows side by side where
         // both its sides are cut (a frame side must be a row's end), else the band's rows as
         // they are.
-        let strips = (in_strips && x0 > 0 && x0 + bw < w)
+        let strips = (in_strips && place.cuts(w) == (true, true))
             .then(|| self.strips_for(bw, p))
             .flatten();
         let parts = match strips {
@@ -406,7 +416,7 @@ mod tests {
                     "band {search:?}: {x:?} / {y:?}"
                 );
             }
-            laid_out += usize::from(a.place.x0 > 0 && a.place.x0 + a.place.width < p.width);
+            laid_out += usize::from(a.place.cuts(p.width) == (true, true));
         }
         assert!(
             !strips.strips.is_empty() && laid_out >= 20,

@@ -25,9 +25,9 @@
 //! - **What differs**: the frame's curvature (the median of the long clean edges' curvatures)
 //!   is taken from the band's edges, which bends only short pieces of an edge and the pixel
 //!   gates of the refit's first step, not the fit that gives c; `components` counts the
-//!   components wholly on the band's exact columns; and the band cannot see a ring candidate elsewhere in the frame.
-//!   `score` and `margin` are therefore the last whole frame's, scaled by how the ring's own
-//!   score changed since ([`Tracker`]). A candidate elsewhere is a concentric edge pair or a
+//!   components wholly on the band's exact columns; and the band cannot see a ring candidate
+//!   elsewhere in the frame. `score` and `margin` are therefore the last whole frame's, scaled
+//!   by how the ring's own score changed since ([`Tracker`]). A candidate elsewhere is a concentric edge pair or a
 //!   defect passing by; the last whole frame saw the concentric ones (tracking starts only
 //!   when its margin is [`MARGIN_HEADROOM`] above the optics' `min_margin`), and the whole frame
 //!   is measured again at least every [`RECHECK_FRAMES`] frames.
@@ -451,8 +451,8 @@ impl Tracker {
         {
             return Err(Fallback::AtBorder);
         }
-        let exact_cols = (b.place.exact.1 + 1 - b.place.exact.0) as f64;
-        if b.pixels as f64 * w as f64 / exact_cols > DENSE_FRACTION * p.max_edge_pixels as f64 {
+        let spread = b.pixels as f64 * w as f64 / b.place.exact_width() as f64;
+        if spread > DENSE_FRACTION * p.max_edge_pixels as f64 {
             return Err(Fallback::Dense);
         }
         let saturated =
