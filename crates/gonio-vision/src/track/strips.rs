@@ -13,15 +13,16 @@
 //! cut end or at the frame's own, are the band's own, bit for bit, on every column the band
 //! makes exactly: a seam between two strips is a cut side of each, like the band's own sides,
 //! and reaches no further into it than they do. The labeller then takes the band's rows in
-//! order, the first strip's as they come and the others' held until then (pixels' rows and
-//! columns made the band's): it sees what the band's own stages give on every exact column,
+//! order ([`Labeller::push_pixels`], which numbers the rows itself), the first strip's as they
+//! come and the others' held until then, their columns made the band's: it sees what the
+//! band's own stages give on every exact column,
 //! so [`super::band`]'s reasoning about exact and cut columns holds unchanged. Only a band
 //! with both sides cut can use it (a frame side must be a row's end), in a window of at least
 //! 16R rows. On the station's window (540 rows) four strips of 145 rows take ≈ 10 % off a
 //! tracked frame (BENCHMARKS.md).
 //!
 //! Units: rows and columns are the band's pixels. Allocates its rings and a copy of the
-//! band's opened rows when made, and its held rows on the first frame.
+//! band's opened rows when made, and its held rows' pixel lists on the first frames.
 
 use crate::buffer::Aligned;
 use crate::fill::EdgeFill;
