@@ -376,7 +376,7 @@ mod tests {
         let mut laid_out = 0;
         for k in 0..30 {
             let first = -20.0 + 23.7 * k as f64;
-            let search = (first, first + 25.0 + (k % 4) as f64 * 9.0);
+            let search = (first, first + 25.0 + (k % 4) as f64 * 16.0);
             let (a, b) = (
                 strips.select_laid_out(&frame, search, 3.0, (&mut stats.0, &mut stats.1), &p, true),
                 plain.select_laid_out(&frame, search, 3.0, (&mut stats.0, &mut stats.1), &p, false),

@@ -5,21 +5,34 @@
 //! row (the row's ends, the ring slots, the calls) over little work. The morphology's kernels
 //! keep their state in registers over batches of rows and cost by the step, so the top-hat and
 //! the opening run over the band's rows as they are. The blur, Sobel, the segmentation and the
-//! filling, which cost by the row as much as by the step, run over rows [`STRIPS`] times the
-//! band's width: strip j (t = ⌈h/4⌉ rows of the band and R = [`EDGE_STAGES_REACH_PX`] more
-//! on either side, those stages reading rows as far as they read columns) holds the opened
-//! rows from j·t − R on (0 for the first, h − t − 2R at most for the last). Each strip's top
-//! and bottom are treated as the frame's, so its rows j·t … (j + 1)·t − 1, R or more from a
-//! cut end or at the frame's own, are the band's own, bit for bit, on every column the band
-//! makes exactly: a seam between two strips is a cut side of each, like the band's own sides,
-//! and reaches no further into it than they do. The labeller then takes the band's rows in
+//! filling, which cost by the row as much as by the step, run over [`STRIPS`] strips side by
+//! side. Strip j holds t = ⌈h/n⌉ rows of the band and R = [`EDGE_STAGES_REACH_PX`] more on
+//! either side (those stages read rows as far as they read columns): the opened rows from
+//! j·t − R on (0 for the first, h − t − 2R at most for the last). Its columns are only the
+//! band's exact columns and R more on either side (the band's sides are both cut, so those
+//! are its columns [`stage_reach_px`] − R … width − 1 − (`stage_reach_px` − R): 76 of 128 on
+//! the station's window): the opened rows are exact there, and those stages give exact
+//! edges on the exact columns from them; the band's own stages would give nothing exact
+//! beyond. Each strip's sides, top and bottom are treated as the frame's, so its rows
+//! j·t … (j + 1)·t − 1, R or more from a cut end or at the frame's own, are the band's own,
+//! bit for bit, on every exact column: a seam between two strips is a cut side of each,
+//! like the band's own sides, and reaches no further into it than they do; the R columns
+//! beside the exact ones are a cut margin, as the band's wider one is. The labeller then
+//! takes the band's rows in
 //! order ([`Labeller::push_pixels`], which numbers the rows itself), the first strip's as they
 //! come and the others' held until then, their columns made the band's: it sees what the
 //! band's own stages give on every exact column,
 //! so [`super::band`]'s reasoning about exact and cut columns holds unchanged. Only a band
 //! with both sides cut can use it (a frame side must be a row's end), in a window of at least
-//! 16R rows. On the station's window (540 rows) four strips of 145 rows take ≈ 10 % off a
-//! tracked frame (BENCHMARKS.md).
+//! 4nR rows. On the station's window (540 rows) five strips of 118 rows and 76 columns (380
+//! columns a row, where four of the band's whole 128 made 512) take ≈ 15 % off a tracked
+//! frame (BENCHMARKS.md).
+//!
+//! Components: a component on the exact columns that touches neither cut side's first exact
+//! column is the same here as in the band's own stages (its pixels and their 8-neighbours are
+//! exact), and one that does is cut in both: a path of pixels from the exact columns into a
+//! margin passes through the first exact column, so [`super::band`] finds the same cut
+//! components and the same components on the exact columns, from a narrower margin.
 //!
 //! Units: rows and columns are the band's pixels. Allocates its rings and a copy of the
 //! band's opened rows when made, and its held rows' pixel lists on the first frames.
@@ -32,12 +45,13 @@ use crate::pipeline::{EdgeStages, Morphology, edge_stages, labeller, morphology,
 use crate::rows::{LastSink, RowBlock, RowSink, StageObserver, Then};
 use crate::segment::SparseEdgeRow;
 
-use super::band::EDGE_STAGES_REACH_PX;
+use super::band::{EDGE_STAGES_REACH_PX, stage_reach_px};
 
 /// Strips side by side: with a row's fixed cost in those stages about that of one and a half
-/// 64-byte steps, (1.5 + 2n)·(h/n + 2R) steps for a band of two falls from 3.5 h (n = 1) to
-/// within 2 % of its least by n = 4 on the station's window; eight measured no faster.
-pub(crate) const STRIPS: usize = 4;
+/// 64-byte steps, (1.5 + ⌈76n/64⌉)·(h/n + 2R) steps on the station's window is least near
+/// n = 5 (885, against 942 for four and 950 for six); four, five and eight measured within
+/// the machine's noise of each other.
+pub(crate) const STRIPS: usize = 5;
 
 /// The band's morphology, the stages after it over strips of the band's rows side by side,
 /// and the band's labeller (see the module documentation).
@@ -59,6 +73,10 @@ struct Layout {
     height: usize,
     /// The band's width, px.
     width: usize,
+    /// The band's first column the strips hold: R left of its first exact column.
+    first: usize,
+    /// A strip's width, px: the band's exact columns and R more on either side.
+    strip: usize,
 }
 
 impl Layout {
@@ -76,25 +94,32 @@ impl Layout {
 }
 
 impl Strips {
-    /// The stages for bands of `band_width` columns (a multiple of 64) of frames with `p`;
-    /// `None` for a window shorter than 16R rows, where the strips' overlap would cost much
-    /// of what they save (or a width not a multiple of 64).
+    /// The stages for bands of `band_width` columns (a multiple of 64), both sides cut, of
+    /// frames with `p`; `None` for a window shorter than 4nR rows (n = [`STRIPS`]), where the
+    /// strips' overlap would cost much of what they save, or a width not a multiple of 64 or
+    /// with no exact column.
     pub(crate) fn new(band_width: usize, p: &Params) -> Option<Strips> {
         let (h, n, reach) = (p.height, STRIPS, EDGE_STAGES_REACH_PX);
         let t = h.div_ceil(n);
         let strip_rows = t + 2 * reach;
-        if !band_width.is_multiple_of(64) || h < 16 * reach {
+        // Both sides cut: the exact columns lie `stage_reach_px` in from each.
+        let first = stage_reach_px(p) - reach;
+        if !band_width.is_multiple_of(64) || h < 4 * n * reach || band_width <= 2 * (first + reach)
+        {
             return None;
         }
+        let strip = band_width - 2 * first;
         // Strip j: the opened rows from starts[j] on.
         let layout = Layout {
             starts: std::array::from_fn(|j| (j * t).saturating_sub(reach).min(h - strip_rows)),
             quarter: t,
             height: h,
             width: band_width,
+            first,
+            strip,
         };
         let wide = Params {
-            width: n * band_width,
+            width: n * strip,
             height: strip_rows,
             ..p.clone()
         };
@@ -103,11 +128,12 @@ impl Strips {
             ..p.clone()
         };
         let rejoin = Rejoin {
-            input: SparseEdgeRow::new(n * band_width),
+            input: SparseEdgeRow::new(n * strip),
             labeller: labeller(&band, false),
             held: vec![Vec::new(); h - t],
             k: 0,
             layout,
+            scratch: Vec::new(),
         };
         let lay = Lay {
             rows: Aligned::new(h * band_width, 0),
@@ -116,7 +142,7 @@ impl Strips {
             edges: edge_stages(
                 &wide,
                 Then {
-                    stage: EdgeFill::new(n * band_width),
+                    stage: EdgeFill::new(n * strip),
                     next: rejoin,
                 },
             ),
@@ -188,10 +214,11 @@ impl RowSink for Lay {
         let Some(k) = y.checked_sub(l.last_start()) else {
             return;
         };
-        let (row, bw) = (self.edges.input(), l.width);
+        let (row, bw, sw) = (self.edges.input(), l.width, l.strip);
         for (j, &a) in l.starts.iter().enumerate() {
             let r = a + k;
-            row[j * bw..(j + 1) * bw].copy_from_slice(&self.rows[r * bw..(r + 1) * bw]);
+            let from = r * bw + l.first;
+            row[j * sw..(j + 1) * sw].copy_from_slice(&self.rows[from..from + sw]);
         }
         self.edges.pushed(obs);
     }
@@ -218,6 +245,8 @@ struct Rejoin {
     /// Rows of the strips received in this frame.
     k: usize,
     layout: Layout,
+    /// The first strip's row in the band's columns.
+    scratch: Vec<EdgePixel>,
 }
 
 impl LastSink for Rejoin {
@@ -239,8 +268,8 @@ impl RowSink for Rejoin {
         // The pixels are in column order: each strip's are the next ones left of its end.
         let mut lo = 0;
         for (j, &a) in l.starts.iter().enumerate() {
-            let x0 = j * l.width;
-            let end = (x0 + l.width) as u16;
+            let x0 = j * l.strip;
+            let end = (x0 + l.strip) as u16;
             let hi = lo + pixels[lo..].iter().take_while(|p| p.col < end).count();
             let px = &pixels[lo..hi];
             lo = hi;
@@ -248,16 +277,20 @@ impl RowSink for Rejoin {
             if !l.gives(j, y) {
                 continue;
             }
+            // The band's column of strip j's column c is c − j·strip + first.
+            let to_band = |p: &EdgePixel| EdgePixel {
+                col: p.col + l.first as u16 - x0 as u16,
+                ..*p
+            };
             if j == 0 {
-                // The first strip's columns are the band's, and its rows come in order.
-                self.labeller.push_pixels(px);
+                // The first strip's rows come in order.
+                self.scratch.clear();
+                self.scratch.extend(px.iter().map(to_band));
+                self.labeller.push_pixels(&self.scratch);
             } else {
                 let row = &mut self.held[y - l.quarter];
                 row.clear();
-                row.extend(px.iter().map(|p| EdgePixel {
-                    col: p.col - x0 as u16,
-                    ..*p
-                }));
+                row.extend(px.iter().map(to_band));
             }
         }
     }
@@ -281,8 +314,9 @@ mod tests {
     use super::*;
     use crate::Optics;
 
-    /// Strips need a window of 16R rows (each strip's quarter at least four times the rows it
-    /// shares with its neighbours) and a band a whole number of 64-byte steps wide.
+    /// Strips need a window of 4nR rows (each strip's share of rows at least four times the
+    /// rows it shares with its neighbours) and a band a whole number of 64-byte steps wide
+    /// with exact columns.
     #[test]
     fn strips_need_a_tall_enough_window_and_whole_steps() {
         let params = |h: usize| {
@@ -295,8 +329,14 @@ mod tests {
             .unwrap()
         };
         let r = EDGE_STAGES_REACH_PX;
-        assert!(Strips::new(128, &params(16 * r - 1)).is_none());
-        assert!(Strips::new(128, &params(16 * r)).is_some());
+        assert!(Strips::new(128, &params(4 * STRIPS * r - 1)).is_none());
+        assert!(Strips::new(128, &params(4 * STRIPS * r)).is_some());
         assert!(Strips::new(96, &params(540)).is_none());
+        // The stages' reach is 62 of a band's columns: 64 leaves two exact ones.
+        let reach = stage_reach_px(&params(540));
+        assert_eq!(reach, 31);
+        assert!(Strips::new(64, &params(540)).is_some());
+        let s = Strips::new(128, &params(540)).unwrap();
+        assert_eq!((s.layout.first, s.layout.strip), (26, 76));
     }
 }
