@@ -52,9 +52,10 @@
 //! band into the stages, while the row is in the L1 cache (the sums are integers added in row
 //! order, the values of a separate pass; the stages get the same rows in the same order). The
 //! stages after the morphology (blur, Sobel, segmentation, filling), whose cost on a band two
-//! 64-byte steps wide is as much per row as per step, run over four strips of the band's rows
+//! 64-byte steps wide is as much per row as per step, run over five strips of the band's rows
 //! side by side (`track::strips`: each strip's seams are cut sides like the band's own, its
-//! rows five more than a quarter at either end; ≈ 10 % off a tracked frame). The edge list
+//! rows five more than a fifth at either end, its columns the band's exact ones and five more
+//! at either side; ≈ 20 % off a tracked frame). The edge list
 //! handed to the selection keeps its storage from frame to frame. Written here because it is
 //! the detector's product, not a general tracker.
 //!
