@@ -18,15 +18,14 @@
 //! bit for bit, on every exact column: a seam between two strips is a cut side of each,
 //! like the band's own sides, and reaches no further into it than they do; the R columns
 //! beside the exact ones are a cut margin, as the band's wider one is. The labeller then
-//! takes the band's rows in
-//! order ([`Labeller::push_pixels`], which numbers the rows itself), the first strip's as they
-//! come and the others' held until then, their columns made the band's: it sees what the
-//! band's own stages give on every exact column,
-//! so [`super::band`]'s reasoning about exact and cut columns holds unchanged. Only a band
-//! with both sides cut can use it (a frame side must be a row's end), in a window of at least
-//! 4nR rows. On the station's window (540 rows) five strips of 118 rows and 76 columns (380
-//! columns a row, where four of the band's whole 128 made 512) take ≈ 15 % off a tracked
-//! frame (BENCHMARKS.md).
+//! takes the band's rows in order ([`Labeller::push_pixels`], which numbers the rows itself),
+//! the first strip's as they come and the others' held until then, their columns made the
+//! band's: it sees what the band's own stages give on every exact column, so
+//! [`super::band`]'s reasoning about exact and cut columns holds unchanged. Only a band with
+//! both sides cut can use it (a frame side must be a row's end), in a window of at least 4nR
+//! rows. On the station's window (540 rows) five strips of 118 rows and 76 columns (rows of
+//! 380 columns, where the band's own rows are 540 of 128) take ≈ 20 % off a tracked frame
+//! (BENCHMARKS.md).
 //!
 //! Components: a component on the exact columns that touches neither cut side's first exact
 //! column is the same here as in the band's own stages (its pixels and their 8-neighbours are
