@@ -8,7 +8,7 @@
 //!
 //! The streaming [`EdgeFill`] works on sparse rows: the necessary condition (an empty pixel
 //! with some opposite pair of edge neighbours) is a few word operations on the rows' edge bits,
-//! 64 columns at a time — with AVX-512 (VBMI2, [`crate::simd::vbmi`]) eight words at once, the
+//! 64 columns at a time — with AVX-512 (VBMI2, `crate::simd::vbmi`) eight words at once, the
 //! shifts across words by `vpshldq`/`vpshrdq`, written by hand because only a few percent of the
 //! words hold a candidate and the scalar scan's per-word loop was most of the stage. Each
 //! candidate is then decided by [`fill_pixel`]'s rule on the pairs the words showed (in its
@@ -208,7 +208,7 @@ impl EdgeFill {
 
 /// Calls `f(i)` for every word i of the rows' edge bits (`c` the row, `u`, `d` the rows above
 /// and below) holding an empty pixel with an opposite pair of edge neighbours, in order, with
-/// AVX-512 (F/BW + VBMI2, [`crate::simd::vbmi`]: the candidate test of eight words at once);
+/// AVX-512 (F/BW + VBMI2, `crate::simd::vbmi`: the candidate test of eight words at once);
 /// `false` (and no call) when the VBMI kernels are off.
 fn words_with_candidates(c: &[u64], u: &[u64], d: &[u64], f: &mut impl FnMut(usize)) -> bool {
     #[cfg(target_arch = "x86_64")]

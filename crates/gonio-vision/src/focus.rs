@@ -9,15 +9,15 @@
 //! length up to a few vectors, and the detector's level test).
 //!
 //! The detector itself goes through [`RowFocus`], which also counts a row's saturated pixels.
-//! With AVX-512 VNNI (runtime-detected, [`crate::simd::vnni`]) it uses the identity
+//! With AVX-512 VNNI (runtime-detected, `crate::simd::vnni`) it uses the identity
 //!
 //! $$\sum (x - y)^2 = \sum x^2 + \sum y^2 - 2 \sum x y,$$
 //!
 //! exact in integers, every row read once, when it arrives. One pass over its columns (with the
 //! row two above it, a) gives its share of the pairs it belongs to: its vertical pair with a,
-//! its own horizontal pair (x[c], x[c + 2]) for the next row, and what the row two below needs
+//! its own horizontal pair (`x[c]`, `x[c + 2]`) for the next row, and what the row two below needs
 //! of it. A step of 64 columns loads x, x two columns on and a, flips x once into x − 128 (a
-//! signed byte) and takes Σx, Σx(x − 128), Σx[c + 2](x[c] − 128) and Σa(x − 128) by four
+//! signed byte) and takes Σx, Σx(x − 128), `Σx[c + 2](x[c] − 128)` and Σa(x − 128) by four
 //! `vpdpbusd` (Σxy = Σy(x − 128) + 128 Σy), the pairs' Σ|x − y| by two `vpsadbw`, and the
 //! row's maximum (a row that reaches 255 is then counted): ten vector operations, one
 //! `vpdpbusd` accumulator each (the instruction adds into its destination). The dot products
@@ -198,7 +198,7 @@ pub struct FrameStats {
 /// The streaming raw statistics of a frame whose height is known: [`RowFocus`]'s sums added
 /// up over the frame, bit for bit, without a total per row. With AVX-512 VNNI the lanes of the
 /// rows between the first two and the last two run on from row to row
-/// ([`crate::simd::vnni`]), reduced once at the frame's end; otherwise row by row.
+/// (`crate::simd::vnni`), reduced once at the frame's end; otherwise row by row.
 ///
 /// ```
 /// use gonio_vision::focus::{FrameFocus, RowFocus};

@@ -24,7 +24,7 @@
 //! same values, in a thirtieth of the memory, for one more load and `max` per chord.
 //!
 //! Where the CPU has AVX-512 VBMI (`vpermt2b`: any byte shift across two 64-byte vectors; see
-//! [`crate::simd::vbmi`]) the closing and the opening of radius 1 … 12 run a second
+//! `crate::simd::vbmi`) the closing and the opening of radius 1 … 12 run a second
 //! hand-written kernel, with intrinsics, because no loop the compiler vectorises makes byte
 //! shifts across vectors: per 64-column vector the chord classes are made in registers (the
 //! pyramid and both windows of each class by `vpermt2b` on the 128 columns around the vector;
@@ -676,8 +676,9 @@ pub struct MorphPair<const FIRST_MAX: bool, const SECOND_MAX: bool, const SUBTRA
     chain: Option<Chain>,
 }
 
-/// State of the two operations' register chains ([`vbmi`]): rows fed so far, 2r vectors per
-/// column vector each, and the first operation's rows of the current batch (padded rows).
+/// State of the two operations' register chains ([`crate::simd::vbmi`](mod@crate::simd::vbmi)):
+/// rows fed so far, 2r vectors per column vector each, and the first operation's rows of the
+/// current batch (padded rows).
 #[derive(Debug, Clone)]
 struct Chain {
     state1: Aligned<u8>,

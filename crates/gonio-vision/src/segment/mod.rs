@@ -12,7 +12,7 @@
 //! across the edge chosen by selects), and computes the direction and sub-pixel offset only for
 //! the few pixels kept; its output is a [`SparseEdgeRow`], the edge pixels in column order.
 //!
-//! With AVX-512 (F/BW/VL/DQ and VBMI/VBMI2, [`crate::simd::vbmi`]; `GONIO_SIMD=avx512`) the row is
+//! With AVX-512 (F/BW/VL/DQ and VBMI/VBMI2, `crate::simd::vbmi`; `GONIO_SIMD=avx512`) the row is
 //! segmented by hand-written intrinsics instead, because the compiler does not produce what
 //! the kept pixels need: the classification's comparisons go straight into mask registers (64
 //! columns, one word of bits, a step; plain loads inside the row, the border columns by the
@@ -321,7 +321,7 @@ impl Segmenter {
     }
 
     /// [`Segmenter::emit_impl`] with AVX-512 (see `simd::vbmi::segment`); `false` when the
-    /// VBMI kernels are off ([`crate::simd::vbmi`]).
+    /// VBMI kernels are off (`crate::simd::vbmi`).
     fn emit_avx512(&mut self, out: &mut SparseEdgeRow) -> bool {
         #[cfg(target_arch = "x86_64")]
         if let Some(cpu) = crate::simd::Vbmi::get() {

@@ -280,7 +280,7 @@ pub(super) fn filter_diff(
     gone.is_empty() && came.is_empty()
 }
 
-/// [`row_means`] of both edges (`ml`, `mr`), with the finite row-wise widths `mr − ml` in row
+/// `row_means` of both edges (`ml`, `mr`), with the finite row-wise widths `mr − ml` in row
 /// order into `widths`: the same values, one pass over the rows for both.
 pub(super) fn row_widths(
     lk: &[EdgePixel],
@@ -314,7 +314,7 @@ pub(super) struct RefitScratch {
     rk: Vec<EdgePixel>,
     lnext: Vec<EdgePixel>,
     rnext: Vec<EdgePixel>,
-    /// The pixels a step dropped and took in ([`diff`]).
+    /// The pixels a step dropped and took in ([`diff`](super::tracks::diff)).
     gone: Vec<EdgePixel>,
     came: Vec<EdgePixel>,
     rows: Vec<f64>,

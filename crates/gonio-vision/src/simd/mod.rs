@@ -353,8 +353,8 @@ impl Avx512 {
     }
 }
 
-/// Proof that the VBMI kernels are in use ([`vbmi`]: the AVX-512 level on a CPU with AVX-512
-/// VBMI and VBMI2): made only by [`Vbmi::get`].
+/// Proof that the VBMI kernels are in use ([`vbmi`](mod@vbmi): the AVX-512 level on a CPU with
+/// AVX-512 VBMI and VBMI2): made only by [`Vbmi::get`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Vbmi(());
 
@@ -366,7 +366,7 @@ impl Vbmi {
     }
 }
 
-/// Proof that the VNNI path is in use ([`vnni`]: the AVX-512 level on a CPU with AVX-512
+/// Proof that the VNNI path is in use ([`vnni`](mod@vnni): the AVX-512 level on a CPU with AVX-512
 /// VNNI): made only by [`Vnni::get`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Vnni(());

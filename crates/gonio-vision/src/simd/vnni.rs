@@ -167,7 +167,7 @@ impl Sums {
 }
 
 /// What one pass over a row x (w columns) with the row a two above it gives [`crate::focus`]
-/// (D = Σx(x − 128), H = Σ_{c < w − 2} x[c + 2](x[c] − 128), V = Σ a(x − 128), S = Σx, each
+/// (D = Σx(x − 128), H = `Σ_{c < w − 2} x[c + 2](x[c] − 128)`, V = Σ a(x − 128), S = Σx, each
 /// over the whole row unless said): the parts of the squared central differences, each
 /// combined in the lanes before the one reduction it takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -176,11 +176,11 @@ pub(crate) struct RowSums {
     pub saturated: u32,
     /// D + 128 S − 2 V = Σx² − 2 Σax + 256 Σa: this row's share of its vertical pair.
     pub now: i64,
-    /// 2 D − 2 H: the row's share of its own horizontal pair (x[c], x[c + 2]).
+    /// 2 D − 2 H: the row's share of its own horizontal pair (`x[c]`, `x[c + 2]`).
     pub next: i64,
     /// D − 128 S = Σx² − 256 S: the row's share of the vertical pair it is the upper row of.
     pub after: i64,
-    /// Σ_{c < w − 2} |x[c] − x[c + 2]|.
+    /// `Σ_{c < w − 2} |x[c] − x[c + 2]|`.
     pub h_abs: u64,
     /// Σ|x − a| over the whole row.
     pub v_abs: u64,

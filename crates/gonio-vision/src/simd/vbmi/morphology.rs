@@ -1,5 +1,5 @@
 //! The register chain kernel of [`crate::morphology`]'s closing and opening, written with AVX-512 VBMI
-//! intrinsics (used only where the CPU has them, see [`crate::simd::vbmi`]).
+//! intrinsics (used only where the CPU has them, see [`crate::simd::vbmi`](mod@crate::simd::vbmi)).
 //!
 //! Per 64-column vector, an input row's chord classes are made in registers: the row's 128
 //! columns x − 32 … x + 95 (two loads of a padded row), a doubling pyramid over them
