@@ -574,7 +574,6 @@ impl Detector {
                     width: self.p.width,
                     n: 0,
                     skip: 0,
-                    start: 0,
                 },
             ),
             focus: RowFocus::default(),
@@ -694,7 +693,6 @@ impl LowerHalf {
         self.front.reset();
         let edges = self.front.last_sink();
         edges.skip = seam - start;
-        edges.start = start as u16;
         for row in frame.chunks_exact(w).skip(start) {
             take_row(self.front.input(), row, self.p.invert);
             self.front.pushed(&mut ());
@@ -717,8 +715,9 @@ impl LowerHalf {
     }
 }
 
-/// The edge rows a [`LowerHalf`] keeps: those from the seam down, each pixel's row made the
-/// frame's (its segmentation counted rows from where it started).
+/// The edge rows a [`LowerHalf`] keeps: those from the seam down. Each pixel's `row` is the
+/// lower half's own count, not the frame's; nothing after reads it (the filling numbers the
+/// rows it makes, and the labeller the rows it takes).
 #[derive(Debug, Clone)]
 struct EdgeRows {
     rows: Vec<SparseEdgeRow>,
@@ -728,8 +727,6 @@ struct EdgeRows {
     n: usize,
     /// Rows received before the first kept one (the reach above the seam).
     skip: usize,
-    /// The frame's row of the first row received.
-    start: u16,
 }
 
 impl LastSink for EdgeRows {
@@ -753,11 +750,6 @@ impl RowSink for EdgeRows {
         }
     }
     fn pushed<O: StageObserver + ?Sized>(&mut self, _: &mut O) {
-        if let Some(k) = self.n.checked_sub(self.skip) {
-            for p in &mut self.rows[k].pixels {
-                p.row += self.start;
-            }
-        }
         self.n += 1;
     }
     fn finish<O: StageObserver + ?Sized>(&mut self, _: &mut O) {}
