@@ -196,22 +196,18 @@ impl Band {
         let parts = match strips {
             Some(i) => {
                 let st = &mut self.strips[i];
-                // As below: each row's raw statistics, then its band into the stages.
-                for y in 0..h {
-                    raw.add_row(focus, frame, (w, h), y);
-                    st.push(y, &frame[y * w + x0..y * w + x0 + bw]);
-                }
+                band_rows(frame, &place, p, (raw, focus), |y, row| {
+                    st.push(y, row);
+                    Some(())
+                })?;
                 FrameParts::of(st.finish())
             }
             None => {
                 let k = self.detector_for(bw, p);
                 let det = &mut self.dets[k];
-                // One pass over the frame: each row's raw statistics, then its band into the
-                // stages while the row is in the L1 cache.
-                for y in 0..h {
-                    raw.add_row(focus, frame, (w, h), y);
-                    det.push_stages(&frame[y * w + x0..y * w + x0 + bw]).ok()?;
-                }
+                band_rows(frame, &place, p, (raw, focus), |_, row| {
+                    det.push_stages(row).ok()
+                })?;
                 det.finish_parts().ok()?
             }
         };
@@ -274,6 +270,25 @@ impl Band {
             cut_in_search,
         })
     }
+}
+
+/// One pass over `frame` (`p`'s window): each row's raw statistics into `raw` (with `focus`,
+/// the detector's own code), then the row's band (`place`) into `push` with the row's index,
+/// while the row is in the L1 cache. `None` as soon as `push` gives `None`.
+fn band_rows(
+    frame: &[u8],
+    place: &Placement,
+    p: &Params,
+    (raw, focus): (&mut RawSums, &mut FrameFocus),
+    mut push: impl FnMut(usize, &[u8]) -> Option<()>,
+) -> Option<()> {
+    let (w, h) = (p.width, p.height);
+    let (x0, bw) = (place.x0, place.width);
+    for y in 0..h {
+        raw.add_row(focus, frame, (w, h), y);
+        push(y, &frame[y * w + x0..y * w + x0 + bw])?;
+    }
+    Some(())
 }
 
 /// Where in `kept` (the last [`WIDTHS`] used, the latest last) the one that `is` is: moved to
