@@ -66,23 +66,27 @@ pub(crate) struct Strips {
 struct Layout {
     /// Each strip's first band row.
     starts: [usize; STRIPS],
-    /// The band's rows each strip gives, t (the last strip may give fewer).
-    quarter: usize,
+    /// The band's rows each strip gives, t = ⌈h/n⌉ (the last strip may give fewer).
+    share: usize,
     /// The band's height, rows.
     height: usize,
     /// The band's width, px.
     width: usize,
     /// The band's first column the strips hold: R left of its first exact column.
     first: usize,
-    /// A strip's width, px: the band's exact columns and R more on either side.
-    strip: usize,
 }
 
 impl Layout {
     /// Whether band row `y`, in strip `j`, is one the strip gives: j·t … (j + 1)·t − 1, R or
     /// more from a cut end of the strip, or at the frame's.
     fn gives(&self, j: usize, y: usize) -> bool {
-        (j * self.quarter..((j + 1) * self.quarter).min(self.height)).contains(&y)
+        (j * self.share..((j + 1) * self.share).min(self.height)).contains(&y)
+    }
+
+    /// A strip's width, px: the band's exact columns and R more on either side (as many
+    /// columns in from each of the band's sides).
+    fn strip(&self) -> usize {
+        self.width - 2 * self.first
     }
 
     /// The last strip's first band row: row k of the strips is complete with band row
@@ -107,16 +111,15 @@ impl Strips {
         {
             return None;
         }
-        let strip = band_width - 2 * first;
         // Strip j: the opened rows from starts[j] on.
         let layout = Layout {
             starts: std::array::from_fn(|j| (j * t).saturating_sub(reach).min(h - strip_rows)),
-            quarter: t,
+            share: t,
             height: h,
             width: band_width,
             first,
-            strip,
         };
+        let strip = layout.strip();
         let wide = Params {
             width: n * strip,
             height: strip_rows,
@@ -213,7 +216,7 @@ impl RowSink for Lay {
         let Some(k) = y.checked_sub(l.last_start()) else {
             return;
         };
-        let (row, bw, sw) = (self.edges.input(), l.width, l.strip);
+        let (row, bw, sw) = (self.edges.input(), l.width, l.strip());
         for (j, &a) in l.starts.iter().enumerate() {
             let r = a + k;
             let from = r * bw + l.first;
@@ -265,10 +268,10 @@ impl RowSink for Rejoin {
         self.k += 1;
         let pixels = &self.input.pixels[..];
         // The pixels are in column order: each strip's are the next ones left of its end.
-        let mut lo = 0;
+        let (mut lo, sw) = (0, l.strip());
         for (j, &a) in l.starts.iter().enumerate() {
-            let x0 = j * l.strip;
-            let end = (x0 + l.strip) as u16;
+            let x0 = j * sw;
+            let end = (x0 + sw) as u16;
             let hi = lo + pixels[lo..].iter().take_while(|p| p.col < end).count();
             let px = &pixels[lo..hi];
             lo = hi;
@@ -287,7 +290,7 @@ impl RowSink for Rejoin {
                 self.scratch.extend(px.iter().map(to_band));
                 self.labeller.push_pixels(&self.scratch);
             } else {
-                let row = &mut self.held[y - l.quarter];
+                let row = &mut self.held[y - l.share];
                 row.clear();
                 row.extend(px.iter().map(to_band));
             }
@@ -336,6 +339,6 @@ mod tests {
         assert_eq!(reach, 31);
         assert!(Strips::new(64, &params(540)).is_some());
         let s = Strips::new(128, &params(540)).unwrap();
-        assert_eq!((s.layout.first, s.layout.strip), (26, 76));
+        assert_eq!((s.layout.first, s.layout.strip()), (26, 76));
     }
 }
