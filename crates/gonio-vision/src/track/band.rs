@@ -334,10 +334,22 @@ fn shifted(c: &Component, place: &Placement, w: usize) -> Component {
     }
 }
 
+/// The parameters of the default optics with a window 640 px wide and `height` rows (the
+/// tests' frames).
+#[cfg(test)]
+pub(super) fn window_640(height: u32) -> Params {
+    crate::Optics {
+        window_width_px: 640,
+        window_height_px: height,
+        ..crate::Optics::default()
+    }
+    .params()
+    .expect("the default optics with a 640 px window")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Optics;
     use crate::label::component_of;
 
     #[test]
@@ -379,12 +391,7 @@ mod tests {
     /// with bands all across the frame (those at its sides run as they are either way).
     #[test]
     fn the_strips_select_what_the_band_selects() {
-        let optics = Optics {
-            window_width_px: 640,
-            window_height_px: 320,
-            ..Optics::default()
-        };
-        let p = optics.params().unwrap();
+        let p = window_640(320);
         let frame = lines_and_noise(p.width, p.height, 0x2545_f491_4f6c_dd1d);
         let (mut strips, mut plain) = (Band::default(), Band::default());
         let mut stats = (RawSums::default(), FrameFocus::default());
@@ -458,12 +465,7 @@ mod tests {
     /// band inside the frame and one at each of its sides.
     #[test]
     fn the_exact_columns_hold_the_whole_frames_edges() {
-        let optics = Optics {
-            window_width_px: 640,
-            window_height_px: 160,
-            ..Optics::default()
-        };
-        let p = optics.params().unwrap();
+        let p = window_640(160);
         let (w, h) = (p.width, p.height);
         let frame = lines_and_noise(w, h, 0x9e37_79b9_7f4a_7c15);
         let pixels_of = |det: &mut Detector, x0: usize, bw: usize| -> Vec<EdgePixel> {

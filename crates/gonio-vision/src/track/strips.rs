@@ -314,22 +314,14 @@ impl RowSink for Rejoin {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Optics;
+    use crate::track::band::window_640;
 
     /// Strips need a window of 4nR rows (each strip's share of rows at least four times the
     /// rows it shares with its neighbours) and a band a whole number of 64-byte steps wide
     /// with exact columns.
     #[test]
     fn strips_need_a_tall_enough_window_and_whole_steps() {
-        let params = |h: usize| {
-            Optics {
-                window_width_px: 640,
-                window_height_px: h as u32,
-                ..Optics::default()
-            }
-            .params()
-            .unwrap()
-        };
+        let params = |h: usize| window_640(h as u32);
         let r = EDGE_STAGES_REACH_PX;
         assert!(Strips::new(128, &params(4 * STRIPS * r - 1)).is_none());
         assert!(Strips::new(128, &params(4 * STRIPS * r)).is_some());
