@@ -27,10 +27,11 @@
 //!   gates of the refit's first step, not the fit that gives c; `components` counts the
 //!   components wholly on the band's exact columns; and the band cannot see a ring candidate
 //!   elsewhere in the frame. `score` and `margin` are therefore the last whole frame's, scaled
-//!   by how the ring's own score changed since ([`Tracker`]). A candidate elsewhere is a concentric edge pair or a
-//!   defect passing by; the last whole frame saw the concentric ones (tracking starts only
-//!   when its margin is [`MARGIN_HEADROOM`] above the optics' `min_margin`), and the whole frame
-//!   is measured again at least every [`RECHECK_FRAMES`] frames.
+//!   by how the ring's own score changed since ([`Tracker`]). A candidate elsewhere is a
+//!   concentric edge pair or a defect passing by; the last whole frame saw the concentric ones
+//!   (tracking starts only when its margin is [`MARGIN_HEADROOM`] above the optics'
+//!   `min_margin`), and the whole frame is measured again at least every [`RECHECK_FRAMES`]
+//!   frames.
 //!
 //! A frame is measured whole instead ([`Fallback`]) when the band cannot vouch for it: no
 //! ring is tracked; the frames are not consecutive; the band finds no valid ring (so every
@@ -47,7 +48,7 @@
 //! invalid frame is the whole-frame detector's.
 //!
 //! Cost on the station's window: the band's stages, the selection among the band's few
-//! components and the raw statistics of the whole frame, about a quarter of the whole frame's
+//! components and the raw statistics of the whole frame, about a sixth of the whole frame's
 //! time (BENCHMARKS.md). The frame is read once: row by row, its raw statistics and then its
 //! band into the stages, while the row is in the L1 cache (the sums are integers added in row
 //! order, the values of a separate pass; the stages get the same rows in the same order). The
@@ -55,9 +56,9 @@
 //! 64-byte steps wide is as much per row as per step, run over five strips of the band's rows
 //! side by side (`track::strips`: each strip's seams are cut sides like the band's own, its
 //! rows five more than a fifth at either end, its columns the band's exact ones and five more
-//! at either side; ≈ 20 % off a tracked frame). The edge list
-//! handed to the selection keeps its storage from frame to frame. Written here because it is
-//! the detector's product, not a general tracker.
+//! at either side; ≈ 20 % off a tracked frame). The edge list handed to the selection keeps
+//! its storage from frame to frame. Written here because it is the detector's product, not a
+//! general tracker.
 //!
 //! Errors: [`VisionError::FrameSize`] for a frame of the wrong size, as the whole detector.
 //!
